@@ -1,0 +1,3 @@
+from oimi.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,55 @@
+"""The ``oimi`` command line: each sub-command parses, calls one library function, prints."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from pipeline.errors import LocatedError
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+COMMANDS: tuple[str, ...] = (
+    "compile",
+    "check",
+    "run",
+    "demo",
+    "replay",
+    "view",
+    "analyse",
+    "serve",
+    "batch",
+    "bench",
+)
+"""Sub-commands, each in ``oimi/cmd_<name>.py`` with ``add_arguments(parser)`` and ``run(args)``."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="oimi", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        try:
+            module = importlib.import_module(f"oimi.cmd_{name}")
+        except ModuleNotFoundError as error:
+            if error.name != f"oimi.cmd_{name}":
+                raise
+            continue
+        doc = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
+        command = sub.add_parser(name, help=doc, description=module.__doc__)
+        module.add_arguments(command)
+        command.set_defaults(handler=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.handler(args) or EXIT_OK)
+    except LocatedError as error:
+        print(error, file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,25 @@
+"""Errors that point at a place in a file or text: ``FILE:LINE:COL: message``."""
+
+from __future__ import annotations
+
+
+class LocatedError(Exception):
+    """A user-input error with the place it was found (line and column count from 1)."""
+
+    def __init__(self, message: str, *, source: str = "<input>", line: int = 0, column: int = 0):
+        super().__init__(message)
+        self.message = message
+        self.source = source
+        self.line = line
+        self.column = column
+
+    def located(self, source: str, line_offset: int = 0, column_offset: int = 0) -> LocatedError:
+        """The same error, placed inside a larger text (e.g. a condition inside a script)."""
+        line = self.line + line_offset if self.line else line_offset
+        column = self.column + column_offset if self.line <= 1 else self.column
+        return type(self)(self.message, source=source, line=line, column=column)
+
+    def __str__(self) -> str:
+        if self.line:
+            return f"{self.source}:{self.line}:{self.column}: {self.message}"
+        return f"{self.source}: {self.message}"

@@ -1,0 +1,290 @@
+"""What the pipeline emits: one Struct per recorded topic, one message per topic per tick.
+
+Every event carries ``tick`` (the simulated clock's tick count) and ``time_ms``
+(simulated milliseconds); a tick's items are batched into one message so the
+recorder writes at most one message per topic per tick.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Final
+
+import msgspec
+
+from pipeline.messages import InstructionBlock, MapUpdate, Message, RuleMessage, WorldMap
+
+
+class Topic(enum.StrEnum):
+    """The recorded topics (DESIGN.md)."""
+
+    SENSOR_UPDATES = "/sensors/updates"
+    OPERATOR_COMMANDS = "/operator/commands"
+    OPERATOR_STATE = "/operator/state"
+    JOYSTICK = "/joystick"
+    MAP = "/map"
+    RULE_DECISIONS = "/rules/decisions"
+    RULE_CHAIN = "/rules/chain"
+    READER_PROGRESS = "/reader/progress"
+    ACTUATOR_COMMANDS = "/actuator/commands"
+    WORLD_STATE = "/world/state"
+    LOG = "/log"
+
+
+INPUT_TOPICS: Final = (Topic.SENSOR_UPDATES, Topic.OPERATOR_COMMANDS, Topic.JOYSTICK)
+"""Topics that carry what came from outside the robot's mind (replayed by redrive)."""
+
+
+class Event(Message):
+    """Base of a topic's per-tick message."""
+
+    tick: int
+    time_ms: int
+
+
+# ------------------------------------------------------------------------- inputs
+
+
+class SensorUpdates(Event):
+    """Every MapUpdate that arrived this tick, in arrival order."""
+
+    updates: tuple[MapUpdate, ...]
+
+
+class OperatorVerb(enum.StrEnum):
+    """The operator's commands (thesis 5.1)."""
+
+    LIST = "list"
+    ADD = "add"
+    REMOVE = "remove"
+    REORDER = "reorder"
+    GET_READY = "get_ready"
+    START = "start"
+    STOP = "stop"
+    RESTART = "restart"
+    CLEAR = "clear"
+
+
+class OperatorCommand(Message):
+    """One command from the operator's app or console."""
+
+    id: int
+    """The request's id, echoed in its reply."""
+    verb: OperatorVerb
+    activity: str = ""
+    """Generator name (add, remove, reorder)."""
+    options: dict[str, str] = {}
+    """Generator options (add)."""
+    position: int = 0
+    """New index in the selected list (reorder)."""
+
+
+class OperatorCommands(Event):
+    commands: tuple[OperatorCommand, ...]
+
+
+class JoystickInput(Event):
+    """The pad's state when it changed (Xbox 360 layout, see ``pipeline.act.joystick``)."""
+
+    left_x: float = 0.0
+    """Left stick, right positive, -1 to 1."""
+    left_y: float = 0.0
+    """Left stick, forward positive, -1 to 1."""
+    right_x: float = 0.0
+    """Right stick, right positive, -1 to 1."""
+    buttons: tuple[str, ...] = ()
+    """Buttons held: ``LB``, ``RB``, ``A``, ``B``, ``X``, ``Y``, ``BACK``, ``START``."""
+
+
+# ------------------------------------------------------------------------ outputs
+
+
+class MapSnapshot(Event):
+    """The world map after this tick's producer update and rule chain."""
+
+    map: WorldMap
+
+
+class MapChange(Message):
+    """One field a rule changed: ``path`` in the map, values as JSON text."""
+
+    path: str
+    old: str
+    new: str
+
+
+class RuleDecision(Message):
+    rule: str
+    """The rule instance's id (its name in the chain)."""
+    rulecode: int
+    fired: bool
+    """The condition's result."""
+    bindings: dict[str, str] = {}
+    """Alias or variable -> what it was bound to (``Human/child1`` or a value)."""
+    changes: tuple[MapChange, ...] = ()
+
+
+class RuleDecisions(Event):
+    """Every active rule's evaluation this tick, in chain order."""
+
+    decisions: tuple[RuleDecision, ...]
+
+
+class RuleChainState(Event):
+    """Alfa/omega messages applied this tick and the chain after them."""
+
+    applied: tuple[RuleMessage, ...]
+    active: tuple[str, ...]
+    held: tuple[str, ...]
+    removed: tuple[str, ...]
+    locked: bool = False
+
+
+class ProgressKind(enum.StrEnum):
+    LOAD = "load"
+    BLOCK = "block"
+    JUMP = "jump"
+    TERMINUS = "terminus"
+    END = "end"
+    SENSOR = "sensor"
+    SWITCH = "switch"
+    IDLE = "idle"
+    GOAL_REACHED = "goal_reached"
+    GOAL_FAILED = "goal_failed"
+    GOAL_INTERRUPTED = "goal_interrupted"
+
+
+class ProgressItem(Message):
+    kind: ProgressKind
+    activity: str
+    path: str = ""
+    """``goalX/actY/blkZ`` where it happened."""
+    detail: str = ""
+
+
+class ReaderProgress(Event):
+    """The block in the works and what the Block Reader did this tick."""
+
+    activity: str
+    goalid: str
+    actionid: str
+    blockid: str
+    items: tuple[ProgressItem, ...] = ()
+
+
+class Source(enum.StrEnum):
+    SCRIPT = "script"
+    JOYSTICK = "joystick"
+    SAFETY = "safety"
+
+
+class ActuatorCommand(Message):
+    """One command sent to the robot: ``channel`` is ``move``, ``led`` or ``audio``."""
+
+    channel: str
+    source: Source
+    v_x: float = 0.0
+    v_y: float = 0.0
+    v_theta: float = 0.0
+    r: float = 0.0
+    g: float = 0.0
+    b: float = 0.0
+    track_path: str = ""
+    stop: bool = False
+    """An explicit stop after an item (stop moving, lights off, stop the track)."""
+    clamped: bool = False
+    """The requested value exceeded the robot's limits and was clamped."""
+    requested: tuple[float, float, float] | None = None
+    """What the script asked for, when clamped."""
+
+
+class ActuatorCommands(Event):
+    commands: tuple[ActuatorCommand, ...]
+    block: InstructionBlock | None = None
+    """The block being executed, when it started this tick."""
+
+
+class BodyState(Message):
+    id: str
+    kind: str
+    """``robot``, ``child``, ``therapist``, ``ball``, ``obstacle``..."""
+    x_m: float
+    y_m: float
+    theta_rad: float = 0.0
+    vx_mps: float = 0.0
+    vy_mps: float = 0.0
+    omega_radps: float = 0.0
+    radius_m: float = 0.0
+
+
+class WorldState(Event):
+    robot: BodyState
+    humans: tuple[BodyState, ...] = ()
+    objects: tuple[BodyState, ...] = ()
+    led: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    audio: str = ""
+    contacts: tuple[str, ...] = ()
+    """Ids of humans touching the robot this tick (safety events)."""
+
+
+class Level(enum.IntEnum):
+    DEBUG = 1
+    INFO = 2
+    WARNING = 3
+    ERROR = 4
+
+
+class LogEntry(Message):
+    level: Level
+    source: str
+    """The stage that speaks: ``producer``, ``rules``, ``reader``, ``actuator``, ``operator``."""
+    message: str
+    ref: str = ""
+    """What it is about: an update's ``seq``, a rule id, an operator command id."""
+
+
+class LogEntries(Event):
+    entries: tuple[LogEntry, ...]
+
+
+class OperatorReply(Message):
+    id: int
+    ok: bool
+    reason: str = ""
+
+
+class ActivityEntry(Message):
+    name: str
+    options: dict[str, str] = {}
+    state: str = "not_yet_completed"
+    """``not_yet_completed``, ``current`` or ``completed``."""
+
+
+class OperatorState(Event):
+    """The handler's state after this tick's commands: what a console renders."""
+
+    button: str
+    """``get_ready``, ``loading``, ``start`` or ``stop``."""
+    activities: tuple[ActivityEntry, ...] = ()
+    replies: tuple[OperatorReply, ...] = ()
+
+
+TOPIC_TYPES: Final[dict[Topic, type[Event]]] = {
+    Topic.SENSOR_UPDATES: SensorUpdates,
+    Topic.OPERATOR_COMMANDS: OperatorCommands,
+    Topic.OPERATOR_STATE: OperatorState,
+    Topic.JOYSTICK: JoystickInput,
+    Topic.MAP: MapSnapshot,
+    Topic.RULE_DECISIONS: RuleDecisions,
+    Topic.RULE_CHAIN: RuleChainState,
+    Topic.READER_PROGRESS: ReaderProgress,
+    Topic.ACTUATOR_COMMANDS: ActuatorCommands,
+    Topic.WORLD_STATE: WorldState,
+    Topic.LOG: LogEntries,
+}
+"""The payload type of every topic."""
+
+
+def encode(event: Event) -> bytes:
+    """The canonical JSON encoding of an event (what is recorded and compared)."""
+    return msgspec.json.encode(event)

@@ -1,0 +1,415 @@
+"""Typed messages of the pipeline: the thesis's structures as ``msgspec.Struct``s.
+
+Field names follow the thesis (sections 3.1, 4.1, 4.4, 4.5) where it gives them.
+Units: speeds in m/s and rad/s, times in integer milliseconds of the simulated
+clock (``_ms``), colours in [0, 1], distances in metres, angles in radians.
+
+Schemas evolve only by appending fields with defaults, so old recordings stay
+readable (see ``FORMAT_VERSION``).
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Final
+
+import msgspec
+
+FORMAT_VERSION: Final = 1
+"""Version of the recorded message layout; bumped on any incompatible change."""
+
+REGISTER_CAPACITY: Final = 16
+"""Default capacity of an appendable (circular) register in the map."""
+
+
+class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Base of every immutable message that crosses a stage."""
+
+
+class State(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Base of the mutable map structures (owned by the Map Producer and the rules)."""
+
+
+# --------------------------------------------------------------------------- codes
+
+
+class RuleAction(enum.IntEnum):
+    """What an alfa/omega message does to a rule (encoded as the letter's code point)."""
+
+    A = ord("A")
+    """Activate the rule and add it to the active ones."""
+    R = ord("R")
+    """Remove the rule."""
+    D = ord("D")
+    """Activate the rule but hold it (delayed) for future use."""
+    B = ord("B")
+    """Bring a held (delayed) rule back among the active ones."""
+    C = ord("C")
+    """Recover a removed rule and put it among the active ones."""
+
+
+class MutexCmd(enum.IntEnum):
+    """When the map may propagate while the chain changes (letter's code point)."""
+
+    L = ord("L")
+    """Lock the map's propagation, then issue this message."""
+    M = ord("M")
+    """Issue this message."""
+    U = ord("U")
+    """Issue this message, then unlock the map's propagation."""
+
+
+class Policy(enum.StrEnum):
+    """How a MapUpdate joins the not-yet-processed updates of the same target."""
+
+    R = "R"
+    """Replace: drop every earlier pending update of the same target and attribute."""
+    A = "A"
+    """Append: keep the earlier pending updates and add this one."""
+
+
+# ------------------------------------------------------------------------ scripts
+
+
+class Move(Message):
+    """One timed move: body-frame speeds held for ``duration`` after ``wait_t``."""
+
+    v_x: float
+    """Speed along the robot's x axis, m/s."""
+    v_y: float
+    """Speed along the robot's y axis, m/s."""
+    v_theta: float
+    """Angular speed, rad/s."""
+    wait_t: int
+    """Milliseconds to wait before acting."""
+    duration: int
+    """Milliseconds to act."""
+
+
+class Led(Message):
+    """One timed LED command."""
+
+    r: float
+    """Red, 0 to 1."""
+    g: float
+    """Green, 0 to 1."""
+    b: float
+    """Blue, 0 to 1."""
+    turnas: int
+    """1 turns the LEDs on, 0 off."""
+    wait_t: int
+    """Milliseconds to wait before acting."""
+    duration: int
+    """Milliseconds to act."""
+
+
+class AudioOut(Message):
+    """One timed audio track."""
+
+    track_path: str
+    """Path (or name) of the track to play."""
+    wait_t: int
+    """Milliseconds to wait before playing."""
+    duration: int
+    """Milliseconds to play."""
+
+
+class InstructionBlock(Message, tag="instruction", tag_field="type"):
+    """What the actuators do: three channels run in parallel, each a sequence of items."""
+
+    move: tuple[Move, ...] = ()
+    led: tuple[Led, ...] = ()
+    audioout: tuple[AudioOut, ...] = ()
+    flagged: str | None = None
+    """Kept as found: the thesis shows it without explaining it."""
+
+
+class JumpBlock(Message, tag="jump", tag_field="type"):
+    """Evaluates a rule-grammar condition and goes to ``truejump`` or ``falsejump``."""
+
+    toparse: str
+    """The condition, in the rule grammar of section 4.3."""
+    truejump: str = ""
+    """Target ``goalX/actY/blkZ`` when true; empty: the next block."""
+    falsejump: str = ""
+    """Target ``goalX/actY/blkZ`` when false; empty: the next block."""
+
+
+class TerminusBlock(Message, tag="terminus", tag_field="type"):
+    """Ends the current script wherever it is."""
+
+
+class SensorBlock(Message, tag="sensor", tag_field="type"):
+    """A stub for sensor interaction: emits a sensor request and moves on."""
+
+    request: str = ""
+    """Free text handed to the sensors (the thesis leaves it to be defined)."""
+
+
+Block = InstructionBlock | JumpBlock | TerminusBlock | SensorBlock
+
+
+class Action(Message):
+    """A subset of blocks sharing one aim; blocks are keyed ``blk0``, ``blk1``... in order."""
+
+    blocks: tuple[Block, ...] = ()
+
+
+class Goal(Message):
+    """A milestone of the activity; actions are keyed ``act0``, ``act1``... in order."""
+
+    goalid: str
+    actions: tuple[Action, ...] = ()
+
+
+class RuleMessage(Message):
+    """An alfa/omega message: loads, removes, holds or recovers a rule in the chain."""
+
+    rulecode: int
+    """Code of the rule class in the rule registry."""
+    id: str
+    """Name given to the rule instance."""
+    intopic: str
+    outtopic: str
+    action: RuleAction
+    mutexcmd: MutexCmd
+
+
+class Script(Message):
+    """An activity: goals > actions > blocks, with the rule messages sent on load/unload."""
+
+    activityname: str
+    alfarulemessages: tuple[RuleMessage, ...] = ()
+    omegarulemessages: tuple[RuleMessage, ...] = ()
+    goals: tuple[Goal, ...] = ()
+
+
+# ---------------------------------------------------------------------- updates
+
+
+class MapUpdate(Message):
+    """A sensor's update of the map (section 4.5, tables 4.1 and 4.2)."""
+
+    objectid: str
+    """``CLASS/ID`` (``RobotStatus`` and ``Script`` may omit the ID)."""
+    attributename: str
+    policy: Policy
+    jsonmsg: str
+    """The content, as the tables give it (JSON text or a bare value)."""
+    seq: int = 0
+    """The update's id, unique within a session, named in rejections."""
+
+
+# ---------------------------------------------------------------------- the map
+
+
+class Pose(State):
+    positionrho: float
+    """Distance from the robot, m."""
+    positiontheta: float
+    """Bearing from the robot's heading, rad (counter-clockwise positive)."""
+    positionchangetime: int
+    """Simulated time of the observation, ms."""
+
+
+class Tracking(State):
+    permanencetime: int
+    """How long the entity has been tracked, ms."""
+    appearanceon: int
+    """Simulated time it appeared, ms."""
+
+
+class Entity(State):
+    """A human, obstacle or object: fixed id and creation time, updateable pose."""
+
+    id: str
+    """Fixed: the entity's unique id within its class."""
+    creationtime: int
+    """Fixed: when the entity was allocated, ms (older wins rule ties)."""
+    positionrho: float = 0.0
+    positiontheta: float = 0.0
+    positionchangetime: int = 0
+    permanencetime: int = 0
+    appearanceon: int = 0
+    poses: list[Pose] = []
+    """Appendable: the last poses (circular register)."""
+    tracking: list[Tracking] = []
+    """Appendable: the last tracking reports (circular register)."""
+    attributes: dict[str, str] = {}
+    """Free attributes (``$ID`` in rules), set by rules or generators."""
+
+
+class Human(Entity):
+    pass
+
+
+class Obstacle(Entity):
+    isfixed: bool = True
+
+
+class Object(Entity):
+    istarget: bool = False
+    category: str = ""
+
+
+class Camera(State):
+    id: str
+    isonline: bool = False
+    width: int = 0
+    height: int = 0
+    fps: int = 0
+
+
+class Sonar(State):
+    id: str
+    isonline: bool = False
+    scanfrequency: int = 0
+
+
+class Touch(State):
+    touchtype: str
+    """One letter: ``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
+    duration: int
+    startingtime: int
+
+
+class LedStatus(State):
+    r: float
+    g: float
+    b: float
+    frequency: int
+    duration: int
+    startingtime: int
+
+
+class AudioStatus(State):
+    duration: int
+    startingtime: int
+    trackpath: str
+
+
+class SpeedStatus(State):
+    xspeed: float
+    yspeed: float
+    thetaspeed: float
+    duration: int
+    startingtime: int
+
+
+class GoalEvent(State):
+    goalid: str
+    timestamp: int
+
+
+class GoalStatus(enum.StrEnum):
+    """Progress of one goal of an activity."""
+
+    PENDING = "pending"
+    ACTIVE = "active"
+    REACHED = "reached"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+
+
+class GoalTracking(State):
+    goalid: str
+    status: GoalStatus = GoalStatus.PENDING
+    changetime: int = 0
+
+
+class ActivityTracking(State):
+    """An activity (script) known to the map, with its goals' progress."""
+
+    activityname: str
+    creationtime: int = 0
+    status: str = "loaded"
+    """``loaded``, ``running``, ``completed`` or ``interrupted``."""
+    goals: list[GoalTracking] = []
+
+
+class RobotStatus(State):
+    batterytimeleft: int = 0
+    """Battery time left, ms."""
+    elapsedtime: int = 0
+    """Time since the session started, ms."""
+    startingtime: int = 0
+    touch: list[Touch] = []
+    led: list[LedStatus] = []
+    audioout: list[AudioStatus] = []
+    audioin: list[str] = []
+    speed: list[SpeedStatus] = []
+    goalreached: list[GoalEvent] = []
+    goalfailed: list[GoalEvent] = []
+    goalinterrupted: list[GoalEvent] = []
+    activities: list[ActivityTracking] = []
+    joystick_engaged: bool = False
+    """Set by the joystick rule while the operator holds the safety lock."""
+
+
+class ScriptInfo(State):
+    """The script being executed and the block the actuators are given."""
+
+    currentactivity: str = ""
+    """Name of the running activity (``idle_activity`` when idle)."""
+    scriptpath: str = ""
+    """Where the running script came from (file path or generator name)."""
+    goalid: str = ""
+    """Key of the current goal, ``goalN``."""
+    actionid: str = ""
+    """Key of the current action, ``actN``."""
+    blockid: str = ""
+    """Key of the current block, ``blkN``."""
+    goalname: str = ""
+    """The current goal's own ``goalid`` text."""
+    block: InstructionBlock | None = None
+    """The instruction block sent to the actuators; rules may alter it."""
+    changed: bool = False
+    """Set when ``block`` was altered: the actuator restarts it from the beginning."""
+    overridecmd: bool = False
+    """Set by a rule to force a switch to ``currentactivity`` at goal/action/block."""
+    restart: bool = False
+    """Set by a ``script_vect`` update asking to restart: the reader drops the current script."""
+    submove: int = 0
+    """Index of the move item being executed."""
+    subled: int = 0
+    """Index of the LED item being executed."""
+    subaout: int = 0
+    """Index of the audio item being executed."""
+    script_vect: list[str] = []
+    """The LIFO of scripts waiting (last = top)."""
+
+
+class WorldMap(State):
+    """The map (section 4.1) that the producer fills and the rules read and change."""
+
+    scriptinfo: ScriptInfo = msgspec.field(default_factory=ScriptInfo)
+    lastupdatetime: int = 0
+    """Last time the map was updated, ms."""
+    robotstatus: RobotStatus = msgspec.field(default_factory=RobotStatus)
+    cameras: list[Camera] = []
+    sonars: list[Sonar] = []
+    humans: list[Human] = []
+    obstacles: list[Obstacle] = []
+    objects: list[Object] = []
+    variables: dict[str, str] = {}
+    """Rule variables (``@ID``) of scope U, by name."""
+    aliases: dict[str, str] = {}
+    """Rule aliases of scope U (``?ID`` -> ``Class/id``), kept across ticks."""
+
+
+# --------------------------------------------------------------- actuator outputs
+
+
+class ActuatorOutputs(Message):
+    """What the actuator asks of the robot's body right now (the world applies it)."""
+
+    v_x: float = 0.0
+    """Body-frame forward speed, m/s (already within the robot's limits)."""
+    v_y: float = 0.0
+    """Body-frame leftward speed, m/s."""
+    v_theta: float = 0.0
+    """Angular speed, rad/s, counter-clockwise positive."""
+    led: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """LED colour, each 0 to 1; all 0 is off."""
+    audio: str = ""
+    """Track being played; empty is silence."""
