@@ -1,1 +1,27 @@
+"""The world map's producer: sensors' MapUpdates judged (tables 4.1/4.2) and applied."""
 
+from pipeline.sense.invariants import map_invariants
+from pipeline.sense.producer import MAX_ENTITIES, MapProducer, Rejection
+from pipeline.sense.updates import (
+    UPDATE_TABLE,
+    DecodedUpdate,
+    EntityClass,
+    MapUpdateError,
+    Storage,
+    decode_update,
+    parse_objectid,
+)
+
+__all__ = [
+    "MAX_ENTITIES",
+    "UPDATE_TABLE",
+    "DecodedUpdate",
+    "EntityClass",
+    "MapProducer",
+    "MapUpdateError",
+    "Rejection",
+    "Storage",
+    "decode_update",
+    "map_invariants",
+    "parse_objectid",
+]

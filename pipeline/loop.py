@@ -1,0 +1,245 @@
+"""One tick of the robot's mind: the eight steps of section 4.2, wired stage to stage.
+
+The loop owns no clock: the runner calls ``tick`` with the tick number and the
+inputs that arrived (sensor updates, operator commands, joystick), and gets
+back what the body must do. Every step's event goes to the sink it was given.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import msgspec
+
+from pipeline.act.actuator import Actuator
+from pipeline.act.limits import RobotLimits
+from pipeline.events import (
+    ActuatorCommands,
+    Event,
+    JoystickInput,
+    Level,
+    LogEntries,
+    LogEntry,
+    MapSnapshot,
+    OperatorCommand,
+    OperatorCommands,
+    ReaderProgress,
+    RuleChainState,
+    RuleDecisions,
+    SensorUpdates,
+    Topic,
+)
+from pipeline.messages import REGISTER_CAPACITY, ActuatorOutputs, MapUpdate, Message, WorldMap
+from pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
+from pipeline.sense.producer import MapProducer
+from pipeline.sink import Sink
+from pipeline.think.chain import RuleChain
+from pipeline.think.library import RULES
+from pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
+from pipeline.think.rules import RuleRegistry
+
+
+class PipelineConfig(Message):
+    """How the mind is set up; recorded with every session."""
+
+    tick_ms: int = 20
+    """Length of one tick of the simulated clock, ms (20 = 50 Hz)."""
+    limits: RobotLimits = msgspec.field(default_factory=RobotLimits)
+    register_capacity: int = REGISTER_CAPACITY
+    script_root: str = "activities"
+    """Folder (relative) inside which ``script_vect`` paths must resolve."""
+
+
+class Pipeline:
+    """The Map Producer, rule chain, Block Reader, Actuator and Generator Handler, ticked."""
+
+    def __init__(
+        self,
+        config: PipelineConfig,
+        *,
+        idle: ScriptEntry,
+        resolve: ScriptResolver,
+        handler: GeneratorHandler,
+        sink: Sink,
+        rules: RuleRegistry = RULES,
+    ) -> None:
+        self.config = config
+        self.map = WorldMap()
+        self.producer = MapProducer(
+            self.map, register_capacity=config.register_capacity, script_root=config.script_root
+        )
+        self.chain = RuleChain(rules)
+        self.reader = BlockReader(
+            self.map, idle=idle, resolve=resolve, register_capacity=config.register_capacity
+        )
+        self.actuator = Actuator(config.limits, tick_ms=config.tick_ms)
+        self.handler = handler
+        self.sink = sink
+        self._started = False
+        self._last_map = b""
+        self._last_place: tuple[str, str, str, str] = ("", "", "", "")
+        self._last_operator = b""
+
+    def tick(
+        self,
+        *,
+        tick: int,
+        updates: Sequence[MapUpdate] = (),
+        commands: Sequence[OperatorCommand] = (),
+        joystick: JoystickInput | None = None,
+    ) -> ActuatorOutputs:
+        """Run the loop once at ``tick`` with this tick's inputs; return the body's command."""
+        now_ms = tick * self.config.tick_ms
+        emitter = _Emitter(self.sink, tick=tick, time_ms=now_ms)
+        outcome = ReadOutcome()
+        if not self._started:
+            self._started = True
+            start = self.reader.start(now_ms=now_ms)
+            self._apply_chain(start, emitter)
+            outcome.items += start.items
+
+        # Inputs: sensor updates queue in the producer; operator and joystick act at once.
+        if updates:
+            emitter.emit(Topic.SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
+            for update in updates:
+                rejection = self.producer.submit(update)
+                if rejection is not None:
+                    emitter.log(Level.WARNING, "producer", str(rejection), str(update.seq))
+        if commands:
+            emitter.emit(Topic.OPERATOR_COMMANDS, OperatorCommands, commands=tuple(commands))
+            for command in commands:
+                outcome.extend(self._operate(command, emitter, now_ms))
+        if joystick is not None:
+            self.sink.record(Topic.JOYSTICK, emitter.time_ns, joystick)
+            self.actuator.joystick(joystick, now_ms=now_ms)
+        self.handler.tick(now_ms)
+
+        # 1. Issue the block to the actuator (from the beginning when it changed).
+        info = self.map.scriptinfo
+        fresh = self.reader.take_new_block()
+        self.actuator.issue(info.block, changed=info.changed or fresh, now_ms=now_ms)
+        info.changed = False
+        step = self.actuator.step(now_ms=now_ms)
+        info.submove, info.subled, info.subaout = self.actuator.progress
+        self._note_joystick()
+        if step.commands:
+            emitter.emit(
+                Topic.ACTUATOR_COMMANDS, ActuatorCommands,
+                commands=step.commands, block=info.block if fresh or step.commands else None,
+            )
+        for text in (*step.clamps, *step.notes):
+            emitter.log(Level.WARNING, "actuator", text, info.currentactivity)
+
+        # 3-4. Consume the pending updates into the map.
+        for rejection in self.producer.consume(now_ms):
+            emitter.log(Level.WARNING, "producer", str(rejection), str(rejection.update.seq))
+
+        # 5-7. Compulsory switch, escape idle, read up to the next instruction block.
+        outcome.extend(self.reader.sync_lifo(now_ms=now_ms))
+        outcome.extend(self.reader.compulsory_switch(now_ms=now_ms))
+        outcome.extend(self.reader.escape_idle(now_ms=now_ms))
+        outcome.extend(self.reader.read(actuator_done=step.done, now_ms=now_ms))
+        self._apply_chain(outcome, emitter)
+        self._notify_handler(outcome)
+
+        # 8. Propagate the map through the rule chain.
+        decisions = self.chain.propagate(self.map, now_ms=now_ms)
+        if decisions:
+            emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+
+        # 2. Publish progress (after this tick's reading, so it names the block in the works).
+        self._publish_progress(outcome, emitter)
+        self._publish_state(emitter)
+        emitter.flush_logs()
+        return step.outputs
+
+    # ---------------------------------------------------------------- the steps' parts
+
+    def _operate(self, command: OperatorCommand, emitter: _Emitter, now_ms: int) -> ReadOutcome:
+        result = self.handler.handle(command, now_ms=now_ms)
+        outcome = ReadOutcome()
+        if not result.reply.ok:
+            emitter.log(Level.WARNING, "operator", result.reply.reason, str(command.id))
+        for effect in result.effects:
+            match effect:
+                case PushScripts():
+                    self.reader.push(
+                        ScriptEntry(
+                            activity=e.activity, script=e.script, source=f"generator:{e.activity}",
+                            operator=True,
+                        )
+                        for e in effect.lifo_order()
+                    )
+                case StopActivities():
+                    outcome.extend(self.reader.stop_operator_activities(now_ms=now_ms))
+        return outcome
+
+    def _apply_chain(self, outcome: ReadOutcome, emitter: _Emitter) -> None:
+        emitter.logs.extend(outcome.logs)
+        if not outcome.rule_messages and not outcome.unlock:
+            return
+        emitter.logs.extend(self.chain.apply(outcome.rule_messages))
+        if outcome.unlock:
+            self.chain.unlock()
+        active, held, removed = self.chain.names()
+        emitter.emit(
+            Topic.RULE_CHAIN, RuleChainState,
+            applied=tuple(outcome.rule_messages), active=active, held=held, removed=removed,
+            locked=self.chain.locked,
+        )
+
+    def _notify_handler(self, outcome: ReadOutcome) -> None:
+        for name, completed in outcome.finished:
+            self.handler.activity_finished(name, completed=completed)
+        for name in outcome.started:
+            self.handler.activity_started(name)
+
+    def _note_joystick(self) -> None:
+        engaged = self.actuator.engaged
+        self.map.robotstatus.joystick_engaged = engaged
+        if not engaged:
+            self.map.variables.pop("@joystick_engaged_since", None)
+
+    def _publish_progress(self, outcome: ReadOutcome, emitter: _Emitter) -> None:
+        info = self.map.scriptinfo
+        place = (info.currentactivity, info.goalid, info.actionid, info.blockid)
+        if not outcome.items and place == self._last_place:
+            return
+        self._last_place = place
+        emitter.emit(
+            Topic.READER_PROGRESS, ReaderProgress,
+            activity=place[0], goalid=place[1], actionid=place[2], blockid=place[3],
+            items=tuple(outcome.items),
+        )
+
+    def _publish_state(self, emitter: _Emitter) -> None:
+        encoded = msgspec.json.encode(self.map)
+        if encoded != self._last_map:
+            self._last_map = encoded
+            emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.json.decode(encoded, type=WorldMap))
+        state = self.handler.state(tick=emitter.tick, time_ms=emitter.time_ms)
+        key = msgspec.json.encode((state.button, state.activities, state.replies))
+        if key != self._last_operator:
+            self._last_operator = key
+            self.sink.record(Topic.OPERATOR_STATE, emitter.time_ns, state)
+
+
+class _Emitter:
+    """Stamps a tick's events with its tick and time, and gathers its log entries."""
+
+    def __init__(self, sink: Sink, *, tick: int, time_ms: int) -> None:
+        self.sink = sink
+        self.tick = tick
+        self.time_ms = time_ms
+        self.time_ns = time_ms * 1_000_000
+        self.logs: list[LogEntry] = []
+
+    def emit(self, topic: Topic, kind: type[Event], **fields: object) -> None:
+        self.sink.record(topic, self.time_ns, kind(tick=self.tick, time_ms=self.time_ms, **fields))
+
+    def log(self, level: Level, source: str, message: str, ref: str = "") -> None:
+        self.logs.append(LogEntry(level=level, source=source, message=message, ref=ref))
+
+    def flush_logs(self) -> None:
+        if self.logs:
+            self.emit(Topic.LOG, LogEntries, entries=tuple(self.logs))

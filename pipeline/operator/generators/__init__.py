@@ -1,0 +1,42 @@
+"""The shipped Script Generators and the default catalogue."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from pipeline.messages import Script
+from pipeline.operator.generator import Catalogue
+from pipeline.operator.generators.blink import BlinkGenerator
+from pipeline.operator.generators.dance import DanceGenerator
+from pipeline.operator.generators.greeting import GreetingGenerator
+from pipeline.operator.generators.joint_attention import JointAttentionGenerator
+from pipeline.operator.generators.static import StaticScriptGenerator
+
+__all__ = [
+    "BlinkGenerator",
+    "DanceGenerator",
+    "GreetingGenerator",
+    "JointAttentionGenerator",
+    "StaticScriptGenerator",
+    "default_catalogue",
+]
+
+
+def default_catalogue(scripts: Mapping[str, Script] | None = None) -> Catalogue:
+    """The shipped generators, then one :class:`StaticScriptGenerator` per named script."""
+    factories = {
+        DanceGenerator.name: DanceGenerator,
+        GreetingGenerator.name: GreetingGenerator,
+        JointAttentionGenerator.name: JointAttentionGenerator,
+        BlinkGenerator.name: BlinkGenerator,
+    }
+    catalogue = Catalogue(factories)
+    if scripts:
+        catalogue = catalogue.with_factories(
+            {name: _static(name, script) for name, script in scripts.items()}
+        )
+    return catalogue
+
+
+def _static(name: str, script: Script):
+    return lambda: StaticScriptGenerator(name, script)

@@ -1,0 +1,378 @@
+"""The Generator Handler (thesis 3.2, 5.1): the operator's commands, the selected activities,
+the activity command button, and what the loop must do to the Block Reader's LIFO.
+
+``handle`` either does a command fully and replies ``ok`` or refuses it with a
+reason and changes nothing. Its effects are typed messages the loop applies:
+:class:`PushScripts` and :class:`StopActivities`.
+
+Button (``Button``)::
+
+    get_ready --get_ready--> loading --tick--> start --start--> stop
+        ^                                        ^  <--stop----  |
+        +-- add / remove leaves a quiescent one  +-- last activity finished
+
+Activities (``ActivityState``): ``not_yet_completed`` -> ``current`` (start, or
+the previous one finished) -> ``completed`` (finished) or back to
+``not_yet_completed`` (stop, or finished without completing); restart sets all
+back to ``not_yet_completed``.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from pipeline.events import (
+    ActivityEntry,
+    OperatorCommand,
+    OperatorReply,
+    OperatorState,
+    OperatorVerb,
+)
+from pipeline.messages import Message, Script
+from pipeline.operator.checks import script_problems
+from pipeline.operator.generator import (
+    Catalogue,
+    Generator,
+    GeneratorError,
+    GeneratorInfo,
+    resolve_options,
+)
+
+
+class Button(enum.StrEnum):
+    """The activity command button's face (thesis 5.1)."""
+
+    GET_READY = "get_ready"
+    """Some selected generator is quiescent (or nothing is selected)."""
+    LOADING = "loading"
+    """Inert: the scripts were just generated; ``start`` at the next tick."""
+    START = "start"
+    """Every selected generator has its script; nothing is running."""
+    STOP = "stop"
+    """The selected activities are running."""
+
+
+class ActivityState(enum.StrEnum):
+    """A selected activity's state (thesis 5.1)."""
+
+    NOT_YET_COMPLETED = "not_yet_completed"
+    CURRENT = "current"
+    COMPLETED = "completed"
+    """Not run again until ``restart``."""
+
+
+class ScriptEntry(Message):
+    """A selected activity's script."""
+
+    activity: str
+    """The selected activity's (generator's) name."""
+    script: Script
+
+
+class PushScripts(Message, tag="push_scripts", tag_field="effect"):
+    """Put these scripts on the Block Reader's LIFO so they run in ``entries`` order.
+
+    ``entries[0]`` runs first, so it must end on top: push ``lifo_order()``
+    (``entries`` reversed, bottom to top, like ``ScriptInfo.script_vect``).
+    """
+
+    entries: tuple[ScriptEntry, ...]
+
+    def lifo_order(self) -> tuple[ScriptEntry, ...]:
+        """The entries bottom to top: push them in this order."""
+        return tuple(reversed(self.entries))
+
+
+class StopActivities(Message, tag="stop_activities", tag_field="effect"):
+    """Interrupt the current script and drop the queued ones; the robot goes back to idle.
+
+    ``activitynames`` are the scripts' ``activityname``s, the running one first.
+    """
+
+    activitynames: tuple[str, ...]
+
+
+Effect = PushScripts | StopActivities
+
+
+_Outcome = tuple[str, tuple[Effect, ...]]
+"""A command done: the reply's text and the effects."""
+
+
+class HandlerResult(Message):
+    """A command's reply and what the loop must do (in order)."""
+
+    reply: OperatorReply
+    effects: tuple[Effect, ...] = ()
+
+
+@dataclass
+class _Selected:
+    name: str
+    options: dict[str, str]
+    generator: Generator
+    state: ActivityState = ActivityState.NOT_YET_COMPLETED
+    script: Script | None = None
+
+
+class _Refused(Exception):
+    pass
+
+
+class GeneratorHandler:
+    """Runs the operator's commands against the catalogue's generators."""
+
+    def __init__(self, catalogue: Catalogue):
+        self._catalogue = catalogue
+        self._selected: list[_Selected] = []
+        self._button = Button.GET_READY
+        self._running: list[str] = []
+        """Names pushed at start and not finished yet, in run order (first = current)."""
+
+    # ------------------------------------------------------------------ queries
+
+    @property
+    def button(self) -> Button:
+        return self._button
+
+    def describe(self) -> tuple[GeneratorInfo, ...]:
+        """The catalogue, with options, for the app's selection and option screens."""
+        return self._catalogue.describe()
+
+    def activities(self) -> tuple[ActivityEntry, ...]:
+        """The selected activities, top to bottom."""
+        return tuple(
+            ActivityEntry(name=s.name, options=dict(s.options), state=s.state.value)
+            for s in self._selected
+        )
+
+    def state(
+        self, tick: int, time_ms: int, *, replies: tuple[OperatorReply, ...] = ()
+    ) -> OperatorState:
+        """What the console shows after this tick."""
+        return OperatorState(
+            tick=tick,
+            time_ms=time_ms,
+            button=self._button.value,
+            activities=self.activities(),
+            replies=replies,
+        )
+
+    # ----------------------------------------------------------------- commands
+
+    def handle(self, cmd: OperatorCommand, *, now_ms: int) -> HandlerResult:
+        """Do ``cmd`` completely or refuse it with a reason, changing nothing."""
+        del now_ms  # the handler's decisions do not depend on time
+        handlers = {
+            OperatorVerb.LIST: self._list,
+            OperatorVerb.ADD: self._add,
+            OperatorVerb.REMOVE: self._remove,
+            OperatorVerb.REORDER: self._reorder,
+            OperatorVerb.GET_READY: self._get_ready,
+            OperatorVerb.START: self._start,
+            OperatorVerb.STOP: self._stop,
+            OperatorVerb.RESTART: self._restart,
+            OperatorVerb.CLEAR: self._clear,
+        }
+        try:
+            reason, effects = handlers[cmd.verb](cmd)
+        except _Refused as refused:
+            return HandlerResult(reply=OperatorReply(id=cmd.id, ok=False, reason=str(refused)))
+        return HandlerResult(
+            reply=OperatorReply(id=cmd.id, ok=True, reason=reason), effects=effects
+        )
+
+    def tick(self, now_ms: int) -> None:
+        """Advance the clock: ``loading`` becomes ``start``."""
+        del now_ms
+        if self._button is Button.LOADING:
+            self._button = Button.START
+
+    # ---------------------------------------------------------- loop callbacks
+
+    def activity_started(self, name: str) -> bool:
+        """The reader loaded ``name`` (activity or script name); False if not one of ours."""
+        entry = self._running_entry(name)
+        if entry is None:
+            return False
+        for s in self._selected:
+            if s.state is ActivityState.CURRENT and s is not entry:
+                s.state = ActivityState.NOT_YET_COMPLETED
+        entry.state = ActivityState.CURRENT
+        return True
+
+    def activity_finished(self, name: str, *, completed: bool) -> bool:
+        """The reader unloaded ``name``: completed, or back to not yet completed.
+
+        The next pushed activity becomes current; after the last one the button
+        shows ``start`` (the scripts stay generated; completed activities are
+        not run again until ``restart``). False if ``name`` is not one of ours.
+        """
+        entry = self._running_entry(name)
+        if entry is None:
+            return False
+        entry.state = ActivityState.COMPLETED if completed else ActivityState.NOT_YET_COMPLETED
+        self._running.remove(entry.name)
+        if self._running:
+            self._find(self._running[0]).state = ActivityState.CURRENT  # type: ignore[union-attr]
+        else:
+            self._button = Button.START
+        return True
+
+    # ----------------------------------------------------------------- helpers
+
+    def _find(self, name: str) -> _Selected | None:
+        for s in self._selected:
+            if s.name == name:
+                return s
+        return None
+
+    def _running_entry(self, name: str) -> _Selected | None:
+        for running in self._running:
+            s = self._find(running)
+            if s is not None and (s.name == name or (s.script and s.script.activityname == name)):
+                return s
+        return None
+
+    def _selected_or_refuse(self, name: str) -> _Selected:
+        s = self._find(name)
+        if s is None:
+            raise _Refused(f"{name!r} is not selected")
+        return s
+
+    def _refuse_while(self, verb: str, *buttons: Button) -> None:
+        if self._button in buttons:
+            if self._button is Button.STOP:
+                raise _Refused(f"cannot {verb} while the activities run; stop first")
+            raise _Refused(f"cannot {verb} while the button shows {self._button.value}")
+
+    def _settle(self) -> None:
+        """The button when nothing runs: ``start`` iff every selection has its script."""
+        if self._selected and all(s.script is not None for s in self._selected):
+            self._button = Button.START
+        else:
+            self._button = Button.GET_READY
+
+    # ------------------------------------------------------------ the commands
+
+    def _list(self, cmd: OperatorCommand) -> _Outcome:
+        return "available: " + ", ".join(self._catalogue.names()), ()
+
+    def _add(self, cmd: OperatorCommand) -> _Outcome:
+        self._refuse_while("add", Button.LOADING, Button.STOP)
+        name = cmd.activity
+        if name not in self._catalogue:
+            available = ", ".join(self._catalogue.names()) or "none"
+            raise _Refused(f"unknown generator {name!r} (available: {available})")
+        if self._find(name) is not None:
+            raise _Refused(f"{name!r} is already selected")
+        info = self._catalogue.info(name)
+        try:
+            options = resolve_options(info.options, cmd.options, source=name)
+        except GeneratorError as err:
+            raise _Refused(str(err)) from None
+        self._selected.append(_Selected(name, options, self._catalogue.create(name)))
+        self._button = Button.GET_READY
+        return f"added {name!r}", ()
+
+    def _remove(self, cmd: OperatorCommand) -> _Outcome:
+        self._refuse_while("remove", Button.LOADING)
+        s = self._selected_or_refuse(cmd.activity)
+        if s.state is ActivityState.CURRENT:
+            raise _Refused(f"{s.name!r} is running; stop first")
+        if s.name in self._running:
+            raise _Refused(f"{s.name!r} is queued to run; stop first")
+        s.generator.shutdown()
+        self._selected.remove(s)
+        if self._button is not Button.STOP:
+            self._settle()
+        return f"removed {s.name!r}", ()
+
+    def _reorder(self, cmd: OperatorCommand) -> _Outcome:
+        self._refuse_while("reorder", Button.LOADING, Button.STOP)
+        s = self._selected_or_refuse(cmd.activity)
+        last = len(self._selected) - 1
+        if not 0 <= cmd.position <= last:
+            raise _Refused(f"position {cmd.position} is out of range 0..{last}")
+        self._selected.remove(s)
+        self._selected.insert(cmd.position, s)
+        return f"moved {s.name!r} to {cmd.position}", ()
+
+    def _get_ready(self, cmd: OperatorCommand) -> _Outcome:
+        if self._button is not Button.GET_READY:
+            raise _Refused(f"cannot get ready while the button shows {self._button.value}")
+        if not self._selected:
+            raise _Refused("no activities selected; add one first")
+        activated: list[_Selected] = []
+        scripts: dict[str, Script] = {}
+        try:
+            for s in self._selected:
+                if s.script is not None:
+                    scripts[s.name] = s.script
+                    continue
+                activated.append(s)
+                s.generator.activate(s.options)
+                script = s.generator.generate()
+                problems = script_problems(script)
+                if problems:
+                    raise GeneratorError(
+                        "generated an invalid script: " + "; ".join(problems), source=s.name
+                    )
+                scripts[s.name] = script
+            owners: dict[str, str] = {}
+            for name, script in scripts.items():
+                other = owners.setdefault(script.activityname, name)
+                if other != name:
+                    raise GeneratorError(
+                        f"its script is named {script.activityname!r} like {other!r}'s", source=name
+                    )
+        except GeneratorError as err:
+            for s in activated:
+                s.generator.shutdown()
+            raise _Refused(str(err)) from None
+        for s in self._selected:
+            s.script = scripts[s.name]
+        self._button = Button.LOADING
+        return f"generated {len(scripts)} scripts", ()
+
+    def _start(self, cmd: OperatorCommand) -> _Outcome:
+        if self._button is not Button.START:
+            hint = {Button.GET_READY: "; press get_ready first", Button.STOP: " already"}
+            raise _Refused(
+                f"cannot start while the button shows {self._button.value}"
+                + hint.get(self._button, "")
+            )
+        todo = [s for s in self._selected if s.state is ActivityState.NOT_YET_COMPLETED]
+        if not todo:
+            raise _Refused("every activity is completed; press restart first")
+        entries = tuple(ScriptEntry(activity=s.name, script=s.script) for s in todo)  # type: ignore[arg-type]
+        self._running = [s.name for s in todo]
+        todo[0].state = ActivityState.CURRENT
+        self._button = Button.STOP
+        return f"started {len(todo)} activities", (PushScripts(entries=entries),)
+
+    def _stop(self, cmd: OperatorCommand) -> _Outcome:
+        if self._button is not Button.STOP:
+            raise _Refused(f"cannot stop: nothing runs (the button shows {self._button.value})")
+        names = tuple(self._find(n).script.activityname for n in self._running)  # type: ignore[union-attr]
+        for s in self._selected:
+            if s.state is ActivityState.CURRENT:
+                s.state = ActivityState.NOT_YET_COMPLETED
+        self._running = []
+        self._button = Button.START
+        return "stopped", (StopActivities(activitynames=names),)
+
+    def _restart(self, cmd: OperatorCommand) -> _Outcome:
+        self._refuse_while("restart", Button.LOADING, Button.STOP)
+        for s in self._selected:
+            s.state = ActivityState.NOT_YET_COMPLETED
+        return "every activity is not yet completed", ()
+
+    def _clear(self, cmd: OperatorCommand) -> _Outcome:
+        self._refuse_while("clear", Button.LOADING, Button.STOP)
+        for s in self._selected:
+            s.generator.shutdown()
+        self._selected = []
+        self._button = Button.GET_READY
+        return "cleared", ()

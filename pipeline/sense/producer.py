@@ -1,0 +1,198 @@
+"""The Map Producer (section 4.5): queues sensors' MapUpdates and applies them to the map.
+
+``submit`` judges an update at once against tables 4.1/4.2 and queues it: ``R`` drops
+the earlier pending updates of the same target and attribute, ``A`` appends.
+``consume`` applies the pending updates, in order, at the simulated time ``now_ms``.
+A rejected update leaves the map exactly as it was and yields a ``Rejection``.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+from pipeline.messages import (
+    REGISTER_CAPACITY,
+    Camera,
+    Entity,
+    Human,
+    MapUpdate,
+    Message,
+    Object,
+    Obstacle,
+    Policy,
+    Sonar,
+    State,
+    WorldMap,
+)
+from pipeline.sense.updates import (
+    DecodedUpdate,
+    EntityClass,
+    MapUpdateError,
+    ScriptVect,
+    Storage,
+    Target,
+    check_script_root,
+    decode_update,
+)
+
+MAX_ENTITIES: Final = 1024
+"""Default number of entities a class (cameras, humans...) may hold in the map."""
+
+_LISTED: Final = {
+    EntityClass.CAMERA: ("cameras", Camera),
+    EntityClass.SONAR: ("sonars", Sonar),
+    EntityClass.HUMAN: ("humans", Human),
+    EntityClass.OBSTACLE: ("obstacles", Obstacle),
+    EntityClass.OBJECT: ("objects", Object),
+}
+"""Classes kept as lists in the map: the WorldMap field and the Struct to allocate."""
+
+
+class Rejection(Message):
+    """An update the producer refused, and why (recorded on ``/log``)."""
+
+    update: MapUpdate
+    reason: str
+    """What is wrong, starting with the target, e.g. ``Camera/1.isonline: policy A ...``."""
+
+    def __str__(self) -> str:
+        return f"update {self.update.seq}: {self.reason}"
+
+
+class MapProducer:
+    """Owns the pending updates and applies them to ``world_map`` (mutated in place).
+
+    ``register_capacity`` bounds every appendable register (oldest dropped first);
+    ``script_root`` is the folder every ``script_vect`` path must lie in (empty: any
+    relative path); ``max_entities`` bounds each class's list of entities.
+    """
+
+    def __init__(
+        self,
+        world_map: WorldMap,
+        *,
+        register_capacity: int = REGISTER_CAPACITY,
+        script_root: str = "activities",
+        max_entities: int = MAX_ENTITIES,
+    ):
+        if register_capacity < 1:
+            raise ValueError(f"register_capacity must be at least 1, got {register_capacity}")
+        if max_entities < 0:
+            raise ValueError(f"max_entities must be at least 0, got {max_entities}")
+        self.world_map = world_map
+        self.register_capacity = register_capacity
+        self.script_root = check_script_root(script_root)
+        self.max_entities = max_entities
+        self._pending: list[DecodedUpdate] = []
+
+    # ---------------------------------------------------------------- queue
+
+    def submit(self, update: MapUpdate) -> Rejection | None:
+        """Queue ``update``; a Rejection if it is invalid whatever the map holds."""
+        try:
+            decoded = decode_update(update, script_root=self.script_root)
+        except MapUpdateError as exc:
+            return Rejection(update=update, reason=exc.message)
+        if update.policy is Policy.R:
+            self._pending = [p for p in self._pending if p.key != decoded.key]
+        self._pending.append(decoded)
+        return None
+
+    @property
+    def pending(self) -> bool:
+        """Whether updates wait to be consumed."""
+        return bool(self._pending)
+
+    @property
+    def pending_updates(self) -> tuple[MapUpdate, ...]:
+        """The updates waiting to be consumed, in the order they will be applied."""
+        return tuple(p.update for p in self._pending)
+
+    # ---------------------------------------------------------------- apply
+
+    def consume(self, now_ms: int) -> list[Rejection]:
+        """Apply every pending update at simulated time ``now_ms``; the rejections, in order.
+
+        Sets ``lastupdatetime`` to ``now_ms`` when at least one update was applied.
+        Raises ValueError if ``now_ms`` is earlier than the map's ``lastupdatetime``.
+        """
+        world = self.world_map
+        if now_ms < world.lastupdatetime:
+            raise ValueError(
+                f"now_ms {now_ms} is earlier than the map's lastupdatetime {world.lastupdatetime}"
+            )
+        pending, self._pending = self._pending, []
+        index = _Index(world)
+        rejections: list[Rejection] = []
+        applied = False
+        for decoded in pending:
+            owner = index.find(decoded.target)
+            if owner is None:
+                if index.count(decoded.target.klass) >= self.max_entities:
+                    rejections.append(
+                        Rejection(
+                            update=decoded.update,
+                            reason=(
+                                f"{decoded.target}.{decoded.spec.name}: cannot allocate a new"
+                                f" {decoded.target.klass}: the map already holds"
+                                f" {self.max_entities} of them"
+                            ),
+                        )
+                    )
+                    continue
+                owner = index.allocate(decoded.target, now_ms)
+            self._apply(owner, decoded)
+            applied = True
+        if applied:
+            world.lastupdatetime = now_ms
+        return rejections
+
+    def _apply(self, owner: State, decoded: DecodedUpdate) -> None:
+        spec, value = decoded.spec, decoded.value
+        if isinstance(value, ScriptVect):
+            info = self.world_map.scriptinfo
+            info.script_vect = list(value.paths)
+            info.restart = value.restart
+        elif spec.storage is Storage.UPDATEABLE:
+            setattr(owner, spec.name, value)
+        else:
+            if decoded.update.policy is Policy.R:
+                register = [value]
+            else:
+                register = [*getattr(owner, spec.name), value]
+            setattr(owner, spec.name, register[-self.register_capacity :])
+            for name in spec.mirrors:
+                setattr(owner, name, getattr(value, name))
+
+
+class _Index:
+    """The map's entities by class and ID, for one ``consume`` (the map may change between)."""
+
+    def __init__(self, world: WorldMap):
+        self._world = world
+        self._by_id: dict[EntityClass, dict[str, State]] = {}
+        for klass, (field, _) in _LISTED.items():
+            ids: dict[str, State] = {}
+            for entity in getattr(world, field):
+                ids.setdefault(entity.id, entity)
+            self._by_id[klass] = ids
+
+    def find(self, target: Target) -> State | None:
+        if target.klass is EntityClass.ROBOT_STATUS:
+            return self._world.robotstatus
+        if target.klass is EntityClass.SCRIPT:
+            return self._world.scriptinfo
+        return self._by_id[target.klass].get(target.id)
+
+    def count(self, klass: EntityClass) -> int:
+        return len(getattr(self._world, _LISTED[klass][0]))
+
+    def allocate(self, target: Target, now_ms: int) -> State:
+        field, kind = _LISTED[target.klass]
+        if issubclass(kind, Entity):
+            entity: State = kind(id=target.id, creationtime=now_ms)
+        else:
+            entity = kind(id=target.id)
+        getattr(self._world, field).append(entity)
+        self._by_id[target.klass][target.id] = entity
+        return entity

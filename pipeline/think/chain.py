@@ -1,0 +1,112 @@
+"""The daisy chain of rules the map passes through each tick, changed by alfa/omega messages.
+
+Actions (``RuleAction``): A activates and adds a rule; R removes it (kept aside so
+that C can recover it); D creates it but holds it for later; B brings a held rule
+back; C recovers a removed rule (creating it when it was never loaded, as the
+thesis's idle activity does with ``kick_starter``).
+
+Mutex commands (``MutexCmd``): L locks the map's propagation before the message,
+U unlocks it after; while locked, the map does not pass through the rules.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from pipeline.events import Level, LogEntry, RuleDecision
+from pipeline.messages import MutexCmd, RuleAction, RuleMessage, WorldMap
+from pipeline.think.errors import RuleSyntaxError
+from pipeline.think.rules import Rule, RuleContext, RuleRegistry
+
+
+class RuleChain:
+    """Active rules in order, held (delayed) and removed ones, and the propagation lock."""
+
+    def __init__(self, registry: RuleRegistry) -> None:
+        self.registry = registry
+        self.active: list[Rule] = []
+        self.held: dict[str, Rule] = {}
+        self.removed: dict[str, Rule] = {}
+        self.locked = False
+
+    def apply(self, messages: Iterable[RuleMessage]) -> list[LogEntry]:
+        """Apply alfa/omega messages in order; what cannot be applied is reported, not raised."""
+        problems: list[LogEntry] = []
+        for message in messages:
+            if message.mutexcmd == MutexCmd.L:
+                self.locked = True
+            problem = self._apply_one(message)
+            if problem:
+                problems.append(LogEntry(level=Level.WARNING, source="rules", message=problem, ref=message.id))
+            if message.mutexcmd == MutexCmd.U:
+                self.locked = False
+        return problems
+
+    def unlock(self) -> None:
+        """Let the map propagate again (used when a script with no alfa messages loads)."""
+        self.locked = False
+
+    def propagate(self, world_map: WorldMap, *, now_ms: int) -> list[RuleDecision]:
+        """Pass the map through every active rule in order; nothing happens while locked."""
+        if self.locked:
+            return []
+        ctx = RuleContext(now_ms=now_ms)
+        return [rule.decide(world_map, ctx) for rule in list(self.active)]
+
+    def names(self) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
+        """The ids of the active, held and removed rules (active in chain order)."""
+        return (
+            tuple(rule.name for rule in self.active),
+            tuple(self.held),
+            tuple(self.removed),
+        )
+
+    def _find_active(self, name: str) -> Rule | None:
+        return next((rule for rule in self.active if rule.name == name), None)
+
+    def _create(self, message: RuleMessage) -> Rule | str:
+        if message.rulecode not in self.registry:
+            return f"unknown rule code {message.rulecode} for rule {message.id!r}"
+        try:
+            return self.registry.create(message)
+        except RuleSyntaxError as error:
+            return f"rule {message.id!r} has a bad condition: {error}"
+
+    def _apply_one(self, message: RuleMessage) -> str | None:
+        name, action = message.id, message.action
+        if action in (RuleAction.A, RuleAction.D):
+            if self._find_active(name) or name in self.held:
+                return f"{action.name}: rule {name!r} is already loaded"
+            rule = self._create(message)
+            if isinstance(rule, str):
+                return rule
+            self.removed.pop(name, None)
+            if action == RuleAction.A:
+                self.active.append(rule)
+            else:
+                self.held[name] = rule
+            return None
+        if action == RuleAction.R:
+            rule = self._find_active(name) or self.held.pop(name, None)
+            if rule is None:
+                return None if name in self.removed else f"R: rule {name!r} is not loaded"
+            if rule in self.active:
+                self.active.remove(rule)
+            self.removed[name] = rule
+            return None
+        if action == RuleAction.B:
+            if name not in self.held:
+                return f"B: rule {name!r} is not held"
+            self.active.append(self.held.pop(name))
+            return None
+        # RuleAction.C: recover a removed rule, or create it if it never existed.
+        if self._find_active(name):
+            return None
+        if name in self.removed:
+            self.active.append(self.removed.pop(name))
+            return None
+        rule = self._create(message)
+        if isinstance(rule, str):
+            return rule
+        self.active.append(rule)
+        return None

@@ -1,0 +1,184 @@
+"""The rule library for therapy sessions, written in the condition language.
+
+Each rule's condition is its class attribute ``condition_text``; its body changes
+the map (the current block and its ``changed`` flag, ``overridecmd``, variables,
+attributes). Bodies are idempotent per situation, so a rule that keeps firing
+does not keep restarting the actuators.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+from pipeline.messages import AudioOut, Entity, InstructionBlock, Led, Move, WorldMap
+from pipeline.think import rulecodes
+from pipeline.think.conditions import Evaluation
+from pipeline.think.rules import Rule, RuleContext, RuleRegistry
+
+IDLE_ACTIVITY: Final = "idle_activity"
+WAITING_ACTIVITY: Final = "wait_for_child"
+
+RULES = RuleRegistry()
+"""The shipped rules, by rule code."""
+
+
+def replace_block(world_map: WorldMap, block: InstructionBlock) -> None:
+    """Put ``block`` in place of the current one and ask the actuator to restart."""
+    world_map.scriptinfo.block = block
+    world_map.scriptinfo.changed = True
+
+
+def force_switch(world_map: WorldMap, activity: str, *, goal: int = 0, action: int = 0) -> None:
+    """Ask the Block Reader for a compulsory switch to ``activity`` (loop step 5)."""
+    info = world_map.scriptinfo
+    info.currentactivity = activity
+    info.goalid, info.actionid, info.blockid = f"goal{goal}", f"act{action}", "blk0"
+    info.overridecmd = True
+
+
+def _led(r: float, g: float, b: float, *, duration: int, wait_t: int = 0) -> Led:
+    return Led(r=r, g=g, b=b, turnas=1, wait_t=wait_t, duration=duration)
+
+
+@RULES.register
+class KickStarter(Rule):
+    """While idle, welcomes a child who comes in front within 2 m with a green glow, once."""
+
+    rulecode = rulecodes.KICK_STARTER
+    condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        child = found.entity(world_map, "?child")
+        if child is None or child.attributes.get("welcomed") == "yes":
+            return
+        if world_map.scriptinfo.currentactivity != IDLE_ACTIVITY:
+            return
+        child.attributes["welcomed"] = "yes"
+        replace_block(
+            world_map,
+            InstructionBlock(led=(_led(0.1, 0.8, 0.3, duration=1500),), flagged="welcome"),
+        )
+
+
+@RULES.register
+class ChildTooClose(Rule):
+    """A child closer than 0.5 m: stop moving and soften the lights (the block is replaced)."""
+
+    rulecode = rulecodes.CHILD_TOO_CLOSE
+    condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.5} ! {TRUE}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        block = world_map.scriptinfo.block
+        moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
+        if not moving or (block is not None and block.flagged == "softened"):
+            return
+        child = found.entity(world_map, "?child")
+        if child is not None:
+            child.attributes["too_close_at"] = str(ctx.now_ms)
+        replace_block(
+            world_map,
+            InstructionBlock(led=(_led(0.3, 0.15, 0.05, duration=2000),), flagged="softened"),
+        )
+
+
+@RULES.register
+class ChildLeft(Rule):
+    """The child tracked by the activity went farther than 3 m: switch to the waiting script."""
+
+    rulecode = rulecodes.CHILD_LEFT
+    condition_text = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        current = world_map.scriptinfo.currentactivity
+        if current in (WAITING_ACTIVITY, IDLE_ACTIVITY) or world_map.scriptinfo.overridecmd:
+            return
+        world_map.variables["@left_during"] = current
+        force_switch(world_map, WAITING_ACTIVITY)
+
+
+@RULES.register
+class TouchReward(Rule):
+    """A caress (``C``) is rewarded with a rainbow of light and a chime, once per touch."""
+
+    rulecode = rulecodes.TOUCH_REWARD
+    condition_text = '! {E: touched ("C")}'
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        touches = [t for t in world_map.robotstatus.touch if t.touchtype == "C"]
+        if not touches:
+            return
+        stamp = str(touches[-1].startingtime)
+        if world_map.variables.get("@rewarded_touch") == stamp:
+            return
+        world_map.variables["@rewarded_touch"] = stamp
+        rainbow = (
+            _led(1.0, 0.2, 0.2, duration=400),
+            _led(1.0, 0.8, 0.1, duration=400),
+            _led(0.2, 1.0, 0.3, duration=400),
+            _led(0.2, 0.4, 1.0, duration=400),
+        )
+        replace_block(
+            world_map,
+            InstructionBlock(
+                led=rainbow,
+                audioout=(AudioOut(track_path="reward_chime.wav", wait_t=0, duration=1600),),
+                flagged="reward",
+            ),
+        )
+
+
+@RULES.register
+class AttentionLost(Rule):
+    """No child in front for 5 s: a call-back block (a wiggle, a warm light, a call), every 10 s."""
+
+    rulecode = rulecodes.ATTENTION_LOST
+    condition_text = "{CLASS #Human L ?child} ! {E: attention_low (?child, 5000)}"
+    repeat_ms: Final = 10_000
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        last = int(world_map.variables.get("@called_back_at", str(-self.repeat_ms)))
+        if ctx.now_ms - last < self.repeat_ms:
+            return
+        world_map.variables["@called_back_at"] = str(ctx.now_ms)
+        wiggle = (
+            Move(v_x=0.0, v_y=0.0, v_theta=0.6, wait_t=0, duration=400),
+            Move(v_x=0.0, v_y=0.0, v_theta=-0.6, wait_t=0, duration=400),
+        )
+        replace_block(
+            world_map,
+            InstructionBlock(
+                move=wiggle,
+                led=(_led(1.0, 0.6, 0.1, duration=800),),
+                audioout=(AudioOut(track_path="come_play.wav", wait_t=0, duration=1500),),
+                flagged="call_back",
+            ),
+        )
+
+
+@RULES.register
+class BatteryLow(Rule):
+    """Battery below 2 minutes: drop the waiting activities and go to the idle activity."""
+
+    rulecode = rulecodes.BATTERY_LOW
+    condition_text = "! {E: battery_below (120000)}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        info = world_map.scriptinfo
+        if info.currentactivity == IDLE_ACTIVITY and not info.script_vect:
+            return
+        info.script_vect = []
+        force_switch(world_map, IDLE_ACTIVITY)
+
+
+@RULES.register
+class JoystickNote(Rule):
+    """Notes in the map when the operator took the robot over with the joystick."""
+
+    rulecode = rulecodes.JOYSTICK_NOTE
+    condition_text = "! {E: joystick_engaged ()}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        if "@joystick_engaged_since" not in world_map.variables:
+            world_map.variables["@joystick_engaged_since"] = str(ctx.now_ms)
+            count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
+            world_map.variables["@joystick_takeovers"] = str(count)

@@ -1,0 +1,114 @@
+"""Rules: a condition in the rule language and a body that may change the map (section 4.3).
+
+A rule class is registered under its ``rulecode``; alfa/omega messages name the
+code, and the chain instantiates the class with the message's id and topics.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import msgspec
+
+from pipeline.events import MapChange, RuleDecision
+from pipeline.messages import RuleMessage, WorldMap
+from pipeline.think.conditions import Condition, Evaluation, compile_condition
+from pipeline.think.errors import RuleSyntaxError
+
+MAX_CHANGE_TEXT = 120
+"""Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""
+
+
+@dataclass
+class RuleContext:
+    """What a rule body may read besides the map: the clock and the scripts it can switch to."""
+
+    now_ms: int
+    tick_scope: dict[str, str] = field(default_factory=dict)
+
+
+class Rule:
+    """Base of every rule: subclasses set ``rulecode``, ``condition_text`` and ``act``."""
+
+    rulecode: ClassVar[int]
+    condition_text: ClassVar[str] = "! {TRUE}"
+    description: ClassVar[str] = ""
+
+    def __init__(self, message: RuleMessage) -> None:
+        self.name = message.id
+        self.intopic = message.intopic
+        self.outtopic = message.outtopic
+        self.condition: Condition = compile_condition(self.condition_text)
+
+    def set_condition(self, text: str) -> None:
+        """Change the condition at run time (the thesis lets a rule do this itself)."""
+        self.condition = compile_condition(text)
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        """The body, run when the condition holds; it may change the map freely."""
+
+    def decide(self, world_map: WorldMap, ctx: RuleContext) -> RuleDecision:
+        """Evaluate the condition, run the body if it holds, and report what changed."""
+        found = self.condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
+        changes: tuple[MapChange, ...] = ()
+        if found.result:
+            before = msgspec.to_builtins(world_map)
+            self.act(world_map, found, ctx)
+            changes = tuple(diff(before, msgspec.to_builtins(world_map)))
+        return RuleDecision(
+            rule=self.name,
+            rulecode=self.rulecode,
+            fired=found.result,
+            bindings=dict(found.bindings),
+            changes=changes,
+        )
+
+
+class RuleRegistry:
+    """Maps rule codes to rule classes; filled with ``register``."""
+
+    def __init__(self) -> None:
+        self._classes: dict[int, type[Rule]] = {}
+
+    def register(self, cls: type[Rule]) -> type[Rule]:
+        """Class decorator: make ``cls`` loadable by its ``rulecode``; codes are unique."""
+        if cls.rulecode in self._classes:
+            raise ValueError(f"rule code {cls.rulecode} is taken by {self._classes[cls.rulecode]}")
+        try:
+            compile_condition(cls.condition_text)
+        except RuleSyntaxError as error:
+            raise ValueError(f"{cls.__name__}.condition_text: {error}") from error
+        self._classes[cls.rulecode] = cls
+        return cls
+
+    def create(self, message: RuleMessage) -> Rule:
+        """A new rule instance for an alfa/omega message; unknown codes raise ``KeyError``."""
+        return self._classes[message.rulecode](message)
+
+    def __contains__(self, rulecode: object) -> bool:
+        return rulecode in self._classes
+
+    def codes(self) -> Mapping[int, type[Rule]]:
+        return dict(sorted(self._classes.items()))
+
+
+def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
+    """The leaves that differ between two builtin trees, as compact ``MapChange``s."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for key in list(old) + [k for k in new if k not in old]:
+            yield from diff(old.get(key), new.get(key), f"{path}.{key}" if path else str(key))
+    elif isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        for index, (a, b) in enumerate(zip(old, new, strict=True)):
+            yield from diff(a, b, f"{path}[{index}]")
+    elif old != new:
+        yield MapChange(path=path, old=_text(old), new=_text(new))
+
+
+def _text(value: Any) -> str:
+    text = msgspec.json.encode(value).decode()
+    return text if len(text) <= MAX_CHANGE_TEXT else text[: MAX_CHANGE_TEXT - 1] + "…"
+
+
+RuleFactory = Callable[[RuleMessage], Rule]

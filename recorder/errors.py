@@ -1,0 +1,9 @@
+"""The recorder's error base: bad or unreadable recordings, misuse of a sink."""
+
+from __future__ import annotations
+
+from pipeline.errors import LocatedError
+
+
+class RecordingError(LocatedError):
+    """A recording cannot be written or read; ``source`` names the file."""

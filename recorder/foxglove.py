@@ -1,0 +1,372 @@
+"""Foxglove's well-known messages (the parts we use) and how our events map onto them.
+
+The Structs mirror ``recorder/foxglove_schemas/*.json``: every field a schema
+requires is present (empty lists where we draw nothing), enums are integers and
+times are ``{"sec", "nsec"}``. Everything is drawn in the ``world`` frame, z up,
+the arena's lower-left corner at the origin.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Iterable
+from typing import Final
+
+import msgspec
+
+from pipeline.events import BodyState, Level, LogEntries, WorldState
+from recorder.scene import ObstacleGeometry, SceneGeometry
+
+WORLD_FRAME: Final = "world"
+ROBOT_FRAME: Final = "robot"
+WALL_THICKNESS_M: Final = 0.05
+WALL_HEIGHT_M: Final = 0.4
+OBSTACLE_HEIGHT_M: Final = 0.5
+ROBOT_HEIGHT_M: Final = 0.5
+HUMAN_HEIGHT_M: Final = 1.2
+DEFAULT_RADIUS_M: Final = 0.2
+
+
+class _Fox(msgspec.Struct, frozen=True, kw_only=True):
+    """Base of the Foxglove mirrors (encoded with every field, defaults included)."""
+
+
+class Time(_Fox, kw_only=True):
+    sec: int
+    nsec: int
+
+
+class Duration(_Fox, kw_only=True):
+    sec: int = 0
+    nsec: int = 0
+
+
+class Vector3(_Fox, kw_only=True):
+    x: float
+    y: float
+    z: float
+
+
+class Quaternion(_Fox, kw_only=True):
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    w: float = 1.0
+
+
+class Pose(_Fox, kw_only=True):
+    position: Vector3
+    orientation: Quaternion = Quaternion()
+
+
+class Color(_Fox, kw_only=True):
+    r: float
+    g: float
+    b: float
+    a: float = 1.0
+
+
+class KeyValuePair(_Fox, kw_only=True):
+    key: str
+    value: str
+
+
+class ArrowPrimitive(_Fox, kw_only=True):
+    pose: Pose
+    shaft_length: float
+    shaft_diameter: float
+    head_length: float
+    head_diameter: float
+    color: Color
+
+
+class CubePrimitive(_Fox, kw_only=True):
+    pose: Pose
+    size: Vector3
+    color: Color
+
+
+class SpherePrimitive(_Fox, kw_only=True):
+    pose: Pose
+    size: Vector3
+    color: Color
+
+
+class CylinderPrimitive(_Fox, kw_only=True):
+    pose: Pose
+    size: Vector3
+    bottom_scale: float = 1.0
+    top_scale: float = 1.0
+    color: Color
+
+
+class TextPrimitive(_Fox, kw_only=True):
+    pose: Pose
+    billboard: bool = True
+    font_size: float = 14.0
+    scale_invariant: bool = True
+    color: Color
+    text: str
+
+
+class SceneEntity(_Fox, kw_only=True):
+    timestamp: Time
+    frame_id: str = WORLD_FRAME
+    id: str
+    lifetime: Duration = Duration()
+    frame_locked: bool = False
+    metadata: tuple[KeyValuePair, ...] = ()
+    arrows: tuple[ArrowPrimitive, ...] = ()
+    cubes: tuple[CubePrimitive, ...] = ()
+    spheres: tuple[SpherePrimitive, ...] = ()
+    cylinders: tuple[CylinderPrimitive, ...] = ()
+    lines: tuple[()] = ()
+    triangles: tuple[()] = ()
+    texts: tuple[TextPrimitive, ...] = ()
+    models: tuple[()] = ()
+
+
+class DeletionType(enum.IntEnum):
+    MATCHING_ID = 0
+    ALL = 1
+
+
+class SceneEntityDeletion(_Fox, kw_only=True):
+    timestamp: Time
+    type: DeletionType = DeletionType.MATCHING_ID
+    id: str = ""
+
+
+class SceneUpdate(_Fox, kw_only=True):
+    """``foxglove.SceneUpdate``."""
+
+    deletions: tuple[SceneEntityDeletion, ...] = ()
+    entities: tuple[SceneEntity, ...] = ()
+
+
+class FrameTransform(_Fox, kw_only=True):
+    timestamp: Time
+    parent_frame_id: str
+    child_frame_id: str
+    translation: Vector3
+    rotation: Quaternion
+
+
+class FrameTransforms(_Fox, kw_only=True):
+    """``foxglove.FrameTransforms``."""
+
+    transforms: tuple[FrameTransform, ...]
+
+
+class LogLevel(enum.IntEnum):
+    UNKNOWN = 0
+    DEBUG = 1
+    INFO = 2
+    WARNING = 3
+    ERROR = 4
+    FATAL = 5
+
+
+class Log(_Fox, kw_only=True):
+    """``foxglove.Log``."""
+
+    timestamp: Time
+    level: LogLevel
+    message: str
+    name: str
+    file: str = ""
+    line: int = 0
+
+
+LOG_LEVELS: Final[dict[Level, LogLevel]] = {
+    Level.DEBUG: LogLevel.DEBUG,
+    Level.INFO: LogLevel.INFO,
+    Level.WARNING: LogLevel.WARNING,
+    Level.ERROR: LogLevel.ERROR,
+}
+
+LED_OFF_COLOR: Final = Color(r=0.55, g=0.55, b=0.55)
+"""The robot's body colour while its LEDs are off."""
+ROLE_COLORS: Final[dict[str, Color]] = {
+    "child": Color(r=1.0, g=0.6, b=0.1),
+    "therapist": Color(r=0.2, g=0.45, b=0.95),
+}
+OTHER_HUMAN_COLOR: Final = Color(r=0.6, g=0.3, b=0.8)
+OBJECT_COLOR: Final = Color(r=0.2, g=0.8, b=0.3)
+WALL_COLOR: Final = Color(r=0.35, g=0.35, b=0.4)
+OBSTACLE_COLOR: Final = Color(r=0.5, g=0.4, b=0.3)
+HEADING_COLOR: Final = Color(r=1.0, g=1.0, b=1.0)
+LABEL_COLOR: Final = Color(r=1.0, g=1.0, b=1.0)
+
+
+def stamp(time_ns: int) -> Time:
+    """A Foxglove time from simulated nanoseconds."""
+    sec, nsec = divmod(time_ns, 1_000_000_000)
+    return Time(sec=sec, nsec=nsec)
+
+
+def yaw(theta_rad: float) -> Quaternion:
+    """The rotation by ``theta_rad`` about z."""
+    half = theta_rad / 2.0
+    return Quaternion(z=math.sin(half), w=math.cos(half))
+
+
+def led_color(led: tuple[float, float, float]) -> Color:
+    """The robot's colour: its LED colour, or grey when all channels are 0."""
+    if not any(led):
+        return LED_OFF_COLOR
+    r, g, b = led
+    return Color(r=r, g=g, b=b)
+
+
+def static_scene(scene: SceneGeometry, time_ns: int) -> SceneUpdate:
+    """The arena's four walls and the obstacles, sent once (they never change)."""
+    t = stamp(time_ns)
+    w, h, k = scene.width_m, scene.height_m, WALL_THICKNESS_M
+    walls = (
+        (w / 2, -k / 2, w + 2 * k, k),
+        (w / 2, h + k / 2, w + 2 * k, k),
+        (-k / 2, h / 2, k, h),
+        (w + k / 2, h / 2, k, h),
+    )
+    cubes = tuple(
+        CubePrimitive(
+            pose=Pose(position=Vector3(x=x, y=y, z=WALL_HEIGHT_M / 2)),
+            size=Vector3(x=sx, y=sy, z=WALL_HEIGHT_M),
+            color=WALL_COLOR,
+        )
+        for x, y, sx, sy in walls
+    )
+    entities = [SceneEntity(timestamp=t, id="arena", cubes=cubes)]
+    entities.extend(_obstacle(obstacle, t) for obstacle in scene.obstacles)
+    return SceneUpdate(entities=tuple(entities))
+
+
+def _obstacle(obstacle: ObstacleGeometry, t: Time) -> SceneEntity:
+    centre = Vector3(x=obstacle.x_m, y=obstacle.y_m, z=OBSTACLE_HEIGHT_M / 2)
+    metadata = (KeyValuePair(key="kind", value=obstacle.kind),)
+    if obstacle.is_disc:
+        d = 2 * obstacle.radius_m
+        cylinder = CylinderPrimitive(
+            pose=Pose(position=centre),
+            size=Vector3(x=d, y=d, z=OBSTACLE_HEIGHT_M),
+            color=OBSTACLE_COLOR,
+        )
+        return SceneEntity(
+            timestamp=t, id=f"obstacle/{obstacle.id}", metadata=metadata, cylinders=(cylinder,)
+        )
+    cube = CubePrimitive(
+        pose=Pose(position=centre, orientation=yaw(obstacle.angle_rad)),
+        size=Vector3(x=obstacle.width_m, y=obstacle.height_m, z=OBSTACLE_HEIGHT_M),
+        color=OBSTACLE_COLOR,
+    )
+    return SceneEntity(timestamp=t, id=f"obstacle/{obstacle.id}", metadata=metadata, cubes=(cube,))
+
+
+def dynamic_entity_ids(state: WorldState) -> tuple[str, ...]:
+    """The ids :func:`dynamic_scene` draws for a world state, in drawing order."""
+    return (
+        "robot",
+        *(f"human/{h.id}" for h in state.humans),
+        *(f"object/{o.id}" for o in state.objects),
+    )
+
+
+def dynamic_scene(
+    state: WorldState, time_ns: int, *, previous_ids: Iterable[str] = ()
+) -> SceneUpdate:
+    """The robot, humans and objects now; deletes the entities of ``previous_ids`` now gone."""
+    t = stamp(time_ns)
+    entities = [_robot(state, t)]
+    entities.extend(_human(h, t) for h in state.humans)
+    entities.extend(_object(o, t) for o in state.objects)
+    current = set(dynamic_entity_ids(state))
+    deletions = tuple(
+        SceneEntityDeletion(timestamp=t, id=old) for old in previous_ids if old not in current
+    )
+    return SceneUpdate(deletions=deletions, entities=tuple(entities))
+
+
+def _radius(body: BodyState) -> float:
+    return body.radius_m if body.radius_m > 0 else DEFAULT_RADIUS_M
+
+
+def _robot(state: WorldState, t: Time) -> SceneEntity:
+    body = state.robot
+    r = _radius(body)
+    cylinder = CylinderPrimitive(
+        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M / 2)),
+        size=Vector3(x=2 * r, y=2 * r, z=ROBOT_HEIGHT_M),
+        color=led_color(state.led),
+    )
+    arrow = ArrowPrimitive(
+        pose=Pose(
+            position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M + 0.05),
+            orientation=yaw(body.theta_rad),
+        ),
+        shaft_length=r,
+        shaft_diameter=r / 5,
+        head_length=r / 2,
+        head_diameter=r / 2.5,
+        color=HEADING_COLOR,
+    )
+    metadata = (KeyValuePair(key="audio", value=state.audio),) if state.audio else ()
+    return SceneEntity(
+        timestamp=t, id="robot", metadata=metadata, cylinders=(cylinder,), arrows=(arrow,)
+    )
+
+
+def _human(body: BodyState, t: Time) -> SceneEntity:
+    r = _radius(body)
+    cylinder = CylinderPrimitive(
+        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=HUMAN_HEIGHT_M / 2)),
+        size=Vector3(x=2 * r, y=2 * r, z=HUMAN_HEIGHT_M),
+        color=ROLE_COLORS.get(body.kind, OTHER_HUMAN_COLOR),
+    )
+    label = TextPrimitive(
+        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=HUMAN_HEIGHT_M + 0.2)),
+        color=LABEL_COLOR,
+        text=f"{body.id} ({body.kind})" if body.kind else body.id,
+    )
+    return SceneEntity(timestamp=t, id=f"human/{body.id}", cylinders=(cylinder,), texts=(label,))
+
+
+def _object(body: BodyState, t: Time) -> SceneEntity:
+    r = _radius(body)
+    sphere = SpherePrimitive(
+        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=r)),
+        size=Vector3(x=2 * r, y=2 * r, z=2 * r),
+        color=OBJECT_COLOR,
+    )
+    return SceneEntity(timestamp=t, id=f"object/{body.id}", spheres=(sphere,))
+
+
+def robot_transform(state: WorldState, time_ns: int) -> FrameTransforms:
+    """``world -> robot``: the robot's pose in the arena."""
+    body = state.robot
+    return FrameTransforms(
+        transforms=(
+            FrameTransform(
+                timestamp=stamp(time_ns),
+                parent_frame_id=WORLD_FRAME,
+                child_frame_id=ROBOT_FRAME,
+                translation=Vector3(x=body.x_m, y=body.y_m, z=0.0),
+                rotation=yaw(body.theta_rad),
+            ),
+        )
+    )
+
+
+def log_messages(entries: LogEntries, time_ns: int) -> list[Log]:
+    """One ``foxglove.Log`` per entry; ``name`` is the speaking stage, ``ref`` joins the text."""
+    t = stamp(time_ns)
+    return [
+        Log(
+            timestamp=t,
+            level=LOG_LEVELS.get(entry.level, LogLevel.UNKNOWN),
+            message=f"{entry.message} [{entry.ref}]" if entry.ref else entry.message,
+            name=entry.source,
+        )
+        for entry in entries.entries
+    ]

@@ -1,0 +1,251 @@
+"""The MCAP sink: every event as JSON on its topic's channel, plus Foxglove's views.
+
+Byte-identical output for identical events: the header carries no time or host,
+metadata and attachments carry no wall-clock value, schemas are encoded with
+sorted keys and log time = publish time = the simulated time.
+
+Crash safety: the header, schemas, channels, metadata and attachments are written
+outside chunks and flushed at open; messages go into zstd chunks of
+``chunk_size_bytes`` (uncompressed, default 1 MiB) and the stream is flushed after
+each chunk. A killed process therefore loses at most the open chunk and the
+summary; :func:`recorder.reader.open_recording` recovers the rest.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from typing import IO, Any, Final
+
+import mcap
+import msgspec
+from mcap.writer import CompressionType, Writer
+
+from pipeline.events import Event, LogEntries, Topic, WorldState
+from pipeline.messages import FORMAT_VERSION
+from recorder import foxglove
+from recorder.errors import RecordingError
+from recorder.scene import SceneGeometry
+from recorder.topics import (
+    FORMAT_VERSION_KEY,
+    MESSAGE_ENCODING,
+    METADATA_OIMI,
+    SCENE_ATTACHMENT,
+    SCHEMA_ENCODING,
+    FoxgloveTopic,
+    foxglove_schema,
+    schema_data,
+    schema_name,
+)
+
+LIBRARY: Final = f"oimi format {FORMAT_VERSION}, mcap-python {mcap.__version__}"
+"""The header's library string: versions only, no time, no host."""
+DEFAULT_CHUNK_SIZE_BYTES: Final = 1024 * 1024
+DEFAULT_FOXGLOVE_EVERY_N_TICKS: Final = 5
+"""Foxglove scene/tf every 5 ticks: 10 Hz at the default 50 Hz tick rate."""
+Attachment = tuple[str, bytes]
+"""``(name, data)``; the media type is guessed from the name's extension."""
+
+_MEDIA_TYPES: Final = {
+    ".toml": "application/toml",
+    ".json": "application/json",
+    ".txt": "text/plain",
+    ".md": "text/markdown",
+    ".lark": "text/plain",
+}
+
+
+def media_type(name: str) -> str:
+    """The media type recorded for an attachment called ``name``."""
+    return _MEDIA_TYPES.get(os.path.splitext(name)[1].lower(), "application/octet-stream")
+
+
+class _FlushingStream:
+    """Passes writes through and flushes after each one (the writer writes once per chunk)."""
+
+    def __init__(self, stream: IO[bytes]) -> None:
+        self._stream = stream
+
+    def write(self, data: bytes) -> int:
+        if not data:
+            return 0
+        written = self._stream.write(data)
+        self._stream.flush()
+        return written
+
+    def tell(self) -> int:
+        return self._stream.tell()
+
+    def flush(self) -> None:
+        self._stream.flush()
+
+
+class McapSink:
+    """Writes events to an MCAP file (or binary stream); a context manager; a ``Sink``.
+
+    ``metadata`` records are written at open after the ``oimi`` record (which always
+    holds ``format_version``); keys are sorted within each record. ``attachments``
+    are ``(name, bytes)`` pairs with log and create time 0. ``scene`` draws the
+    static arena for Foxglove and is attached as ``oimi/scene.json``.
+    ``foxglove_every_n_ticks`` thins the scene and tf channels (0 turns the
+    Foxglove views off).
+    """
+
+    def __init__(
+        self,
+        path_or_stream: str | os.PathLike[str] | IO[bytes],
+        *,
+        metadata: Mapping[str, Mapping[str, str]] | None = None,
+        attachments: Sequence[Attachment] = (),
+        scene: SceneGeometry | None = None,
+        foxglove_every_n_ticks: int = DEFAULT_FOXGLOVE_EVERY_N_TICKS,
+        chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
+    ) -> None:
+        if foxglove_every_n_ticks < 0:
+            raise RecordingError(
+                f"foxglove_every_n_ticks must be >= 0, got {foxglove_every_n_ticks}"
+            )
+        is_path = isinstance(path_or_stream, str | os.PathLike)
+        self._name = os.fspath(path_or_stream) if is_path else "<stream>"  # type: ignore[arg-type]
+        if is_path:
+            try:
+                self._file: IO[bytes] | None = open(path_or_stream, "wb")  # noqa: SIM115
+            except OSError as error:
+                raise RecordingError(f"cannot write: {error.strerror}", source=self._name) from None
+            stream: IO[bytes] = self._file
+        else:
+            self._file = None
+            stream = path_or_stream
+        self._scene = scene
+        self._every = foxglove_every_n_ticks
+        self._closed = False
+        self._encode = msgspec.json.Encoder().encode
+        self._writer = Writer(
+            _FlushingStream(stream),  # type: ignore[arg-type]
+            chunk_size=chunk_size_bytes,
+            compression=CompressionType.ZSTD,
+        )
+        self._writer.start(profile="", library=LIBRARY)
+        self._channels: dict[str, int] = {}
+        self._sequence: dict[str, int] = {}
+        with _outside_chunks(self._writer):
+            for topic in Topic:
+                self._register(topic, schema_name(topic), schema_data(topic))
+            if self._every:
+                for fox in FoxgloveTopic:
+                    self._register(fox, *foxglove_schema(fox))
+        self._write_metadata(metadata or {})
+        if scene is not None:
+            attachments = [*attachments, (SCENE_ATTACHMENT, msgspec.json.encode(scene))]
+        for name, data in attachments:
+            self._writer.add_attachment(
+                create_time=0, log_time=0, name=name, media_type=media_type(name), data=data
+            )
+        self._writer.flush()
+        self._scene_ids: tuple[str, ...] = ()
+        self._static_sent = False
+
+    def _register(self, topic: str, name: str, data: bytes) -> None:
+        schema_id = self._writer.register_schema(name=name, encoding=SCHEMA_ENCODING, data=data)
+        self._channels[topic] = self._writer.register_channel(
+            topic=topic, message_encoding=MESSAGE_ENCODING, schema_id=schema_id
+        )
+        self._sequence[topic] = 0
+
+    def _write_metadata(self, metadata: Mapping[str, Mapping[str, str]]) -> None:
+        oimi = {**metadata.get(METADATA_OIMI, {}), FORMAT_VERSION_KEY: str(FORMAT_VERSION)}
+        records = {METADATA_OIMI: oimi, **{k: v for k, v in metadata.items() if k != METADATA_OIMI}}
+        for name, record in records.items():
+            bad = [k for k, v in record.items() if not isinstance(k, str) or not isinstance(v, str)]
+            if bad:
+                raise RecordingError(
+                    f"metadata record {name!r}: keys and values must be strings, not at {bad[0]!r}",
+                    source=self._name,
+                )
+            self._writer.add_metadata(name, dict(sorted(record.items())))
+
+    # ---------------------------------------------------------------- Sink
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        """Write one event at simulated time ``time_ns`` (and its Foxglove views, if due)."""
+        if self._closed:
+            raise RecordingError(f"record({topic}) after close()", source=self._name)
+        self._add(topic, time_ns, self._encode(message))
+        if not self._every:
+            return
+        if isinstance(message, WorldState):
+            self._world_views(message, time_ns)
+        elif isinstance(message, LogEntries):
+            for log in foxglove.log_messages(message, time_ns):
+                self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
+
+    def _add(self, topic: str, time_ns: int, payload: bytes) -> None:
+        try:
+            channel = self._channels[topic]
+        except KeyError:
+            raise RecordingError(f"unknown topic {topic!r}", source=self._name) from None
+        sequence = self._sequence[topic]
+        self._sequence[topic] = sequence + 1
+        self._writer.add_message(
+            channel_id=channel,
+            log_time=time_ns,
+            publish_time=time_ns,
+            data=payload,
+            sequence=sequence,
+        )
+
+    def _world_views(self, state: WorldState, time_ns: int) -> None:
+        if not self._static_sent:
+            self._static_sent = True
+            if self._scene is not None:
+                static = foxglove.static_scene(self._scene, time_ns)
+                self._add(FoxgloveTopic.SCENE, time_ns, self._encode(static))
+        elif state.tick % self._every:
+            return
+        update = foxglove.dynamic_scene(state, time_ns, previous_ids=self._scene_ids)
+        self._scene_ids = foxglove.dynamic_entity_ids(state)
+        self._add(FoxgloveTopic.SCENE, time_ns, self._encode(update))
+        tf = foxglove.robot_transform(state, time_ns)
+        self._add(FoxgloveTopic.TF, time_ns, self._encode(tf))
+
+    # ----------------------------------------------------------- lifecycle
+
+    def close(self) -> None:
+        """Write the last chunk and the summary; closes a file it opened. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+        finally:
+            if self._file is not None:
+                self._file.close()
+
+    def __enter__(self) -> McapSink:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class _outside_chunks:
+    """Registers schemas and channels straight into the data section, not the first chunk.
+
+    mcap's ``Writer`` keeps them in its chunk builder until the first chunk is
+    full, so a killed run would lose them; this detaches the builder meanwhile.
+    """
+
+    _ATTR: Final = "_Writer__chunk_builder"
+
+    def __init__(self, writer: Writer) -> None:
+        self._writer = writer
+        self._builder: Any = None
+
+    def __enter__(self) -> None:
+        if hasattr(self._writer, self._ATTR):
+            self._builder = getattr(self._writer, self._ATTR)
+            setattr(self._writer, self._ATTR, None)
+
+    def __exit__(self, *exc_info: object) -> None:
+        if self._builder is not None:
+            setattr(self._writer, self._ATTR, self._builder)

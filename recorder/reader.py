@@ -1,0 +1,285 @@
+"""Reading recordings back: metadata, attachments, counts and a stream of typed events.
+
+A damaged or truncated file (a killed run) is read up to its last complete chunk
+and described by a :class:`RecoveryReport`; a file that is not MCAP at all, or
+written by another format version, raises :class:`RecordingError`.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+from collections.abc import Iterable, Iterator
+from functools import cache
+from typing import IO, Final
+
+import msgspec
+import zstandard
+from mcap.exceptions import EndOfFile, InvalidMagic, McapError
+from mcap.reader import SeekingReader
+from mcap.records import Attachment, Channel, Message, Metadata
+from mcap.stream_reader import StreamReader
+
+from pipeline.events import TOPIC_TYPES, Event, Topic
+from pipeline.messages import FORMAT_VERSION
+from recorder.errors import RecordingError
+from recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
+
+_READ_ERRORS: Final = (McapError, ValueError, struct.error, zstandard.ZstdError, EOFError, KeyError)
+"""What a damaged file makes mcap raise (``EndOfFile``, CRC mismatch, bad lengths...)."""
+
+
+class RecoveryReport(msgspec.Struct, frozen=True, kw_only=True):
+    """How much of a damaged recording could be read, and why reading stopped."""
+
+    messages: int
+    """Messages read (all channels) before the damage."""
+    stopped_at_byte: int
+    """End of the last complete record read."""
+    file_size: int
+    reason: str
+
+    def __str__(self) -> str:
+        return (
+            f"recovered: {self.messages} messages, stopped at byte {self.stopped_at_byte}"
+            f" of {self.file_size} because {self.reason}"
+        )
+
+
+class _Stamp(msgspec.Struct):
+    """The two fields every event starts with (the rest is skipped unparsed)."""
+
+    tick: int
+    time_ms: int
+
+
+_stamp_decoder: Final = msgspec.json.Decoder(_Stamp)
+
+
+@cache
+def _decoder(topic: Topic) -> msgspec.json.Decoder[Event]:
+    return msgspec.json.Decoder(TOPIC_TYPES[topic])
+
+
+class RecordedMessage(msgspec.Struct, frozen=True, kw_only=True):
+    """One recorded event, its payload still encoded (``decoded()`` builds the Struct)."""
+
+    topic: Topic
+    tick: int
+    time_ns: int
+    """Log time: the simulated time, ns."""
+    sequence: int
+    """Index of the message on its channel, from 0."""
+    payload_bytes: bytes
+
+    def decoded(self) -> Event:
+        """The payload as its topic's Struct (``pipeline.events.TOPIC_TYPES``)."""
+        try:
+            return _decoder(self.topic).decode(self.payload_bytes)
+        except msgspec.ValidationError as error:
+            raise RecordingError(
+                f"{self.topic} message {self.sequence} (tick {self.tick}): {error}"
+            ) from None
+
+
+class Recording:
+    """An opened recording; :meth:`iter_messages` re-reads the file on each call."""
+
+    def __init__(
+        self,
+        path: str,
+        *,
+        metadata: dict[str, dict[str, str]],
+        attachments: dict[str, bytes],
+        summary: dict[str, int],
+        recovery: RecoveryReport | None,
+    ) -> None:
+        self.path = path
+        self.metadata = metadata
+        """Metadata records: name -> key -> value, in file order."""
+        self.attachments = attachments
+        """Attachment name -> bytes, in file order."""
+        self.summary = summary
+        """Message count per topic (every channel, Foxglove's included), in channel order."""
+        self.recovery = recovery
+        """Set when the file is damaged: what could be read (updated by ``iter_messages``)."""
+
+    @property
+    def format_version(self) -> int:
+        return int(self.metadata[METADATA_OIMI][FORMAT_VERSION_KEY])
+
+    def iter_messages(
+        self, topics: Iterable[Topic | str] | None = None
+    ) -> Iterator[RecordedMessage]:
+        """Our topics' messages in file order (= simulated-time order), streamed.
+
+        ``topics`` limits the topics (all of ``Topic`` by default). On a damaged
+        file iteration ends at the damage and :attr:`recovery` says where and why.
+        """
+        wanted = _wanted_topics(topics, self.path)
+        channels: dict[int, Topic | None] = {}
+        with _open(self.path) as stream:
+            scan = _Scan(stream, self.path)
+            for record in scan.records():
+                if isinstance(record, Channel):
+                    topic = Topic(record.topic) if record.topic in _TOPIC_NAMES else None
+                    channels[record.id] = topic if topic in wanted else None
+                elif isinstance(record, Message):
+                    topic = channels.get(record.channel_id)
+                    if topic is None:
+                        continue
+                    stamp = _stamp_decoder.decode(record.data)
+                    yield RecordedMessage(
+                        topic=topic,
+                        tick=stamp.tick,
+                        time_ns=record.log_time,
+                        sequence=record.sequence,
+                        payload_bytes=record.data,
+                    )
+            if scan.report is not None:
+                self.recovery = scan.report
+
+
+_TOPIC_NAMES: Final = frozenset(t.value for t in Topic)
+
+
+def _wanted_topics(topics: Iterable[Topic | str] | None, path: str) -> frozenset[Topic]:
+    if topics is None:
+        return frozenset(Topic)
+    wanted = []
+    for topic in topics:
+        if topic not in _TOPIC_NAMES:
+            known = ", ".join(t.value for t in Topic)
+            raise RecordingError(f"unknown topic {topic!r}; known topics: {known}", source=path)
+        wanted.append(Topic(topic))
+    return frozenset(wanted)
+
+
+def _open(path: str) -> IO[bytes]:
+    try:
+        return open(path, "rb")
+    except OSError as error:
+        raise RecordingError(f"cannot read: {error.strerror}", source=path) from None
+
+
+class _Scan:
+    """Streams a file's records, turning damage into a report instead of an exception."""
+
+    def __init__(self, stream: IO[bytes], path: str) -> None:
+        self.stream = stream
+        self.path = path
+        self.size = os.fstat(stream.fileno()).st_size
+        self.report: RecoveryReport | None = None
+        self.messages = 0
+
+    def records(self) -> Iterator[object]:
+        reader = StreamReader(self.stream, validate_crcs=True)
+        good = 0
+        try:
+            for record in reader.records:
+                if isinstance(record, Message):
+                    self.messages += 1
+                yield record
+                good = self.stream.tell()
+        except InvalidMagic:
+            raise RecordingError("not an MCAP file (bad magic bytes)", source=self.path) from None
+        except _READ_ERRORS as error:
+            self.report = RecoveryReport(
+                messages=self.messages,
+                stopped_at_byte=good,
+                file_size=self.size,
+                reason=_reason(error, good, self.size),
+            )
+
+
+def _reason(error: Exception, good: int, size: int) -> str:
+    if isinstance(error, EndOfFile | EOFError | struct.error):
+        if good >= size:
+            return "the file ends without its summary and footer (the writer did not finish)"
+        return f"the file ends inside a record (truncated {size - good} bytes after it)"
+    text = str(error) or type(error).__name__
+    return f"the record after it is damaged: {text}"
+
+
+def open_recording(path: str | os.PathLike[str]) -> Recording:
+    """Open an oimi MCAP recording: metadata, attachments and counts are read now.
+
+    Raises :class:`RecordingError` when the file cannot be read, is empty or not
+    MCAP, has no ``oimi`` metadata record, or has another format version.
+    """
+    name = os.fspath(path)
+    with _open(name) as stream:
+        size = os.fstat(stream.fileno()).st_size
+        if size == 0:
+            raise RecordingError("empty file, not an MCAP recording", source=name)
+        recording = _read_indexed(stream, name) or _read_streamed(stream, name)
+    _check_version(recording)
+    return recording
+
+
+def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
+    """The fast way, through the summary section; None when the file has none usable."""
+    try:
+        reader = SeekingReader(stream, validate_crcs=True)
+    except InvalidMagic:
+        raise RecordingError("not an MCAP file (bad magic bytes)", source=path) from None
+    except (*_READ_ERRORS, OSError):
+        stream.seek(0)
+        return None
+    try:
+        summary = reader.get_summary()
+        if summary is None or summary.statistics is None:
+            return None
+        counts = summary.statistics.channel_message_counts
+        return Recording(
+            path,
+            metadata={m.name: dict(m.metadata) for m in reader.iter_metadata()},
+            attachments={a.name: a.data for a in reader.iter_attachments()},
+            summary={c.topic: counts.get(c.id, 0) for c in summary.channels.values()},
+            recovery=None,
+        )
+    except (*_READ_ERRORS, OSError):
+        return None
+    finally:
+        stream.seek(0)
+
+
+def _read_streamed(stream: IO[bytes], path: str) -> Recording:
+    """One pass over every record: for files without a (readable) summary."""
+    metadata: dict[str, dict[str, str]] = {}
+    attachments: dict[str, bytes] = {}
+    topics: dict[int, str] = {}
+    counts: dict[str, int] = {}
+    scan = _Scan(stream, path)
+    for record in scan.records():
+        if isinstance(record, Metadata):
+            metadata[record.name] = dict(record.metadata)
+        elif isinstance(record, Attachment):
+            attachments[record.name] = record.data
+        elif isinstance(record, Channel):
+            topics[record.id] = record.topic
+            counts.setdefault(record.topic, 0)
+        elif isinstance(record, Message) and record.channel_id in topics:
+            counts[topics[record.channel_id]] += 1
+    if scan.report is not None and not metadata and scan.messages == 0:
+        raise RecordingError(f"unreadable MCAP file: {scan.report.reason}", source=path)
+    return Recording(
+        path, metadata=metadata, attachments=attachments, summary=counts, recovery=scan.report
+    )
+
+
+def _check_version(recording: Recording) -> None:
+    record = recording.metadata.get(METADATA_OIMI)
+    if record is None or FORMAT_VERSION_KEY not in record:
+        raise RecordingError(
+            f"not an oimi recording: no {METADATA_OIMI!r} metadata record with"
+            f" {FORMAT_VERSION_KEY!r}",
+            source=recording.path,
+        )
+    version = record[FORMAT_VERSION_KEY]
+    if version != str(FORMAT_VERSION):
+        raise RecordingError(
+            f"recorded with format version {version}, but this oimi reads format version"
+            f" {FORMAT_VERSION}",
+            source=recording.path,
+        )

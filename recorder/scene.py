@@ -1,0 +1,36 @@
+"""The static scene a runner hands to the sinks so they can draw the arena."""
+
+from __future__ import annotations
+
+import msgspec
+
+
+class ObstacleGeometry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One fixed obstacle: a box (``width_m`` x ``height_m``) or, when ``radius_m > 0``, a disc."""
+
+    id: str
+    kind: str = ""
+    """Free text (``table``, ``wall``...), shown as a label."""
+    x_m: float
+    """Centre, metres from the arena's lower-left corner."""
+    y_m: float
+    width_m: float = 0.0
+    """Extent along x, m (boxes)."""
+    height_m: float = 0.0
+    """Extent along y, m (boxes; a plan-view size, not a vertical height)."""
+    radius_m: float = 0.0
+    """Radius, m (discs)."""
+    angle_rad: float = 0.0
+    """Rotation about the vertical axis, counter-clockwise (boxes)."""
+
+    @property
+    def is_disc(self) -> bool:
+        return self.radius_m > 0.0
+
+
+class SceneGeometry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """The arena ``[0, width_m] x [0, height_m]`` and its fixed obstacles, in drawing order."""
+
+    width_m: float
+    height_m: float
+    obstacles: tuple[ObstacleGeometry, ...] = ()

@@ -1,0 +1,75 @@
+"""The MCAP channel table: our topics (in ``Topic`` order) and Foxglove's view topics."""
+
+from __future__ import annotations
+
+import enum
+from functools import cache
+from importlib import resources
+from typing import Final
+
+import msgspec
+
+from pipeline.events import TOPIC_TYPES, Topic
+
+SCHEMA_ENCODING: Final = "jsonschema"
+MESSAGE_ENCODING: Final = "json"
+METADATA_OIMI: Final = "oimi"
+"""Name of the metadata record holding ``format_version`` (always written first)."""
+FORMAT_VERSION_KEY: Final = "format_version"
+SCENE_ATTACHMENT: Final = "oimi/scene.json"
+"""Attachment holding the ``SceneGeometry`` as JSON (written when a scene is given)."""
+
+
+class FoxgloveTopic(enum.StrEnum):
+    """Channels written in addition to ours so Foxglove's 3D, transform and log panels work."""
+
+    SCENE = "/foxglove/scene"
+    TF = "/foxglove/tf"
+    LOG = "/foxglove/log"
+
+
+FOXGLOVE_SCHEMA_FILES: Final[dict[FoxgloveTopic, str]] = {
+    FoxgloveTopic.SCENE: "SceneUpdate.json",
+    FoxgloveTopic.TF: "FrameTransforms.json",
+    FoxgloveTopic.LOG: "Log.json",
+}
+
+
+def schema_name(topic: Topic) -> str:
+    """The schema name of one of our topics: ``oimi.<Struct name>``."""
+    return f"oimi.{TOPIC_TYPES[topic].__name__}"
+
+
+@cache
+def schema_data(topic: Topic) -> bytes:
+    """The JSON Schema of a topic's Struct, self-contained, encoded with sorted keys.
+
+    ``msgspec.json.schema`` puts every Struct under ``$defs``; the references are
+    inlined (like Foxglove's own schemas) so that viewers without ``$ref`` support
+    can read it. Sorted keys keep the bytes stable from run to run.
+    """
+    schema = msgspec.json.schema(TOPIC_TYPES[topic])
+    return msgspec.json.encode(_inline_refs(schema, schema.get("$defs", {}), ()), order="sorted")
+
+
+def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -> object:
+    if isinstance(node, list):
+        return [_inline_refs(item, defs, seen) for item in node]
+    if not isinstance(node, dict):
+        return node
+    ref = node.get("$ref")
+    if isinstance(ref, str) and ref.startswith("#/$defs/"):
+        name = ref.removeprefix("#/$defs/")
+        if name in seen:
+            raise ValueError(f"recursive schema through {name!r} cannot be inlined")
+        return _inline_refs(defs[name], defs, (*seen, name))
+    return {k: _inline_refs(v, defs, seen) for k, v in node.items() if k != "$defs"}
+
+
+@cache
+def foxglove_schema(topic: FoxgloveTopic) -> tuple[str, bytes]:
+    """``(title, file bytes)`` of a Foxglove schema shipped in ``recorder/foxglove_schemas``."""
+    data = (
+        resources.files("recorder") / "foxglove_schemas" / FOXGLOVE_SCHEMA_FILES[topic]
+    ).read_bytes()
+    return msgspec.json.decode(data)["title"], data

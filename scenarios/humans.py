@@ -1,0 +1,162 @@
+"""How simulated humans move: each behaviour segment turns into a velocity every tick.
+
+A ``HumanDriver`` knows nothing of pymunk: given where the human and the robot are,
+it returns the velocity (m/s, world frame) for the next tick. Its only randomness
+is the ``random.Random`` it is handed (``wander`` targets), drawn in a fixed order.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from typing import NamedTuple
+
+from scenarios.schema import (
+    Approach,
+    BehaviourSegment,
+    Follow,
+    HumanSpec,
+    Leave,
+    Stand,
+    Wander,
+    Waypoints,
+)
+
+Point = tuple[float, float]
+
+
+class Arena(NamedTuple):
+    """The room's size and exit, m."""
+
+    width_m: float
+    height_m: float
+    exit_m: Point
+
+
+class HumanDriver:
+    """Follows one human's timeline of behaviour segments (and segments switched in by events)."""
+
+    def __init__(self, spec: HumanSpec, *, arena: Arena, rng: random.Random):
+        self.spec = spec
+        self.arena = arena
+        self.rng = rng
+        self.segment: BehaviourSegment = Stand()
+        self.left = False
+        """True once a ``leave`` segment reached the exit (until another segment starts)."""
+        self.heading_rad = 0.0
+        self._timeline = list(spec.behaviour)
+        self._next = 0
+        self._target: Point | None = None
+        self._waypoint = 0
+        self._pause_until_ms = 0
+        self._done = False
+
+    def switch(self, segment: BehaviourSegment) -> None:
+        """Start ``segment`` now (a behaviour event); the human comes back if it had left."""
+        self.segment = segment
+        self.left = False
+        self._target = None
+        self._waypoint = 0
+        self._pause_until_ms = 0
+        self._done = False
+
+    def velocity(
+        self, *, position: Point, robot: Point, time_ms: int, dt_s: float
+    ) -> tuple[float, float]:
+        """World-frame velocity (m/s) for the tick starting at ``time_ms``."""
+        while (
+            self._next < len(self._timeline)
+            and round(self._timeline[self._next].at_s * 1000) <= time_ms
+        ):
+            self.switch(self._timeline[self._next])
+            self._next += 1
+        if self.left:
+            return (0.0, 0.0)
+        segment = self.segment
+        speed = segment.speed_mps if segment.speed_mps is not None else self.spec.max_speed_mps
+        speed = min(speed, self.spec.max_speed_mps)
+        vx, vy = 0.0, 0.0
+        match segment:
+            case Stand():
+                pass
+            case Waypoints(waypoints=points, loop=loop):
+                if self._waypoint < len(points):
+                    vx, vy, arrived = _towards(position, points[self._waypoint], speed, dt_s)
+                    if arrived:
+                        self._waypoint += 1
+                        if loop and self._waypoint == len(points):
+                            self._waypoint = 0
+            case Approach(distance_m=distance):
+                if not self._done:
+                    vx, vy, self._done = _keep_distance(position, robot, distance, speed, dt_s)
+            case Follow(distance_m=distance):
+                vx, vy, _ = _keep_distance(position, robot, distance, speed, dt_s)
+            case Wander(pause_s=pause_s, margin_m=margin_m):
+                vx, vy = self._wander(position, time_ms, speed, dt_s, pause_s, margin_m)
+            case Leave():
+                vx, vy, arrived = _towards(position, self.arena.exit_m, speed, dt_s)
+                if arrived:
+                    self.left = True
+        if not isinstance(segment, Leave):
+            vx, vy = self._inside(position, vx, vy, dt_s)
+        if vx or vy:
+            self.heading_rad = math.atan2(vy, vx)
+        return (vx, vy)
+
+    def _wander(
+        self,
+        position: Point,
+        time_ms: int,
+        speed: float,
+        dt_s: float,
+        pause_s: float,
+        margin: float,
+    ) -> tuple[float, float]:
+        if time_ms < self._pause_until_ms:
+            return (0.0, 0.0)
+        if self._target is None:
+            margin = max(margin, self.spec.radius_m)
+            width, height = self.arena.width_m, self.arena.height_m
+            x = self.rng.uniform(min(margin, width / 2), max(width - margin, width / 2))
+            y = self.rng.uniform(min(margin, height / 2), max(height - margin, height / 2))
+            self._target = (x, y)
+        vx, vy, arrived = _towards(position, self._target, speed, dt_s)
+        if arrived:
+            self._target = None
+            self._pause_until_ms = time_ms + round(pause_s * 1000)
+        return (vx, vy)
+
+    def _inside(self, position: Point, vx: float, vy: float, dt_s: float) -> tuple[float, float]:
+        """The velocity, cut so the human's disc does not move further out of the arena."""
+        radius = self.spec.radius_m
+        px, py = position
+        x, y = px + vx * dt_s, py + vy * dt_s
+        cx = min(max(x, min(radius, px)), max(self.arena.width_m - radius, px))
+        cy = min(max(y, min(radius, py)), max(self.arena.height_m - radius, py))
+        if (cx, cy) == (x, y):
+            return (vx, vy)
+        return ((cx - px) / dt_s, (cy - py) / dt_s)
+
+
+def _towards(
+    position: Point, target: Point, speed: float, dt_s: float
+) -> tuple[float, float, bool]:
+    """Velocity towards ``target`` at ``speed``, landing on it exactly; and whether it lands."""
+    dx, dy = target[0] - position[0], target[1] - position[1]
+    distance = math.hypot(dx, dy)
+    if distance <= speed * dt_s:
+        return (dx / dt_s, dy / dt_s, True)
+    return (dx / distance * speed, dy / distance * speed, False)
+
+
+def _keep_distance(
+    position: Point, robot: Point, distance_m: float, speed: float, dt_s: float
+) -> tuple[float, float, bool]:
+    """Velocity towards the robot until ``distance_m`` from it (centre to centre); and if there."""
+    dx, dy = robot[0] - position[0], robot[1] - position[1]
+    gap = math.hypot(dx, dy) - distance_m
+    if gap <= 1e-9:
+        return (0.0, 0.0, True)
+    step = min(speed, gap / dt_s)
+    norm = math.hypot(dx, dy)
+    return (dx / norm * step, dy / norm * step, step < speed)

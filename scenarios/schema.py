@@ -1,0 +1,414 @@
+"""The scenario file's schema: strict, frozen msgspec Structs decoded from TOML.
+
+Every length is in metres (``_m``), time in seconds (``_s``) or milliseconds
+(``_ms``), speed in m/s (``_mps``), angular speed in rad/s (``_radps``), rates
+in Hz (``_hz``), masses in kg (``_kg``). The arena's origin is its lower-left
+corner: x to the right, y up, angles counter-clockwise from +x. Distances
+between bodies are measured centre to centre. ``docs/scenario-files.md``
+documents every field.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Final
+
+import msgspec
+
+from pipeline.events import OperatorVerb
+
+DEFAULT_TICK_HZ: Final = 50
+"""Simulated clock rate when a scenario gives none (a tick of 20 ms)."""
+
+
+class Spec(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Base of every part of a scenario file: unknown keys are errors."""
+
+
+# ----------------------------------------------------------------------- codes
+
+
+class ObstacleKind(enum.StrEnum):
+    """Furniture of a therapy room (all static)."""
+
+    TABLE = "table"
+    CHAIR = "chair"
+    SHELF = "shelf"
+    BOX = "box"
+    PILLAR = "pillar"
+
+
+class Role(enum.StrEnum):
+    """Who a human is in the session."""
+
+    CHILD = "child"
+    THERAPIST = "therapist"
+
+
+class TouchType(enum.StrEnum):
+    """The touch classes of the thesis's RobotStatus ``touch`` (table 4.1)."""
+
+    C = "C"
+    """Caress."""
+    H = "H"
+    """Hug."""
+    P = "P"
+    """Push."""
+    S = "S"
+    """Slap."""
+    T = "T"
+    """Tap."""
+
+
+class SensorKind(enum.StrEnum):
+    CAMERA = "camera"
+    SONAR = "sonar"
+
+
+class FaultMode(enum.StrEnum):
+    """What a fault event does to a sensor."""
+
+    OFFLINE = "offline"
+    """Stops producing readings and reports ``isonline`` = ``s_false``."""
+    FROZEN = "frozen"
+    """Keeps reporting, but repeats its last reading (no status change)."""
+    ONLINE = "online"
+    """Back to normal; reports ``isonline`` = ``s_true``."""
+
+
+# ----------------------------------------------------------------------- world
+
+
+class ObstacleSpec(Spec, kw_only=True):
+    """A static piece of furniture: a box (``width_m`` x ``height_m``) or a disc (``radius_m``)."""
+
+    id: str
+    kind: ObstacleKind = ObstacleKind.TABLE
+    x_m: float
+    """Centre, m."""
+    y_m: float
+    width_m: float = 0.0
+    """Extent along x before rotation, m (boxes)."""
+    height_m: float = 0.0
+    """Extent along y before rotation, m (boxes; top view, not the furniture's height)."""
+    radius_m: float = 0.0
+    """Radius, m (discs: set instead of width/height)."""
+    angle_rad: float = 0.0
+    """Rotation of a box, counter-clockwise."""
+
+
+class ObjectSpec(Spec, kw_only=True):
+    """A movable round object (a ball): a dynamic disc that rolls when pushed and stops."""
+
+    id: str
+    category: str = "ball"
+    x_m: float
+    y_m: float
+    radius_m: float = 0.11
+    mass_kg: float = 0.45
+    istarget: bool = False
+    """Reported to the map as the object's ``istarget``."""
+    damping_per_s: float = 0.6
+    """Fraction of its speed a rolling object keeps after one second (0 to 1)."""
+    rolling_decel_mps2: float = 0.2
+    """Constant rolling resistance, m/s² (makes it stop in finite time)."""
+
+
+class WorldSpec(Spec, kw_only=True):
+    """The therapy room: a walled rectangle with furniture and objects."""
+
+    width_m: float = 6.0
+    height_m: float = 5.0
+    exit_x_m: float = 0.0
+    """Where humans who ``leave`` walk to (default: the middle of the left wall)."""
+    exit_y_m: float | None = None
+    """None: half of ``height_m``."""
+    obstacles: list[ObstacleSpec] = []
+    objects: list[ObjectSpec] = []
+
+
+class RobotSpec(Spec, kw_only=True):
+    """The omni-directional robot (thesis 5.2): start pose and limits."""
+
+    x_m: float | None = None
+    """Start position; None: the arena's centre."""
+    y_m: float | None = None
+    theta_rad: float = 0.0
+    """Start heading, counter-clockwise from +x."""
+    radius_m: float = 0.3
+    mass_kg: float = 20.0
+    max_speed_mps: float = 0.5
+    max_angular_speed_radps: float = 1.5
+    max_accel_mps2: float = 1.0
+    max_angular_accel_radps2: float = 3.0
+    battery_s: float = 3600.0
+    """Battery time at the start, s (reported as ``batterytimeleft`` in ms)."""
+
+
+class SensorSpec(Spec, kw_only=True):
+    """The simulated sensors: a front camera (humans, objects) and a sonar ring (obstacles)."""
+
+    range_m: float = 5.0
+    """Camera range, m."""
+    fov_rad: float = 2.2
+    """Camera field of view, centred on the heading, rad."""
+    rate_hz: float = 10.0
+    """Camera frame rate of entity updates, Hz."""
+    noise_rho_m: float = 0.0
+    """Standard deviation of the gaussian noise on distances, m."""
+    noise_theta_rad: float = 0.0
+    """Standard deviation of the gaussian noise on bearings, rad."""
+    dropout_probability: float = 0.0
+    """Probability that one detection is lost (0 to 1)."""
+    camera_id: str = "front"
+    camera_width_px: int = 640
+    camera_height_px: int = 480
+    camera_fps: int = 30
+    sonar_id: str = "ring"
+    sonar_range_m: float = 3.0
+    """Sonar range, all around the robot, m."""
+    sonar_scan_hz: int = 5
+    """Sonar scans per second (reported as ``scanfrequency``)."""
+    status_period_s: float = 1.0
+    """How often the robot's status (speed, battery, elapsed time) is reported, s."""
+
+
+# ---------------------------------------------------------------- behaviours
+
+
+class Segment(Spec, tag_field="kind", kw_only=True):
+    """A timed piece of a human's behaviour; it runs from ``at_s`` until the next one."""
+
+    at_s: float = 0.0
+    speed_mps: float | None = None
+    """Walking speed; None: the human's ``max_speed_mps``."""
+
+
+class Stand(Segment, tag="stand", kw_only=True):
+    """Stand still."""
+
+
+class Waypoints(Segment, tag="waypoints", kw_only=True):
+    """Walk through the points in order, then stand (or start over when ``loop``)."""
+
+    waypoints: list[tuple[float, float]]
+    """``[[x_m, y_m], ...]``"""
+    loop: bool = False
+
+
+class Approach(Segment, tag="approach", kw_only=True):
+    """Walk towards the robot until ``distance_m`` from it, then stand."""
+
+    distance_m: float = 0.8
+
+
+class Wander(Segment, tag="wander", kw_only=True):
+    """Walk to random places in the arena, pausing at each."""
+
+    pause_s: float = 1.0
+    margin_m: float = 0.5
+    """Keep targets this far from the walls, m."""
+
+
+class Follow(Segment, tag="follow", kw_only=True):
+    """Keep within ``distance_m`` of the robot: walk towards it whenever farther."""
+
+    distance_m: float = 1.0
+
+
+class Leave(Segment, tag="leave", kw_only=True):
+    """Walk to the arena's exit and leave the room (no longer simulated or seen)."""
+
+
+BehaviourSegment = Stand | Waypoints | Approach | Wander | Follow | Leave
+
+
+class HumanSpec(Spec, kw_only=True):
+    """A child or a therapist: a kinematic disc moved by its behaviour."""
+
+    id: str
+    role: Role = Role.CHILD
+    x_m: float
+    y_m: float
+    radius_m: float = 0.25
+    max_speed_mps: float = 1.0
+    touchtype: TouchType = TouchType.P
+    """Touch class reported when this human bumps into the robot."""
+    behaviour: list[BehaviourSegment] = []
+    """Timed segments, ``at_s`` non-decreasing; none: stand."""
+
+
+# ---------------------------------------------------------------- activities
+
+
+class ActivitySpec(Spec, kw_only=True):
+    """An activity to load: a script file or a generator (exactly one of the two)."""
+
+    script: str | None = None
+    """``activities/x.json`` or ``.txt``, relative to the scenario's folder or the library."""
+    generator: str | None = None
+    """A script generator's name (e.g. ``test_dance``)."""
+    options: dict[str, str] = {}
+    """Generator options."""
+
+
+# -------------------------------------------------------------------- events
+
+
+class EventSpec(Spec, tag_field="kind", kw_only=True):
+    """Something that happens at ``at_s`` of simulated time."""
+
+    at_s: float
+
+
+class OperatorEvent(EventSpec, tag="operator", kw_only=True):
+    """A command from the operator's app (thesis 5.1)."""
+
+    verb: OperatorVerb
+    activity: str = ""
+    options: dict[str, str] = {}
+    position: int = 0
+
+
+class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
+    """The pad's sticks and buttons, held for ``hold_s`` then released (0: until changed)."""
+
+    left_x: float = 0.0
+    """-1 to 1, right positive."""
+    left_y: float = 0.0
+    """-1 to 1, forward positive."""
+    right_x: float = 0.0
+    """-1 to 1, right positive."""
+    buttons: list[str] = []
+    hold_s: float = 0.0
+
+
+class TouchEvent(EventSpec, tag="touch", kw_only=True):
+    """A human touches the robot (reported as RobotStatus ``touch``)."""
+
+    human: str
+    touchtype: TouchType = TouchType.T
+    duration_ms: int = 500
+
+
+class FaultEvent(EventSpec, tag="fault", kw_only=True):
+    """A sensor goes offline, freezes, or comes back online."""
+
+    sensor: SensorKind
+    id: str | None = None
+    """The sensor's id; None: the only one of that kind."""
+    mode: FaultMode
+
+
+class BehaviourEvent(EventSpec, tag="behaviour", kw_only=True):
+    """A human switches to a new behaviour segment now (later timed segments still apply)."""
+
+    human: str
+    segment: BehaviourSegment
+
+
+Event = OperatorEvent | JoystickEvent | TouchEvent | FaultEvent | BehaviourEvent
+
+
+# -------------------------------------------------------------- expectations
+
+
+class ExpectSpec(Spec, tag_field="kind", kw_only=True):
+    """A verdict checked at the end of the session."""
+
+    name: str = ""
+    """A label for reports (default: derived from the kind)."""
+
+
+class GoalReached(ExpectSpec, tag="goal_reached", kw_only=True):
+    goal: str
+    """The goal's ``goalid``."""
+    by_s: float | None = None
+    """Deadline; None: by the end."""
+
+
+class ActivityCompleted(ExpectSpec, tag="activity_completed", kw_only=True):
+    activity: str
+    by_s: float | None = None
+
+
+class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
+    rule: str
+    """The rule instance's id."""
+    at_least: int = 1
+    at_most: int | None = None
+
+
+class MinDistance(ExpectSpec, tag="min_distance", kw_only=True):
+    """The robot is never closer than ``at_least_m`` (centre to centre) to the human(s)."""
+
+    human: str | None = None
+    """None: every human."""
+    at_least_m: float
+
+
+class MaxSpeed(ExpectSpec, tag="max_speed", kw_only=True):
+    """The robot's speed never exceeds ``at_most_mps``."""
+
+    at_most_mps: float
+
+
+class NoRejectedInputs(ExpectSpec, tag="no_rejected_inputs", kw_only=True):
+    """No update or command was rejected (nothing on ``/log`` at warning or above)."""
+
+
+class RobotInArena(ExpectSpec, tag="robot_in_arena", kw_only=True):
+    """The robot never leaves the arena."""
+
+
+class ActivityState(ExpectSpec, tag="activity_state", kw_only=True):
+    """An activity is in ``state`` (``loaded``, ``running``, ``completed``, ``interrupted``)."""
+
+    activity: str
+    state: str
+    at_s: float | None = None
+    """When to check; None: at the end."""
+
+
+Expectation = (
+    GoalReached
+    | ActivityCompleted
+    | RuleFired
+    | MinDistance
+    | MaxSpeed
+    | NoRejectedInputs
+    | RobotInArena
+    | ActivityState
+)
+
+
+# ------------------------------------------------------------------ scenario
+
+
+class Scenario(Spec, kw_only=True):
+    """A whole scenario file."""
+
+    name: str
+    description: str = ""
+    seed: int = 0
+    """Seeds every random generator of the session (see ``scenarios.world.stream_rng``)."""
+    duration_s: float = 60.0
+    tick_hz: int = DEFAULT_TICK_HZ
+    """Simulated clock rate; must divide 1000 (ticks are whole milliseconds)."""
+    world: WorldSpec = msgspec.field(default_factory=WorldSpec)
+    robot: RobotSpec = msgspec.field(default_factory=RobotSpec)
+    sensors: SensorSpec = msgspec.field(default_factory=SensorSpec)
+    humans: list[HumanSpec] = []
+    activities: list[ActivitySpec] = []
+    events: list[Event] = []
+    expect: list[Expectation] = []
+
+    @property
+    def tick_ms(self) -> int:
+        """Length of one tick, ms."""
+        return 1000 // self.tick_hz
+
+    @property
+    def ticks(self) -> int:
+        """Number of ticks in the session."""
+        return round(self.duration_s * 1000) // self.tick_ms

@@ -1,0 +1,247 @@
+"""Simulated sensors: the world turned into the thesis's MapUpdates (tables 4.1 and 4.2).
+
+A front camera sees humans and objects within ``range_m`` and ``fov_rad``; a
+sonar ring sees obstacles within ``sonar_range_m`` all around. Each entity's pose
+is reported relative to the robot (``positionrho`` m from its centre,
+``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
+seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
+entity while it stays in view; ``isfixed``, ``istarget``, ``category`` come once,
+on first sight. Sensor status comes at the start and on faults; touches from
+touch events and from contacts; the robot's speed, battery and elapsed time every
+``status_period_s``.
+
+Encoding decisions: ``poses`` use policy ``A`` (the map keeps the history),
+everything else ``R``; scalar contents are bare text (``s_true``, ``640``,
+``ball``), records are JSON objects with the tables' keys in the tables' order;
+floats are rounded to 4 decimals so the JSON text is stable.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from typing import Final
+
+import msgspec
+
+from pipeline.messages import MapUpdate, Policy
+from scenarios.schema import FaultEvent, FaultMode, Scenario, SensorKind, SensorSpec, TouchEvent
+from scenarios.world import World, wrap_angle
+
+DECIMALS: Final = 4
+TRUE: Final = "s_true"
+FALSE: Final = "s_false"
+
+
+class _Update(msgspec.Struct, frozen=True):
+    """A MapUpdate before its sequence number."""
+
+    objectid: str
+    attributename: str
+    policy: Policy
+    jsonmsg: str
+
+
+class _Sensor:
+    """Mode, schedule, tracks and last reading of one sensor."""
+
+    def __init__(self, ident: str, period_ms: float):
+        self.ident = ident
+        self.period_ms = period_ms
+        self.next_ms = 0.0
+        self.mode = FaultMode.ONLINE
+        self.tracks: dict[str, int] = {}
+        """objectid -> appearance time (ms), in order of appearance."""
+        self.last: list[_Update] = []
+
+    def due(self, time_ms: int) -> bool:
+        if time_ms < self.next_ms:
+            return False
+        while self.next_ms <= time_ms:
+            self.next_ms += self.period_ms
+        return True
+
+
+class Sensors:
+    """Produces each tick's MapUpdates from the world; ``seq`` counts from 1 in a session."""
+
+    def __init__(self, config: SensorSpec, scenario: Scenario, rng: random.Random):
+        self.config = config
+        self.scenario = scenario
+        self.rng = rng
+        self.camera = _Sensor(config.camera_id, 1000 / config.rate_hz)
+        self.sonar = _Sensor(config.sonar_id, 1000 / config.sonar_scan_hz)
+        self._status_period_ms = config.status_period_s * 1000
+        self._next_status_ms = 0.0
+        self._seq = 0
+        self._started = False
+        self._pending: list[_Update] = []
+        self._seen: set[str] = set()
+        """objectids whose once-only attributes were sent (membership only, never iterated)."""
+
+    # --------------------------------------------------------------- inputs
+
+    def fault(self, event: FaultEvent) -> None:
+        """Switch a sensor's mode; offline and online are reported as ``isonline``."""
+        sensor = self.camera if event.sensor is SensorKind.CAMERA else self.sonar
+        sensor.mode = event.mode
+        if event.mode is FaultMode.FROZEN:
+            return
+        if event.mode is FaultMode.OFFLINE:
+            sensor.tracks.clear()
+        prefix = "Camera" if sensor is self.camera else "Sonar"
+        online = TRUE if event.mode is FaultMode.ONLINE else FALSE
+        self._pending.append(_Update(f"{prefix}/{sensor.ident}", "isonline", Policy.R, online))
+
+    def touch(self, event: TouchEvent, *, time_ms: int) -> None:
+        """A scheduled touch, reported at the next sample."""
+        self._pending.append(_touch(str(event.touchtype), event.duration_ms, time_ms))
+
+    # -------------------------------------------------------------- sampling
+
+    def sample(self, world: World, *, tick: int, time_ms: int) -> list[MapUpdate]:
+        """This tick's updates, in a fixed order: status, pending, touches, camera, sonar, robot."""
+        updates: list[_Update] = []
+        if not self._started:
+            self._started = True
+            updates.extend(self._startup(time_ms))
+        updates.extend(self._pending)
+        self._pending.clear()
+        if world.last_report.tick == tick:
+            for span in world.last_report.ended:
+                updates.append(_touch(span.touchtype, span.duration_ms, span.startingtime_ms))
+        pose = world.robot_pose()
+        if self.camera.due(time_ms):
+            seen = [("Human", *h) for h in world.human_positions()]
+            seen += [("Object", *o) for o in world.object_positions()]
+            updates.extend(
+                self._read(
+                    self.camera, seen, pose, time_ms, self.config.range_m, self.config.fov_rad
+                )
+            )
+        if self.sonar.due(time_ms):
+            furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in self.scenario.world.obstacles]
+            updates.extend(
+                self._read(
+                    self.sonar, furniture, pose, time_ms, self.config.sonar_range_m, math.tau
+                )
+            )
+        if time_ms >= self._next_status_ms:
+            while self._next_status_ms <= time_ms:
+                self._next_status_ms += self._status_period_ms
+            updates.extend(self._robot_status(world, time_ms))
+        return [self._number(update) for update in updates]
+
+    def _number(self, update: _Update) -> MapUpdate:
+        self._seq += 1
+        return MapUpdate(
+            objectid=update.objectid,
+            attributename=update.attributename,
+            policy=update.policy,
+            jsonmsg=update.jsonmsg,
+            seq=self._seq,
+        )
+
+    def _startup(self, time_ms: int) -> list[_Update]:
+        config = self.config
+        camera, sonar = f"Camera/{config.camera_id}", f"Sonar/{config.sonar_id}"
+        return [
+            _Update(camera, "isonline", Policy.R, TRUE),
+            _Update(camera, "width", Policy.R, str(config.camera_width_px)),
+            _Update(camera, "height", Policy.R, str(config.camera_height_px)),
+            _Update(camera, "fps", Policy.R, str(config.camera_fps)),
+            _Update(sonar, "isonline", Policy.R, TRUE),
+            _Update(sonar, "scanfrequency", Policy.R, str(config.sonar_scan_hz)),
+            _Update("RobotStatus", "startingtime", Policy.R, str(time_ms)),
+        ]
+
+    def _read(
+        self,
+        sensor: _Sensor,
+        entities: list[tuple[str, str, float, float]],
+        pose: tuple[float, float, float],
+        time_ms: int,
+        range_m: float,
+        fov_rad: float,
+    ) -> list[_Update]:
+        """One reading of a sensor: what it sees, or its last reading when frozen."""
+        if sensor.mode is FaultMode.OFFLINE:
+            return []
+        if sensor.mode is FaultMode.FROZEN:
+            return list(sensor.last)
+        x, y, theta = pose
+        reading: list[_Update] = []
+        in_view: list[str] = []
+        for cls, ident, ex, ey in entities:
+            rho = math.hypot(ex - x, ey - y)
+            bearing = wrap_angle(math.atan2(ey - y, ex - x) - theta)
+            if rho > range_m or abs(bearing) > fov_rad / 2:
+                continue
+            objectid = f"{cls}/{ident}"
+            in_view.append(objectid)
+            appeared = sensor.tracks.setdefault(objectid, time_ms)
+            if (
+                self.config.dropout_probability
+                and self.rng.random() < self.config.dropout_probability
+            ):
+                continue
+            if self.config.noise_rho_m:
+                rho = max(0.0, rho + self.rng.gauss(0.0, self.config.noise_rho_m))
+            if self.config.noise_theta_rad:
+                bearing = wrap_angle(bearing + self.rng.gauss(0.0, self.config.noise_theta_rad))
+            if objectid not in self._seen:
+                self._seen.add(objectid)
+                reading.extend(self._first_sight(cls, ident, objectid))
+            reading.append(_pose(objectid, rho, bearing, time_ms))
+            tracking = {"permanencetime": time_ms - appeared, "appearanceon": appeared}
+            reading.append(_Update(objectid, "tracking", Policy.R, _json(tracking)))
+        for objectid in list(sensor.tracks):
+            if objectid not in in_view:
+                del sensor.tracks[objectid]
+        sensor.last = reading
+        return reading
+
+    def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
+        if cls == "Obstacle":
+            return [_Update(objectid, "isfixed", Policy.R, TRUE)]
+        if cls == "Object":
+            spec = next(o for o in self.scenario.world.objects if o.id == ident)
+            return [
+                _Update(objectid, "istarget", Policy.R, TRUE if spec.istarget else FALSE),
+                _Update(objectid, "category", Policy.R, spec.category),
+            ]
+        return []
+
+    def _robot_status(self, world: World, time_ms: int) -> list[_Update]:
+        forward, left, omega = world.robot_body_velocity()
+        speed = {
+            "xspeed": round(forward, DECIMALS) + 0.0,
+            "yspeed": round(left, DECIMALS) + 0.0,
+            "thetaspeed": round(omega, DECIMALS) + 0.0,
+            "duration": round(self._status_period_ms),
+            "startingtime": time_ms,
+        }
+        battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
+        return [
+            _Update("RobotStatus", "speed", Policy.R, _json(speed)),
+            _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
+            _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
+        ]
+
+
+def _pose(objectid: str, rho: float, theta: float, time_ms: int) -> _Update:
+    content = {
+        "positionrho": round(rho, DECIMALS) + 0.0,
+        "positiontheta": round(theta, DECIMALS) + 0.0,
+        "positionchangetime": time_ms,
+    }
+    return _Update(objectid, "poses", Policy.A, _json(content))
+
+
+def _touch(touchtype: str, duration_ms: int, startingtime_ms: int) -> _Update:
+    content = {"touchtype": touchtype, "duration": duration_ms, "startingtime": startingtime_ms}
+    return _Update("RobotStatus", "touch", Policy.A, _json(content))
+
+
+def _json(content: dict[str, object]) -> str:
+    return msgspec.json.encode(content).decode()

@@ -1,0 +1,352 @@
+"""The simulated therapy room: a pymunk space stepped at the scenario's fixed tick.
+
+Top view, x right, y up, metres, no gravity. Walls and furniture are static;
+objects (a ball) are dynamic discs that roll and stop; humans are kinematic discs
+moved by their behaviours (they push the ball and the robot, nothing pushes them);
+the robot is a dynamic disc whose velocity is set every step from the actuator's
+body-frame command, within its speed and acceleration limits, like the thesis's
+zero-friction omni-directional base (section 5.2): no drift, no sliding after a stop.
+Walls and furniture stop it physically.
+
+Determinism: single-threaded space, fixed step, bodies created in the file's
+order, randomness only from the ``random.Random`` handed in.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from typing import Final
+
+import msgspec
+import pymunk
+
+from pipeline.events import BodyState, WorldState
+from pipeline.messages import ActuatorOutputs
+from scenarios.humans import Arena, HumanDriver
+from scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+
+WALL_THICKNESS_M: Final = 0.1
+CONTACT_TOLERANCE_M: Final = 0.02
+"""Centre distance beyond the sum of radii still counted as a contact (solver slop)."""
+STOP_SPEED_MPS: Final = 1e-3
+"""A rolling object slower than this stops."""
+
+
+def stream_rng(seed: int, stream: str) -> random.Random:
+    """An independent generator for one consumer (``"world"``, ``"sensors"``...) of a seed."""
+    return random.Random(f"{seed}:{stream}")
+
+
+class ContactSpan(msgspec.Struct, frozen=True, kw_only=True):
+    """A human's contact with the robot, reported when it ends."""
+
+    human: str
+    touchtype: str
+    startingtime_ms: int
+    duration_ms: int
+
+
+class StepReport(msgspec.Struct, frozen=True, kw_only=True):
+    """What happened during one step (safety events)."""
+
+    tick: int
+    time_ms: int
+    contacts: tuple[str, ...] = ()
+    """Humans touching the robot after the step, in the scenario's order."""
+    ended: tuple[ContactSpan, ...] = ()
+    """Contacts that ended during the step."""
+    left: tuple[str, ...] = ()
+    """Humans who left the room during the step."""
+
+
+class _Human:
+    def __init__(
+        self, spec: HumanSpec, driver: HumanDriver, body: pymunk.Body, shape: pymunk.Shape
+    ):
+        self.spec = spec
+        self.driver = driver
+        self.body = body
+        self.shape = shape
+        self.present = True
+
+
+class _Thing:
+    def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
+        self.spec = spec
+        self.body = body
+        self.keep = spec.damping_per_s**step_s
+        """Fraction of speed kept per step."""
+
+
+class World:
+    """The room, the robot, the humans and the objects; stepped one tick at a time."""
+
+    def __init__(self, scenario: Scenario, rng: random.Random):
+        self.scenario = scenario
+        self.rng = rng
+        self.tick_ms = scenario.tick_ms
+        self.step_s = self.tick_ms / 1000
+        spec = scenario.world
+        self.arena = Arena(
+            spec.width_m,
+            spec.height_m,
+            (spec.exit_x_m, spec.exit_y_m if spec.exit_y_m is not None else spec.height_m / 2),
+        )
+        self.space = pymunk.Space()
+        self.space.threads = 1
+        self.space.gravity = (0.0, 0.0)
+        self.space.damping = 1.0
+        self.space.iterations = 20
+        self.space.collision_slop = 0.001
+        self.led: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self.audio = ""
+        self.last_report = StepReport(tick=-1, time_ms=0)
+        self._contact_start_ms: dict[str, int] = {}
+        self._add_walls()
+        self._add_obstacles()
+        self.things = [self._add_thing(thing) for thing in spec.objects]
+        self.humans = [self._add_human(human) for human in scenario.humans]
+        self.robot = self._add_robot()
+
+    # ------------------------------------------------------------ building
+
+    def _add_walls(self) -> None:
+        width, height, half = self.arena.width_m, self.arena.height_m, WALL_THICKNESS_M / 2
+        corners = [(-half, -half), (width + half, -half), (width + half, height + half)]
+        corners.append((-half, height + half))
+        body = self.space.static_body
+        for start, end in zip(corners, corners[1:] + corners[:1], strict=True):
+            wall = pymunk.Segment(body, start, end, half)
+            wall.friction, wall.elasticity = 0.5, 0.6
+            self.space.add(wall)
+
+    def _add_obstacles(self) -> None:
+        for obstacle in self.scenario.world.obstacles:
+            body = pymunk.Body(body_type=pymunk.Body.STATIC)
+            body.position = (obstacle.x_m, obstacle.y_m)
+            body.angle = obstacle.angle_rad
+            if obstacle.radius_m > 0:
+                shape: pymunk.Shape = pymunk.Circle(body, obstacle.radius_m)
+            else:
+                shape = pymunk.Poly.create_box(body, (obstacle.width_m, obstacle.height_m))
+            shape.friction, shape.elasticity = 0.5, 0.4
+            self.space.add(body, shape)
+
+    def _add_thing(self, spec: ObjectSpec) -> _Thing:
+        moment = pymunk.moment_for_circle(spec.mass_kg, 0, spec.radius_m)
+        body = pymunk.Body(spec.mass_kg, moment)
+        body.position = (spec.x_m, spec.y_m)
+        shape = pymunk.Circle(body, spec.radius_m)
+        shape.friction, shape.elasticity = 0.3, 0.7
+        self.space.add(body, shape)
+        return _Thing(spec, body, self.step_s)
+
+    def _add_human(self, spec: HumanSpec) -> _Human:
+        body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        body.position = (spec.x_m, spec.y_m)
+        shape = pymunk.Circle(body, spec.radius_m)
+        shape.friction, shape.elasticity = 0.5, 0.3
+        self.space.add(body, shape)
+        driver = HumanDriver(spec, arena=self.arena, rng=self.rng)
+        return _Human(spec, driver, body, shape)
+
+    def _add_robot(self) -> pymunk.Body:
+        spec = self.scenario.robot
+        body = pymunk.Body(spec.mass_kg, math.inf)  # infinite moment: contacts never spin it
+        body.position = (
+            spec.x_m if spec.x_m is not None else self.arena.width_m / 2,
+            spec.y_m if spec.y_m is not None else self.arena.height_m / 2,
+        )
+        body.angle = spec.theta_rad
+        shape = pymunk.Circle(body, spec.radius_m)
+        shape.friction, shape.elasticity = 0.0, 0.0  # zero-friction Swedish wheels
+        self.space.add(body, shape)
+        return body
+
+    # ------------------------------------------------------------- stepping
+
+    def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
+        """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
+        time_ms = tick * self.tick_ms
+        robot_xy = (self.robot.position.x, self.robot.position.y)
+        for human in self.humans:
+            position = (human.body.position.x, human.body.position.y)
+            velocity = human.driver.velocity(
+                position=position, robot=robot_xy, time_ms=time_ms, dt_s=self.step_s
+            )
+            if not human.driver.left and not human.present:  # back in the room
+                self.space.add(human.body, human.shape)
+                human.present = True
+            human.body.velocity = velocity if human.present else (0.0, 0.0)
+        self._drive_robot(outputs)
+        self.led, self.audio = outputs.led, outputs.audio
+        self.space.step(self.step_s)
+        for thing in self.things:
+            self._roll(thing)
+        left = []
+        for human in self.humans:
+            if human.driver.left and human.present:  # reached the exit during this step
+                self.space.remove(human.body, human.shape)
+                human.present = False
+                left.append(human.spec.id)
+        contacts, ended = self._contacts(time_ms)
+        self.last_report = StepReport(
+            tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=tuple(left)
+        )
+        return self.last_report
+
+    def _drive_robot(self, outputs: ActuatorOutputs) -> None:
+        spec, body = self.scenario.robot, self.robot
+        vx, vy = outputs.v_x, outputs.v_y
+        speed = math.hypot(vx, vy)
+        if speed > spec.max_speed_mps:
+            vx, vy = vx * spec.max_speed_mps / speed, vy * spec.max_speed_mps / speed
+        omega = min(
+            max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
+        )
+        cos, sin = math.cos(body.angle), math.sin(body.angle)
+        want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
+        current = body.velocity
+        dx, dy = want_x - current.x, want_y - current.y
+        change = math.hypot(dx, dy)
+        limit = spec.max_accel_mps2 * self.step_s
+        if change > limit:
+            dx, dy = dx * limit / change, dy * limit / change
+        body.velocity = (current.x + dx, current.y + dy)
+        turn_limit = spec.max_angular_accel_radps2 * self.step_s
+        turn = min(max(omega - body.angular_velocity, -turn_limit), turn_limit)
+        body.angular_velocity = body.angular_velocity + turn
+
+    def _roll(self, thing: _Thing) -> None:
+        """Rolling resistance: exponential damping plus a constant deceleration."""
+        body = thing.body
+        velocity = body.velocity
+        speed = velocity.length
+        slower = speed * thing.keep - thing.spec.rolling_decel_mps2 * self.step_s
+        if slower <= STOP_SPEED_MPS:
+            body.velocity = (0.0, 0.0)
+        else:
+            body.velocity = velocity * (slower / speed)
+        spin = body.angular_velocity * thing.keep
+        body.angular_velocity = spin if abs(spin) > STOP_SPEED_MPS else 0.0
+
+    def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
+        robot = self.robot.position
+        radius = self.scenario.robot.radius_m
+        touching = []
+        ended = []
+        for human in self.humans:
+            ident = human.spec.id
+            gap = (human.body.position - robot).length - radius - human.spec.radius_m
+            if human.present and gap <= CONTACT_TOLERANCE_M:
+                touching.append(ident)
+                self._contact_start_ms.setdefault(ident, time_ms)
+            elif ident in self._contact_start_ms:
+                start = self._contact_start_ms.pop(ident)
+                ended.append(
+                    ContactSpan(
+                        human=ident,
+                        touchtype=str(human.spec.touchtype),
+                        startingtime_ms=start,
+                        duration_ms=time_ms - start,
+                    )
+                )
+        return tuple(touching), tuple(ended)
+
+    # ------------------------------------------------------------- events
+
+    def apply_event(self, event: BehaviourEvent) -> None:
+        """A behaviour event: the named human starts the given segment at the next step."""
+        for human in self.humans:
+            if human.spec.id == event.human:
+                human.driver.switch(event.segment)
+                return
+        raise KeyError(event.human)
+
+    # -------------------------------------------------------------- reading
+
+    def robot_pose(self) -> tuple[float, float, float]:
+        """Robot ``(x_m, y_m, theta_rad)``, theta wrapped to (-pi, pi]."""
+        position = self.robot.position
+        return (position.x, position.y, wrap_angle(self.robot.angle))
+
+    def robot_body_velocity(self) -> tuple[float, float, float]:
+        """Robot velocity in its own frame: ``(forward_mps, left_mps, omega_radps)``."""
+        velocity = self.robot.velocity
+        cos, sin = math.cos(self.robot.angle), math.sin(self.robot.angle)
+        return (
+            cos * velocity.x + sin * velocity.y,
+            -sin * velocity.x + cos * velocity.y,
+            self.robot.angular_velocity,
+        )
+
+    def human_positions(self) -> list[tuple[str, float, float]]:
+        """``(id, x_m, y_m)`` of the humans in the room, in the scenario's order."""
+        return [
+            (human.spec.id, human.body.position.x, human.body.position.y)
+            for human in self.humans
+            if human.present
+        ]
+
+    def object_positions(self) -> list[tuple[str, float, float]]:
+        """``(id, x_m, y_m)`` of the objects, in the scenario's order."""
+        return [
+            (thing.spec.id, thing.body.position.x, thing.body.position.y) for thing in self.things
+        ]
+
+    def state(self, *, tick: int, time_ms: int) -> WorldState:
+        """Everything that moves, for ``/world/state``."""
+        robot = self.robot
+        return WorldState(
+            tick=tick,
+            time_ms=time_ms,
+            robot=BodyState(
+                id="robot",
+                kind="robot",
+                x_m=robot.position.x,
+                y_m=robot.position.y,
+                theta_rad=wrap_angle(robot.angle),
+                vx_mps=robot.velocity.x,
+                vy_mps=robot.velocity.y,
+                omega_radps=robot.angular_velocity,
+                radius_m=self.scenario.robot.radius_m,
+            ),
+            humans=tuple(
+                BodyState(
+                    id=human.spec.id,
+                    kind=str(human.spec.role),
+                    x_m=human.body.position.x,
+                    y_m=human.body.position.y,
+                    theta_rad=human.driver.heading_rad,
+                    vx_mps=human.body.velocity.x,
+                    vy_mps=human.body.velocity.y,
+                    radius_m=human.spec.radius_m,
+                )
+                for human in self.humans
+                if human.present
+            ),
+            objects=tuple(
+                BodyState(
+                    id=thing.spec.id,
+                    kind=thing.spec.category,
+                    x_m=thing.body.position.x,
+                    y_m=thing.body.position.y,
+                    theta_rad=wrap_angle(thing.body.angle),
+                    vx_mps=thing.body.velocity.x,
+                    vy_mps=thing.body.velocity.y,
+                    omega_radps=thing.body.angular_velocity,
+                    radius_m=thing.spec.radius_m,
+                )
+                for thing in self.things
+            ),
+            led=self.led,
+            audio=self.audio,
+            contacts=self.last_report.contacts,
+        )
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """The angle in (-pi, pi]."""
+    wrapped = math.remainder(angle_rad, math.tau)
+    return math.pi if wrapped == -math.pi else wrapped

@@ -1,0 +1,68 @@
+"""The package rules of DESIGN.md, checked by walking every module's imports."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("pipeline", "scenarios", "recorder", "replay", "analysis", "oimi")
+ALLOWED = {
+    "pipeline": {"pipeline"},
+    "recorder": {"pipeline", "recorder"},
+    "scenarios": {"pipeline", "recorder", "scenarios"},
+    "replay": {"pipeline", "recorder", "scenarios", "replay"},
+    "analysis": {"recorder", "analysis", "pipeline"},
+    "oimi": set(PACKAGES),
+}
+THIRD_PARTY_IN_CORE = {"msgspec", "lark"}
+FORBIDDEN_IN_CORE = {"threading", "asyncio", "random", "time", "datetime", "multiprocessing"}
+
+
+def imported_modules(path: Path) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.append((node.lineno, node.module))
+    return found
+
+
+def modules_of(package: str) -> list[Path]:
+    return sorted((ROOT / package).rglob("*.py"))
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_packages_import_only_what_design_allows(package: str) -> None:
+    broken = [
+        f"{path.relative_to(ROOT)}:{line}: imports {name}"
+        for path in modules_of(package)
+        for line, name in imported_modules(path)
+        if name.split(".")[0] in PACKAGES and name.split(".")[0] not in ALLOWED[package]
+    ]
+    assert not broken, "\n".join(broken)
+
+
+def test_core_uses_only_stdlib_msgspec_and_lark_and_no_clock_or_threads() -> None:
+    import sys
+
+    stdlib = set(sys.stdlib_module_names)
+    broken = []
+    for path in modules_of("pipeline"):
+        for line, name in imported_modules(path):
+            top = name.split(".")[0]
+            if top in FORBIDDEN_IN_CORE:
+                broken.append(f"{path.relative_to(ROOT)}:{line}: {name} (clock/threads/global random)")
+            elif top not in stdlib and top not in THIRD_PARTY_IN_CORE and top != "pipeline":
+                broken.append(f"{path.relative_to(ROOT)}:{line}: {name} (not allowed in the core)")
+    assert not broken, "\n".join(broken)
+
+
+def test_the_import_walker_sees_a_forbidden_import(tmp_path: Path) -> None:
+    module = tmp_path / "bad.py"
+    module.write_text("import time\nfrom recorder.mcap_sink import McapSink\n")
+    assert imported_modules(module) == [(1, "time"), (2, "recorder.mcap_sink")]

@@ -1,0 +1,269 @@
+"""The Map Producer: pending queue (R/A), allocation, storage, registers, rejections."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+
+from pipeline.messages import (
+    Camera,
+    GoalEvent,
+    Human,
+    MapUpdate,
+    Policy,
+    Pose,
+    Touch,
+    Tracking,
+    WorldMap,
+)
+from pipeline.sense import MapProducer, Rejection, map_invariants
+
+
+def pose(rho: float, t: int = 0) -> str:
+    return f'{{"positionrho": {rho}, "positiontheta": 0.5, "positionchangetime": {t}}}'
+
+
+def upd(objectid: str, attr: str, jsonmsg: str, policy: Policy = Policy.R, seq: int = 0):
+    return MapUpdate(
+        objectid=objectid, attributename=attr, policy=policy, jsonmsg=jsonmsg, seq=seq
+    )
+
+
+def fresh(**kwargs) -> tuple[WorldMap, MapProducer]:
+    world = WorldMap()
+    return world, MapProducer(world, **kwargs)
+
+
+def test_submit_rejects_at_once_and_queues_nothing():
+    _, producer = fresh()
+    rejection = producer.submit(upd("Camera/1", "isonline", "s_true", Policy.A, seq=42))
+    assert rejection == Rejection(
+        update=upd("Camera/1", "isonline", "s_true", Policy.A, seq=42),
+        reason="Camera/1.isonline: policy A not allowed (allowed: R)",
+    )
+    assert str(rejection).startswith("update 42: Camera/1.isonline")
+    assert not producer.pending
+
+
+def test_r_drops_earlier_pending_updates_of_same_target_and_attribute():
+    _, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1), Policy.A, seq=1))
+    producer.submit(upd("Human/1", "tracking", '{"permanencetime": 1, "appearanceon": 0}',
+                        Policy.A, seq=2))
+    producer.submit(upd("Human/2", "poses", pose(2), Policy.A, seq=3))
+    producer.submit(upd("Human\\1", "poses", pose(3), Policy.R, seq=4))
+    assert [u.seq for u in producer.pending_updates] == [2, 3, 4]
+
+
+def test_a_keeps_earlier_pending_updates():
+    _, producer = fresh()
+    for seq in range(3):
+        producer.submit(upd("Human/1", "poses", pose(seq), Policy.A, seq=seq))
+    assert [u.seq for u in producer.pending_updates] == [0, 1, 2]
+
+
+def test_r_on_a_singleton_drops_earlier_pending_whatever_its_id():
+    _, producer = fresh()
+    producer.submit(upd("RobotStatus/a", "batterytimeleft", "5", seq=1))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "6", seq=2))
+    assert [u.seq for u in producer.pending_updates] == [2]
+
+
+def test_consume_applies_in_order_and_empties_the_queue():
+    world, producer = fresh()
+    producer.submit(upd("Camera/1", "width", "640"))
+    producer.submit(upd("Camera/1", "isonline", "s_true"))
+    assert producer.consume(100) == []
+    assert not producer.pending
+    assert world.cameras == [Camera(id="1", isonline=True, width=640)]
+    assert world.lastupdatetime == 100
+
+
+def test_consume_without_updates_leaves_lastupdatetime():
+    world, producer = fresh()
+    assert producer.consume(100) == []
+    assert world.lastupdatetime == 0
+
+
+def test_consume_refuses_a_clock_going_backwards():
+    world, producer = fresh()
+    world.lastupdatetime = 500
+    with pytest.raises(ValueError, match="now_ms 400 is earlier than the map's lastupdatetime"):
+        producer.consume(400)
+
+
+def test_unknown_id_allocates_an_entity_with_creation_time_in_creation_order():
+    world, producer = fresh()
+    producer.submit(upd("Human/b", "poses", pose(1.0, 10)))
+    producer.consume(100)
+    producer.submit(upd("Human/a", "poses", pose(2.0, 20)))
+    producer.submit(upd("Human/b", "poses", pose(3.0, 30), Policy.A))
+    producer.consume(200)
+    assert [(h.id, h.creationtime) for h in world.humans] == [("b", 100), ("a", 200)]
+    assert [p.positionrho for p in world.humans[0].poses] == [1.0, 3.0]
+
+
+def test_each_class_allocates_into_its_own_list():
+    world, producer = fresh()
+    producer.submit(upd("Camera/c", "fps", "30"))
+    producer.submit(upd("Sonar/s", "scanfrequency", "10"))
+    producer.submit(upd("Obstacle/o", "isfixed", "s_false"))
+    producer.submit(upd("Object/x", "category", "ball"))
+    producer.submit(upd("Object/y", "istarget", "s_true"))
+    producer.consume(7)
+    assert [c.fps for c in world.cameras] == [30]
+    assert [s.scanfrequency for s in world.sonars] == [10]
+    assert [(o.id, o.isfixed, o.creationtime) for o in world.obstacles] == [("o", False, 7)]
+    assert [(o.id, o.category, o.istarget) for o in world.objects] == [
+        ("x", "ball", False),
+        ("y", "", True),
+    ]
+
+
+def test_pose_and_tracking_refresh_current_scalars():
+    world, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1.25, 90), Policy.A))
+    producer.submit(upd("Human/1", "tracking", '{"permanencetime": 400, "appearanceon": 30}'))
+    producer.consume(100)
+    human = world.humans[0]
+    assert (human.positionrho, human.positiontheta, human.positionchangetime) == (1.25, 0.5, 90)
+    assert (human.permanencetime, human.appearanceon) == (400, 30)
+    assert human.tracking == [Tracking(permanencetime=400, appearanceon=30)]
+
+
+def test_fixed_fields_never_change_after_creation():
+    world, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1)))
+    producer.consume(100)
+    producer.submit(upd("Human/1", "poses", pose(2), Policy.A))
+    producer.consume(300)
+    assert (world.humans[0].id, world.humans[0].creationtime) == ("1", 100)
+
+
+def test_register_drops_oldest_beyond_capacity():
+    world, producer = fresh(register_capacity=3)
+    for i in range(5):
+        producer.submit(upd("Human/1", "poses", pose(float(i)), Policy.A))
+    producer.consume(10)
+    assert [p.positionrho for p in world.humans[0].poses] == [2.0, 3.0, 4.0]
+    assert world.humans[0].positionrho == 4.0
+
+
+def test_default_register_capacity_is_sixteen():
+    world, producer = fresh()
+    for i in range(20):
+        producer.submit(upd("RobotStatus", "audioin", f"word{i}", Policy.A))
+    producer.consume(10)
+    assert world.robotstatus.audioin == [f"word{i}" for i in range(4, 20)]
+
+
+def test_r_restarts_a_register_with_its_own_value():
+    world, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
+    producer.consume(10)
+    producer.submit(upd("Human/1", "poses", pose(2), Policy.R))
+    producer.submit(upd("Human/1", "poses", pose(3), Policy.A))
+    producer.consume(20)
+    assert world.humans[0].poses == [
+        Pose(positionrho=2.0, positiontheta=0.5, positionchangetime=0),
+        Pose(positionrho=3.0, positiontheta=0.5, positionchangetime=0),
+    ]
+
+
+def test_robot_status_registers_and_scalars():
+    world, producer = fresh()
+    producer.submit(upd("RobotStatus", "touch",
+                        '{"touchtype": "C", "duration": 200, "startingtime": 50}', Policy.A))
+    producer.submit(upd("RobotStatus/r", "goalreached", '{"goalid": "g", "timestamp": 60}',
+                        Policy.A))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "1000"))
+    producer.submit(upd("RobotStatus", "elapsedtime", "70"))
+    producer.submit(upd("RobotStatus", "startingtime", "0"))
+    producer.consume(80)
+    status = world.robotstatus
+    assert status.touch == [Touch(touchtype="C", duration=200, startingtime=50)]
+    assert status.goalreached == [GoalEvent(goalid="g", timestamp=60)]
+    assert (status.batterytimeleft, status.elapsedtime) == (1000, 70)
+
+
+def test_script_updates_set_scriptinfo():
+    world, producer = fresh()
+    world.scriptinfo.script_vect = ["activities/old.json"]
+    producer.submit(upd("Script", "submove", "2"))
+    producer.submit(upd("Script", "subled", "1"))
+    producer.submit(upd("Script/x", "subaout", "3"))
+    producer.submit(upd("Script", "script_vect",
+                        '{"restart": "s_true", "update": ["activities/a.json", "activities/b"]}'))
+    producer.consume(5)
+    info = world.scriptinfo
+    assert (info.submove, info.subled, info.subaout) == (2, 1, 3)
+    assert info.script_vect == ["activities/a.json", "activities/b"]
+    assert info.restart is True
+
+
+def test_bad_script_vect_path_is_rejected_and_lifo_unchanged():
+    world, producer = fresh()
+    world.scriptinfo.script_vect = ["activities/old.json"]
+    rejection = producer.submit(
+        upd("Script", "script_vect", '{"restart": "s_true", "update": ["../evil.json"]}', seq=9)
+    )
+    assert rejection is not None
+    assert rejection.reason == (
+        "Script.script_vect: at `$.update[0]`: path '../evil.json' contains '..'"
+    )
+    assert producer.consume(5) == []
+    assert world.scriptinfo.script_vect == ["activities/old.json"]
+
+
+def test_entity_limit_rejects_at_consume_and_goes_on():
+    world, producer = fresh(max_entities=1)
+    producer.submit(upd("Human/1", "poses", pose(1), seq=1))
+    producer.submit(upd("Human/2", "poses", pose(2), seq=2))
+    producer.submit(upd("Camera/c", "fps", "5", seq=3))
+    rejections = producer.consume(10)
+    assert [r.update.seq for r in rejections] == [2]
+    assert rejections[0].reason == (
+        "Human/2.poses: cannot allocate a new Human: the map already holds 1 of them"
+    )
+    assert [h.id for h in world.humans] == ["1"]
+    assert [c.fps for c in world.cameras] == [5]
+
+
+def test_all_rejected_at_consume_leaves_the_map_byte_identical():
+    world, producer = fresh(max_entities=0)
+    before = msgspec.json.encode(world)
+    producer.submit(upd("Human/1", "poses", pose(1)))
+    assert len(producer.consume(10)) == 1
+    assert msgspec.json.encode(world) == before
+
+
+def test_updates_reach_entities_already_in_the_map():
+    world = WorldMap(humans=[Human(id="kid", creationtime=0)])
+    producer = MapProducer(world)
+    producer.submit(upd("Human/kid", "poses", pose(0.8)))
+    producer.consume(10)
+    assert len(world.humans) == 1
+    assert world.humans[0].positionrho == 0.8
+    assert world.humans[0].creationtime == 0
+
+
+def test_constructor_checks_its_options():
+    with pytest.raises(ValueError, match="register_capacity must be at least 1"):
+        MapProducer(WorldMap(), register_capacity=0)
+    with pytest.raises(ValueError, match=r"script_root: path '\.\./x' contains"):
+        MapProducer(WorldMap(), script_root="../x")
+
+
+def test_map_invariants_name_violations():
+    world = WorldMap(
+        lastupdatetime=100,
+        humans=[Human(id="a", creationtime=50), Human(id="a", creationtime=200)],
+        cameras=[Camera(id="")],
+    )
+    world.robotstatus.audioin = ["x"] * 3
+    problems = map_invariants(world, register_capacity=2)
+    assert "cameras[0]: empty id" in problems
+    assert "humans[1]: duplicate id 'a'" in problems
+    assert any("creationtime 200 is after the map's lastupdatetime 100" in p for p in problems)
+    assert "robotstatus.audioin: 3 entries, capacity 2" in problems
+    assert map_invariants(WorldMap()) == []

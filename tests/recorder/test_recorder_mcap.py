@@ -1,0 +1,353 @@
+"""McapSink writes Foxglove-readable, byte-stable MCAP; the reader gets it back, even damaged."""
+
+from __future__ import annotations
+
+import io
+import json
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import jsonschema
+import msgspec
+import pytest
+from mcap.exceptions import EndOfFile
+from mcap.reader import make_reader
+from mcap.records import Channel
+from mcap.stream_reader import StreamReader
+from mcap.writer import Writer
+from recorder_synthetic import SCENE, TICK_NS, session, world_state
+
+from pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic
+from pipeline.messages import FORMAT_VERSION
+from recorder import foxglove
+from recorder.errors import RecordingError
+from recorder.mcap_sink import McapSink
+from recorder.reader import open_recording
+from recorder.scene import SceneGeometry
+from recorder.topics import SCENE_ATTACHMENT, FoxgloveTopic
+
+FOXGLOVE_SHARED = Path("/work/shared/foxglove-schemas")
+METADATA = {"scenario": {"name": "greeting", "seed": "7"}, "oimi": {"recording_id": "greeting-7"}}
+ATTACHMENTS = [("greeting.toml", b'name = "greeting"\n'), ("notes.txt", b"hello")]
+
+
+def write(target, events=None, **options) -> None:
+    options.setdefault("metadata", METADATA)
+    options.setdefault("attachments", ATTACHMENTS)
+    options.setdefault("scene", SCENE)
+    with McapSink(target, **options) as sink:
+        for topic, time_ns, event in events if events is not None else session():
+            sink.record(topic, time_ns, event)
+
+
+@pytest.fixture
+def recorded(tmp_path: Path) -> Path:
+    path = tmp_path / "session.mcap"
+    write(path)
+    return path
+
+
+def raw_messages(path: Path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        return [(schema, channel, message) for schema, channel, message in reader.iter_messages()]
+
+
+def test_every_topic_is_recorded_and_decodes_into_its_struct(recorded: Path) -> None:
+    expected = session()
+    got = list(open_recording(recorded).iter_messages())
+    assert [(m.topic, m.time_ns) for m in got] == [(t, ns) for t, ns, _ in expected]
+    assert [m.decoded() for m in got] == [e for _, _, e in expected]
+    assert {m.topic for m in got} == set(Topic)
+    assert all(type(m.decoded()) is TOPIC_TYPES[m.topic] for m in got)
+    assert [m.tick for m in got] == [e.tick for _, _, e in expected]
+
+
+def test_mcap_library_reader_sees_every_topic_with_json_schemas(recorded: Path) -> None:
+    topics = {channel.topic: (schema, channel) for schema, channel, _ in raw_messages(recorded)}
+    assert set(topics) == {*Topic, *FoxgloveTopic}
+    for topic in Topic:
+        schema, channel = topics[topic]
+        assert (schema.encoding, channel.message_encoding) == ("jsonschema", "json")
+        assert schema.name == f"oimi.{TOPIC_TYPES[topic].__name__}"
+    for topic in FoxgloveTopic:
+        schema, channel = topics[topic]
+        title = json.loads(schema.data)["title"]
+        assert schema.name == title and title.startswith("foxglove.")
+        assert channel.message_encoding == "json"
+
+
+def test_every_message_validates_against_its_channel_schema(recorded: Path) -> None:
+    validators = {}
+    for schema, channel, message in raw_messages(recorded):
+        if channel.topic not in validators:
+            schema_doc = json.loads(schema.data)
+            jsonschema.Draft202012Validator.check_schema(schema_doc)
+            validators[channel.topic] = jsonschema.Draft202012Validator(schema_doc)
+        validators[channel.topic].validate(json.loads(message.data))
+    assert set(validators) == {*Topic, *FoxgloveTopic}
+
+
+def test_foxglove_channels_carry_foxgloves_schema_files_unchanged(recorded: Path) -> None:
+    seen = {}
+    for schema, channel, _ in raw_messages(recorded):
+        seen[channel.topic] = schema.data
+    for topic, name in {
+        FoxgloveTopic.SCENE: "SceneUpdate.json",
+        FoxgloveTopic.TF: "FrameTransforms.json",
+        FoxgloveTopic.LOG: "Log.json",
+    }.items():
+        assert seen[topic] == (FOXGLOVE_SHARED / name).read_bytes()
+
+
+def test_foxglove_messages_validate_against_the_shared_schema_files(recorded: Path) -> None:
+    files = {
+        FoxgloveTopic.SCENE: "SceneUpdate.json",
+        FoxgloveTopic.TF: "FrameTransforms.json",
+        FoxgloveTopic.LOG: "Log.json",
+    }
+    validators = {
+        t: jsonschema.Draft202012Validator(json.loads((FOXGLOVE_SHARED / f).read_text()))
+        for t, f in files.items()
+    }
+    count = 0
+    for _, channel, message in raw_messages(recorded):
+        if channel.topic in validators:
+            validators[channel.topic].validate(json.loads(message.data))
+            count += 1
+    assert count > 0
+
+
+def test_log_and_publish_times_are_the_simulated_times(recorded: Path) -> None:
+    for _, channel, message in raw_messages(recorded):
+        assert message.log_time == message.publish_time
+        if channel.topic in set(Topic):
+            assert message.log_time == json.loads(message.data)["tick"] * TICK_NS
+
+
+def test_sequence_numbers_count_from_zero_per_channel(recorded: Path) -> None:
+    per_channel = defaultdict(list)
+    for _, channel, message in raw_messages(recorded):
+        per_channel[channel.topic].append(message.sequence)
+    for topic, sequences in per_channel.items():
+        assert sequences == list(range(len(sequences))), topic
+
+
+def test_metadata_and_attachments_round_trip(recorded: Path) -> None:
+    recording = open_recording(recorded)
+    assert recording.metadata == {
+        "oimi": {"format_version": str(FORMAT_VERSION), "recording_id": "greeting-7"},
+        "scenario": {"name": "greeting", "seed": "7"},
+    }
+    assert list(recording.metadata) == ["oimi", "scenario"]
+    assert recording.format_version == FORMAT_VERSION
+    assert {k: v for k, v in recording.attachments.items() if k != SCENE_ATTACHMENT} == dict(
+        ATTACHMENTS
+    )
+    scene = msgspec.json.decode(recording.attachments[SCENE_ATTACHMENT], type=SceneGeometry)
+    assert scene == SCENE
+    with open(recorded, "rb") as f:
+        attachments = list(make_reader(f).iter_attachments())
+    assert {(a.name, a.media_type, a.log_time, a.create_time) for a in attachments} >= {
+        ("greeting.toml", "application/toml", 0, 0),
+        ("notes.txt", "text/plain", 0, 0),
+    }
+
+
+def test_summary_counts_messages_per_topic(recorded: Path) -> None:
+    summary = open_recording(recorded).summary
+    assert all(summary[t] == 6 for t in Topic)
+    assert summary[FoxgloveTopic.LOG] == 12
+
+
+def test_header_profile_is_empty_and_library_names_versions_only(recorded: Path) -> None:
+    with open(recorded, "rb") as f:
+        header = make_reader(f).get_header()
+    assert header.profile == ""
+    assert header.library.startswith(f"oimi format {FORMAT_VERSION}, mcap-python ")
+
+
+def test_two_writes_of_the_same_events_are_byte_identical(tmp_path: Path) -> None:
+    first, second = io.BytesIO(), io.BytesIO()
+    write(first)
+    write(second)
+    write(tmp_path / "third.mcap")
+    assert first.getvalue() == second.getvalue() == (tmp_path / "third.mcap").read_bytes()
+
+
+def test_iter_messages_filters_topics_and_rejects_unknown_ones(recorded: Path) -> None:
+    recording = open_recording(recorded)
+    got = list(recording.iter_messages([Topic.LOG, "/joystick"]))
+    assert Counter(m.topic for m in got) == {Topic.LOG: 6, Topic.JOYSTICK: 6}
+    with pytest.raises(RecordingError, match=r"unknown topic '/nope'; known topics: /sensors"):
+        list(recording.iter_messages(["/nope"]))
+
+
+def test_truncated_file_recovers_the_complete_chunks_with_a_report(tmp_path: Path) -> None:
+    whole = tmp_path / "whole.mcap"
+    write(whole, session(40), chunk_size_bytes=4096)
+    with open(whole, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    assert len(chunks) > 3
+    middle = chunks[len(chunks) // 2]
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(whole.read_bytes()[: middle.chunk_start_offset + middle.chunk_length // 2])
+    recording = open_recording(cut)
+    assert recording.recovery is not None
+    assert str(recording.recovery).startswith(
+        f"recovered: {recording.recovery.messages} messages, stopped at byte "
+    )
+    assert "because the file ends inside a record" in str(recording.recovery)
+    got = [m.decoded() for m in recording.iter_messages()]
+    expected = [e for _, _, e in session(40)]
+    assert 0 < len(got) < len(expected)
+    assert got == expected[: len(got)]
+    assert recording.metadata["scenario"] == METADATA["scenario"]
+
+
+def test_an_unfinished_file_already_holds_header_schemas_channels_and_metadata(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "killed.mcap"
+    sink = McapSink(path, metadata=METADATA, attachments=ATTACHMENTS, scene=SCENE)
+    sink.record(Topic.WORLD_STATE, 0, world_state(0))  # still in the open chunk
+    with open(path, "rb") as f:
+        channels = _channels_before_error(f)
+    assert channels == [*Topic, *FoxgloveTopic]
+    recording = open_recording(path)
+    assert recording.metadata["scenario"] == METADATA["scenario"]
+    assert recording.recovery is not None
+    assert "the file ends without its summary and footer" in recording.recovery.reason
+    assert list(recording.iter_messages()) == []
+    sink.close()
+    assert [m.topic for m in open_recording(path).iter_messages()] == [Topic.WORLD_STATE]
+
+
+def _channels_before_error(f) -> list[str]:
+    topics = []
+    try:
+        for record in StreamReader(f).records:
+            if isinstance(record, Channel):
+                topics.append(record.topic)
+    except EndOfFile:  # the unfinished file ends without a footer
+        pass
+    return topics
+
+
+def test_a_file_that_is_not_mcap_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "notes.mcap"
+    path.write_text("just some text that is long enough to not be a header\n" * 3)
+    with pytest.raises(RecordingError, match=r"notes\.mcap: not an MCAP file"):
+        open_recording(path)
+
+
+def test_an_empty_file_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "empty.mcap"
+    path.write_bytes(b"")
+    with pytest.raises(RecordingError, match=r"empty\.mcap: empty file"):
+        open_recording(path)
+
+
+def test_a_missing_file_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(RecordingError, match=r"missing\.mcap: cannot read"):
+        open_recording(tmp_path / "missing.mcap")
+
+
+def test_a_recording_of_another_format_version_is_refused_naming_both(tmp_path: Path) -> None:
+    path = tmp_path / "old.mcap"
+    with open(path, "wb") as f:
+        writer = Writer(f)
+        writer.start()
+        writer.add_metadata("oimi", {"format_version": "99"})
+        writer.finish()
+    with pytest.raises(
+        RecordingError,
+        match=rf"recorded with format version 99, but this oimi reads format version "
+        rf"{FORMAT_VERSION}",
+    ):
+        open_recording(path)
+
+
+def test_an_mcap_without_oimi_metadata_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "foreign.mcap"
+    with open(path, "wb") as f:
+        writer = Writer(f)
+        writer.start()
+        writer.finish()
+    with pytest.raises(RecordingError, match=r"not an oimi recording"):
+        open_recording(path)
+
+
+def test_close_is_idempotent_and_recording_after_close_fails() -> None:
+    stream = io.BytesIO()
+    sink = McapSink(stream, metadata={}, attachments=())
+    sink.close()
+    size = len(stream.getvalue())
+    sink.close()
+    assert len(stream.getvalue()) == size
+    with pytest.raises(RecordingError, match=r"record\(/log\) after close\(\)"):
+        sink.record(Topic.LOG, 0, LogEntries(tick=0, time_ms=0, entries=()))
+
+
+def test_non_string_metadata_is_refused() -> None:
+    with pytest.raises(RecordingError, match=r"metadata record 'scenario'.*'seed'"):
+        McapSink(io.BytesIO(), metadata={"scenario": {"seed": 7}})  # type: ignore[dict-item]
+
+
+def _scene_updates(path: Path) -> list[tuple[int, dict]]:
+    return [
+        (m.log_time, json.loads(m.data))
+        for _, c, m in raw_messages(path)
+        if c.topic == FoxgloveTopic.SCENE
+    ]
+
+
+def test_foxglove_scene_draws_the_static_scene_once_then_thins_dynamic_updates(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "s.mcap"
+    write(path, session(6), foxglove_every_n_ticks=2)
+    updates = _scene_updates(path)
+    static_ids = [e["id"] for e in updates[0][1]["entities"]]
+    assert static_ids == ["arena", "obstacle/table", "obstacle/pillar"]
+    dynamic_times = [t for t, _ in updates[1:]]
+    assert dynamic_times == [0, 2 * TICK_NS, 4 * TICK_NS]
+    ids = [e["id"] for e in updates[1][1]["entities"]]
+    assert ids == ["robot", "human/child1", "human/therapist1", "object/ball"]
+    robot = updates[1][1]["entities"][0]
+    assert robot["cylinders"][0]["color"] == msgspec.to_builtins(foxglove.LED_OFF_COLOR)
+    tfs = [json.loads(m.data) for _, c, m in raw_messages(path) if c.topic == FoxgloveTopic.TF]
+    assert len(tfs) == 3
+    assert tfs[0]["transforms"][0]["parent_frame_id"] == "world"
+
+
+def test_foxglove_scene_deletes_humans_who_left(tmp_path: Path) -> None:
+    path = tmp_path / "left.mcap"
+    events = [
+        (Topic.WORLD_STATE, 0, world_state(0)),
+        (Topic.WORLD_STATE, TICK_NS, world_state(1, humans=("child1",))),
+    ]
+    write(path, events, foxglove_every_n_ticks=1)
+    last = _scene_updates(path)[-1][1]
+    assert [d["id"] for d in last["deletions"]] == ["human/therapist1"]
+    assert last["deletions"][0]["type"] == 0
+
+
+def test_foxglove_log_maps_levels_and_names_the_source(tmp_path: Path) -> None:
+    path = tmp_path / "log.mcap"
+    entries = tuple(LogEntry(level=level, source=f"s{level}", message="m") for level in Level)
+    write(path, [(Topic.LOG, 1_500_000_000, LogEntries(tick=75, time_ms=1500, entries=entries))])
+    logs = [json.loads(m.data) for _, c, m in raw_messages(path) if c.topic == FoxgloveTopic.LOG]
+    assert [(log["level"], log["name"]) for log in logs] == [
+        (1, "s1"),
+        (2, "s2"),
+        (3, "s3"),
+        (4, "s4"),
+    ]
+    assert logs[0]["timestamp"] == {"sec": 1, "nsec": 500_000_000}
+
+
+def test_foxglove_views_can_be_turned_off(tmp_path: Path) -> None:
+    path = tmp_path / "plain.mcap"
+    write(path, session(2), foxglove_every_n_ticks=0)
+    assert set(open_recording(path).summary) == set(Topic)

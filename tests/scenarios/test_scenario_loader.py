@@ -1,0 +1,389 @@
+"""Scenario files: decoding, defaults, errors at FILE:LINE, overrides."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from pipeline.events import OperatorVerb
+from scenarios.errors import ScenarioError
+from scenarios.loader import apply_overrides, load_scenario, parse_scenario
+from scenarios.schema import (
+    Approach,
+    BehaviourEvent,
+    FaultEvent,
+    FaultMode,
+    GoalReached,
+    JoystickEvent,
+    MinDistance,
+    OperatorEvent,
+    Role,
+    Stand,
+    TouchEvent,
+    Wander,
+    Waypoints,
+)
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "scenario-files.md"
+
+
+def test_a_minimal_scenario_gets_every_default():
+    loaded = parse_scenario(b'name = "empty room"\n')
+    scenario = loaded.scenario
+    assert scenario.name == "empty room"
+    assert (scenario.seed, scenario.duration_s, scenario.tick_hz) == (0, 60.0, 50)
+    assert (scenario.tick_ms, scenario.ticks) == (20, 3000)
+    assert scenario.robot.radius_m == 0.3
+    assert scenario.robot.max_speed_mps == 0.5
+    assert scenario.sensors.range_m == 5.0
+    assert scenario.humans == [] and scenario.events == [] and scenario.expect == []
+    assert loaded.raw == b'name = "empty room"\n'
+
+
+FULL = """
+name = "ball game"
+description = "The child plays ball while the therapist watches."
+seed = 42
+duration_s = 30.0
+tick_hz = 100
+
+[world]
+width_m = 7.0
+height_m = 5.5
+obstacles = [
+  { id = "table", kind = "table", x_m = 1.0, y_m = 4.5, width_m = 1.2, height_m = 0.8 },
+  { id = "stool", kind = "chair", x_m = 6.0, y_m = 1.0, radius_m = 0.25 },
+]
+objects = [{ id = "ball", category = "ball", x_m = 3.0, y_m = 2.0, istarget = true }]
+
+[robot]
+x_m = 3.5
+y_m = 3.0
+theta_rad = 1.57
+max_speed_mps = 0.4
+
+[sensors]
+noise_rho_m = 0.02
+dropout_probability = 0.05
+
+[[humans]]
+id = "child"
+x_m = 1.0
+y_m = 1.0
+behaviour = [
+  { kind = "wander", speed_mps = 0.6 },
+  { at_s = 10.0, kind = "approach", distance_m = 0.9 },
+]
+
+[[humans]]
+id = "therapist"
+role = "therapist"
+x_m = 6.0
+y_m = 4.0
+
+[[humans.behaviour]]
+kind = "waypoints"
+waypoints = [[5.0, 4.0], [5.0, 3.0]]
+
+[[activities]]
+script = "activities/wave.txt"
+
+[[activities]]
+generator = "test_dance"
+options = { tempo = "slow" }
+
+[[events]]
+at_s = 1.0
+kind = "operator"
+verb = "add"
+activity = "test_dance"
+
+[[events]]
+at_s = 2.0
+kind = "joystick"
+left_y = 0.5
+buttons = ["LB"]
+hold_s = 1.0
+
+[[events]]
+at_s = 3.0
+kind = "touch"
+human = "child"
+touchtype = "H"
+duration_ms = 1200
+
+[[events]]
+at_s = 4.0
+kind = "fault"
+sensor = "camera"
+mode = "offline"
+
+[[events]]
+at_s = 5.0
+kind = "behaviour"
+human = "therapist"
+segment = { kind = "stand" }
+
+[[expect]]
+kind = "goal_reached"
+goal = "greet"
+by_s = 20.0
+
+[[expect]]
+kind = "min_distance"
+human = "child"
+at_least_m = 0.5
+
+[[expect]]
+kind = "no_rejected_inputs"
+"""
+
+
+def write(folder: Path, text: str, name: str = "scenario.toml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    (folder / "activities").mkdir(exist_ok=True)
+    (folder / "activities" / "wave.txt").write_text("activity wave\n")
+    return path
+
+
+def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
+    path = write(tmp_path, FULL)
+    loaded = load_scenario(path, known_generators={"test_dance"})
+    scenario = loaded.scenario
+    assert loaded.source == path
+    assert loaded.raw == path.read_bytes()
+    assert loaded.activity_paths == (tmp_path / "activities" / "wave.txt", None)
+    assert scenario.tick_ms == 10
+    assert [o.id for o in scenario.world.obstacles] == ["table", "stool"]
+    assert scenario.world.objects[0].istarget
+    assert scenario.humans[0].behaviour == [
+        Wander(speed_mps=0.6),
+        Approach(at_s=10.0, distance_m=0.9),
+    ]
+    assert scenario.humans[1].role is Role.THERAPIST
+    assert scenario.humans[1].behaviour == [Waypoints(waypoints=[(5.0, 4.0), (5.0, 3.0)])]
+    assert scenario.activities[1].options == {"tempo": "slow"}
+    assert [type(e) for e in scenario.events] == [
+        OperatorEvent,
+        JoystickEvent,
+        TouchEvent,
+        FaultEvent,
+        BehaviourEvent,
+    ]
+    assert scenario.events[0].verb is OperatorVerb.ADD
+    assert scenario.events[3].mode is FaultMode.OFFLINE
+    assert scenario.events[4].segment == Stand()
+    assert scenario.expect[0] == GoalReached(goal="greet", by_s=20.0)
+    assert scenario.expect[1] == MinDistance(human="child", at_least_m=0.5)
+
+
+ERRORS = [
+    # (what, text, message pattern, line)
+    ("unknown key", "[robot]\nx_m = 1.0\nspeed = 2\n", r"unknown field `speed` - at `\$.robot`", 4),
+    (
+        "wrong type",
+        '[[humans]]\nid = "kid"\nx_m = "left"\ny_m = 1.0\n',
+        r"Expected `float`, got `str` - at `\$.humans\[0\].x_m`",
+        4,
+    ),
+    (
+        "wrong type in the second array table",
+        '[[humans]]\nid = "a"\nx_m = 1.0\ny_m = 1.0\n[[humans]]\nid = "b"\nx_m = 1.0\ny_m = []\n',
+        r"Expected `float`, got `array` - at `\$.humans\[1\].y_m`",
+        9,
+    ),
+    (
+        "missing field",
+        '[[events]]\nat_s = 1.0\nkind = "touch"\n',
+        r"missing required field `human` - at `\$.events\[0\]`",
+        2,
+    ),
+    ("unknown tag", '[[events]]\nat_s = 1.0\nkind = "dance"\n', r"Invalid value 'dance'", 4),
+    ("TOML syntax", "name = \nseed = 1\n", r"TOML: Invalid value", 2),
+    (
+        "missing script",
+        '[[activities]]\nscript = "activities/none.json"\n',
+        r"script file 'activities/none.json' not found",
+        3,
+    ),
+    ("script kind", '[[activities]]\nscript = "a.py"\n', r"not a .json or .txt file", 3),
+    (
+        "unknown generator",
+        '[[activities]]\ngenerator = "disco"\n',
+        r"unknown generator 'disco' \(known: test_dance\)",
+        3,
+    ),
+    ("neither script nor generator", "[[activities]]\noptions = {}\n", r"exactly one of", 2),
+    (
+        "event after the end",
+        'duration_s = 10.0\n[[events]]\nat_s = 12.0\nkind = "fault"\nsensor = "sonar"\n'
+        'mode = "frozen"\n',
+        r"event at 12.0 s is outside the session \(0 to 10.0 s\)",
+        4,
+    ),
+    (
+        "unknown human in an event",
+        '[[events]]\nat_s = 1.0\nkind = "touch"\nhuman = "ghost"\n',
+        r"unknown human 'ghost'",
+        5,
+    ),
+    (
+        "unknown human in an expectation",
+        '[[expect]]\nkind = "min_distance"\nhuman = "ghost"\nat_least_m = 1.0\n',
+        r"unknown human 'ghost'",
+        4,
+    ),
+    (
+        "waypoint outside the arena",
+        '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n'
+        'behaviour = [{ kind = "waypoints", waypoints = [[1.0, 1.0], [9.0, 1.0]] }]\n',
+        r"waypoint \(9.0, 1.0\) is outside the arena",
+        6,
+    ),
+    (
+        "duplicate ids",
+        '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n[[humans]]\nid = "kid"\nx_m = 2.0\n'
+        "y_m = 1.0\n",
+        r"duplicate id 'kid'",
+        7,
+    ),
+    (
+        "unknown sensor id",
+        '[[events]]\nat_s = 1.0\nkind = "fault"\nsensor = "camera"\nid = "rear"\n'
+        'mode = "offline"\n',
+        r"no camera with id 'rear' \(it is 'front'\)",
+        6,
+    ),
+    (
+        "segments out of order",
+        '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n[[humans.behaviour]]\nat_s = 5.0\n'
+        'kind = "stand"\n[[humans.behaviour]]\nat_s = 2.0\nkind = "stand"\n',
+        r"must be in time order",
+        10,
+    ),
+    ("tick rate", "tick_hz = 60\n", r"tick_hz 60 must divide 1000", 2),
+]
+
+
+@pytest.mark.parametrize(("what", "text", "pattern", "line"), ERRORS, ids=[e[0] for e in ERRORS])
+def test_errors_name_the_file_and_line(tmp_path, what, text, pattern, line):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "bad"\n' + text)
+    with pytest.raises(ScenarioError, match=pattern) as caught:
+        load_scenario(path, known_generators=("test_dance",))
+    assert caught.value.line == line, what
+    assert str(caught.value).startswith(f"{path}:{line}:")
+
+
+def test_error_column_points_at_the_key():
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(b'name = "x"\n[robot]\n  max_speed_mps = "fast"\n', source="s.toml")
+    assert str(caught.value).startswith("s.toml:3:3: Expected `float`, got `str`")
+
+
+def test_generators_are_not_checked_without_a_list():
+    loaded = parse_scenario(b'name = "x"\n[[activities]]\ngenerator = "anything"\n')
+    assert loaded.activity_paths == (None,)
+
+
+def test_scripts_are_found_in_the_library(tmp_path, monkeypatch):
+    library = tmp_path / "library"
+    (library / "activities").mkdir(parents=True)
+    (library / "activities" / "hello.json").write_text("{}")
+    monkeypatch.setattr("scenarios.loader.LIBRARY_DIR", library)
+    text = b'name = "x"\n[[activities]]\nscript = "activities/hello.json"\n'
+    loaded = parse_scenario(text, source=tmp_path / "elsewhere" / "s.toml")
+    assert loaded.activity_paths == (library / "activities" / "hello.json",)
+
+
+def test_an_unreadable_file_is_a_scenario_error(tmp_path):
+    with pytest.raises(ScenarioError, match="cannot read the scenario"):
+        load_scenario(tmp_path / "missing.toml")
+
+
+def test_overrides_are_typed_by_the_schema():
+    scenario = _full()
+    changed = apply_overrides(
+        scenario,
+        {
+            "robot.max_speed_mps": "0.3",
+            "seed": "7",
+            "humans.child.x_m": "2",
+            "humans.1.role": "child",
+            "world.objects.ball.istarget": "false",
+        },
+    )
+    assert changed.robot.max_speed_mps == 0.3
+    assert changed.seed == 7
+    assert changed.humans[0].x_m == 2.0
+    assert changed.humans[1].role is Role.CHILD
+    assert changed.world.objects[0].istarget is False
+    assert scenario.robot.max_speed_mps == 0.4  # the original is untouched
+
+
+def _full():
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        return load_scenario(write(Path(folder), FULL)).scenario
+
+
+@pytest.mark.parametrize(
+    ("overrides", "pattern"),
+    [
+        ({"robot.top_speed": "1"}, r"override 'robot.top_speed': no field 'top_speed'"),
+        ({"humans.ghost.x_m": "1"}, r"no element 'ghost'"),
+        ({"robot.max_speed_mps": "fast"}, r"Expected `float`, got `str` - at `\$.robot"),
+        ({"humans.child.x_m": "99"}, r"human 'child' starts outside the arena"),
+    ],
+)
+def test_bad_overrides_are_scenario_errors(overrides, pattern):
+    with pytest.raises(ScenarioError, match=pattern):
+        apply_overrides(_full(), overrides)
+
+
+def test_the_documented_example_loads(tmp_path):
+    text = DOC.read_text()
+    example = re.search(r"```toml\n(.*?)```", text, re.S)
+    assert example, "docs/scenario-files.md has a ```toml example"
+    path = tmp_path / "example.toml"
+    path.write_text(example.group(1))
+    for script in re.findall(r'script = "([^"]+)"', example.group(1)):
+        (tmp_path / script).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / script).write_text("")
+    loaded = load_scenario(path)
+    scenario = loaded.scenario
+    assert scenario.humans and scenario.events and scenario.expect and scenario.activities
+    kinds = {type(e).__name__ for e in scenario.events}
+    assert kinds == {"OperatorEvent", "JoystickEvent", "TouchEvent", "FaultEvent", "BehaviourEvent"}
+
+
+INLINE = """name = "inline"
+[[humans]]
+id = "kid"
+x_m = 1.0
+y_m = 1.0
+behaviour = [
+  { kind = "stand" },
+  { at_s = 2.0, kind = "waypoints", waypoints = [[1.0, 1.0], [1.0, 7.5]] },
+  { at_s = 4.0, kind = "approach", distance_m = "near" },
+]
+"""
+
+
+def test_errors_inside_inline_tables_point_at_the_element_key():
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(INLINE.encode(), source="s.toml")
+    assert str(caught.value).startswith(
+        "s.toml:9:36: Expected `float`, got `str` - at `$.humans[0].behaviour[2].distance_m`"
+    )
+
+
+def test_a_waypoint_outside_the_arena_is_placed_on_the_waypoint():
+    text = INLINE.replace('"near"', "0.5")
+    with pytest.raises(ScenarioError, match=r"waypoint \(1.0, 7.5\) is outside") as caught:
+        parse_scenario(text.encode(), source="s.toml")
+    assert (caught.value.line, caught.value.column) == (8, 62)

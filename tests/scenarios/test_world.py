@@ -1,0 +1,232 @@
+"""The pymunk world: omni-directional robot, humans, ball, contacts, determinism."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import msgspec
+import pytest
+
+from pipeline.events import encode
+from pipeline.messages import ActuatorOutputs
+from scenarios.loader import parse_scenario
+from scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
+from scenarios.world import World, stream_rng
+
+STOP = ActuatorOutputs()
+
+
+def scenario(text: str = "") -> Scenario:
+    return parse_scenario(f'name = "world test"\n{text}'.encode()).scenario
+
+
+def world(text: str = "", seed: int = 1) -> World:
+    return World(scenario(text), stream_rng(seed, "world"))
+
+
+def run(w: World, outputs: ActuatorOutputs, ticks: int, start: int = 0) -> int:
+    for tick in range(start, start + ticks):
+        w.step(outputs, tick=tick)
+    return start + ticks
+
+
+def test_robot_accelerates_within_its_limit_to_the_commanded_speed():
+    w = world()  # 50 Hz, max_accel 1.0 m/s²: 0.02 m/s per tick
+    speeds = []
+    for tick in range(30):
+        w.step(ActuatorOutputs(v_x=0.4), tick=tick)
+        speeds.append(w.robot.velocity.x)
+    assert speeds[0] == pytest.approx(0.02)
+    assert all(b - a <= 0.02 + 1e-12 for a, b in itertools.pairwise(speeds))
+    assert speeds[19] == pytest.approx(0.4)
+    assert speeds[-1] == pytest.approx(0.4)
+
+
+def test_robot_speed_is_clamped_to_its_maximum():
+    w = world("[robot]\nmax_accel_mps2 = 100.0\nmax_angular_accel_radps2 = 100.0\n")
+    run(w, ActuatorOutputs(v_x=3.0, v_y=3.0, v_theta=9.0), 10)
+    assert w.robot.velocity.length == pytest.approx(0.5)
+    assert w.robot.angular_velocity == pytest.approx(1.5)
+
+
+def test_angular_speed_respects_the_angular_acceleration_limit():
+    w = world()  # 3 rad/s² at 50 Hz: 0.06 rad/s per tick
+    w.step(ActuatorOutputs(v_theta=1.0), tick=0)
+    assert w.robot.angular_velocity == pytest.approx(0.06)
+
+
+def test_body_frame_command_is_rotated_into_the_world_frame():
+    w = world(f"[robot]\ntheta_rad = {math.pi / 2}\nmax_accel_mps2 = 100.0\n")
+    w.step(ActuatorOutputs(v_x=0.3, v_y=0.1), tick=0)
+    # facing +y: forward is world +y, left is world -x
+    assert w.robot.velocity.x == pytest.approx(-0.1)
+    assert w.robot.velocity.y == pytest.approx(0.3)
+    assert w.robot_body_velocity()[:2] == pytest.approx((0.3, 0.1))
+
+
+def test_robot_stops_dead_on_a_zero_command_without_drift():
+    w = world()
+    tick = run(w, ActuatorOutputs(v_x=0.5, v_y=0.2, v_theta=0.5), 50)
+    tick = run(w, STOP, 40, tick)
+    assert tuple(w.robot.velocity) == (0.0, 0.0)
+    assert w.robot.angular_velocity == 0.0
+    before = w.robot_pose()
+    run(w, STOP, 50, tick)
+    assert w.robot_pose() == before
+
+
+def test_walls_stop_the_robot():
+    w = world("[world]\nwidth_m = 4.0\n")
+    run(w, ActuatorOutputs(v_x=0.5), 400)  # 8 s at 0.5 m/s: far beyond the wall
+    x, _, _ = w.robot_pose()
+    assert 4.0 - 0.3 - 0.01 <= x <= 4.0 - 0.3 + 0.01
+
+
+def test_furniture_stops_the_robot():
+    w = world(
+        "[[world.obstacles]]\nid = 'table'\nx_m = 4.5\ny_m = 2.5\nwidth_m = 1.0\nheight_m = 2.0\n"
+    )
+    run(w, ActuatorOutputs(v_x=0.5), 300)
+    assert w.robot_pose()[0] == pytest.approx(4.0 - 0.3, abs=0.01)
+
+
+HUMAN_KICKS_BALL = """
+[world]
+objects = [{ id = "ball", x_m = 2.0, y_m = 1.0 }]
+[[humans]]
+id = "kid"
+x_m = 0.8
+y_m = 1.0
+behaviour = [{ kind = "waypoints", waypoints = [[2.2, 1.0]], speed_mps = 1.0 }]
+"""
+
+
+def test_a_human_walking_into_the_ball_pushes_it_and_it_rolls_to_a_stop():
+    w = world(HUMAN_KICKS_BALL)
+    run(w, STOP, 100)
+    ball = w.things[0].body
+    assert ball.position.x > 2.6
+    assert ball.velocity.length > 0 or ball.position.x > 2.6
+    run(w, STOP, 500, 100)
+    assert tuple(ball.velocity) == (0.0, 0.0)
+    resting = ball.position.x
+    run(w, STOP, 50, 600)
+    assert ball.position.x == resting
+
+
+APPROACHING_CHILD = """
+[robot]
+x_m = 3.0
+y_m = 2.5
+[[humans]]
+id = "kid"
+x_m = 1.0
+y_m = 2.5
+touchtype = "H"
+behaviour = [{ kind = "approach", distance_m = 0.5 }]
+"""
+
+
+def test_contacts_with_humans_are_reported_and_their_span_when_they_end():
+    w = world(APPROACHING_CHILD)
+    reports = [w.step(STOP, tick=tick) for tick in range(150)]
+    touching = [r.tick for r in reports if r.contacts == ("kid",)]
+    assert touching
+    assert w.state(tick=149, time_ms=2980).contacts == ("kid",)
+    w.apply_event(BehaviourEvent(at_s=3.0, human="kid", segment=Leave()))
+    later = [w.step(STOP, tick=tick) for tick in range(150, 160)]
+    ended = [span for r in later for span in r.ended]
+    assert len(ended) == 1
+    assert ended[0].human == "kid"
+    assert ended[0].touchtype == "H"
+    assert ended[0].startingtime_ms == touching[0] * 20
+    assert ended[0].duration_ms > 0
+
+
+def test_approach_stops_at_the_distance_from_the_robot():
+    w = world(APPROACHING_CHILD.replace("distance_m = 0.5", "distance_m = 1.2"))
+    run(w, STOP, 200)
+    _, x, y = w.human_positions()[0]
+    assert math.hypot(3.0 - x, 2.5 - y) == pytest.approx(1.2, abs=1e-6)
+    assert not w.last_report.contacts
+
+
+def test_a_human_who_leaves_walks_to_the_exit_and_is_gone():
+    w = world(APPROACHING_CHILD.replace('"approach", distance_m = 0.5', '"leave"'))
+    reports = [w.step(STOP, tick=tick) for tick in range(100)]
+    assert [r.tick for r in reports if r.left] == [49]  # 1 m at 1 m/s: the 50th step
+    assert w.human_positions() == []
+    assert w.state(tick=99, time_ms=1980).humans == ()
+    w.apply_event(BehaviourEvent(at_s=2.0, human="kid", segment=Stand()))
+    w.step(STOP, tick=100)
+    assert [h[0] for h in w.human_positions()] == ["kid"]
+
+
+def test_robot_led_and_audio_are_kept_as_state():
+    w = world()
+    w.step(ActuatorOutputs(led=(0.0, 0.0, 1.0), audio="song.mp3"), tick=0)
+    state = w.state(tick=0, time_ms=0)
+    assert state.led == (0.0, 0.0, 1.0)
+    assert state.audio == "song.mp3"
+
+
+WANDERERS = """
+[world]
+objects = [{ id = "ball", x_m = 3.0, y_m = 1.0 }]
+[[humans]]
+id = "kid"
+x_m = 1.0
+y_m = 1.0
+behaviour = [{ kind = "wander", speed_mps = 0.9, pause_s = 0.3 }]
+[[humans]]
+id = "therapist"
+role = "therapist"
+x_m = 5.0
+y_m = 4.0
+behaviour = [{ kind = "follow", distance_m = 1.0 }]
+"""
+
+
+def states(seed: int, ticks: int = 400) -> list[bytes]:
+    w = world(WANDERERS, seed=seed)
+    out = []
+    for tick in range(ticks):
+        command = ActuatorOutputs(v_x=0.3, v_theta=0.4 if tick % 100 < 50 else -0.4)
+        w.step(command, tick=tick)
+        out.append(encode(w.state(tick=tick, time_ms=tick * 20)))
+    return out
+
+
+def test_same_scenario_and_seed_give_identical_encoded_states():
+    assert states(7) == states(7)
+
+
+def test_a_different_seed_gives_a_different_wander():
+    first, second = states(7, 100), states(8, 100)
+    kid = [msgspec.json.decode(s)["humans"][0] for s in (first[-1], second[-1])]
+    assert (kid[0]["x_m"], kid[0]["y_m"]) != (kid[1]["x_m"], kid[1]["y_m"])
+
+
+def test_wandering_humans_stay_inside_the_arena():
+    w = world(WANDERERS, seed=3)
+    for tick in range(1000):
+        w.step(STOP, tick=tick)
+        for _, x, y in w.human_positions():
+            assert 0.25 - 1e-9 <= x <= 6.0 - 0.25 + 1e-9
+            assert 0.25 - 1e-9 <= y <= 5.0 - 0.25 + 1e-9
+
+
+def test_waypoints_are_walked_in_order_at_the_given_speed():
+    w = world(
+        "[[humans]]\nid = 'kid'\nx_m = 1.0\ny_m = 1.0\n"
+        "behaviour = [{ kind = 'waypoints', waypoints = [[2.0, 1.0], [2.0, 2.0]],"
+        " speed_mps = 0.5 },"
+        " { at_s = 10.0, kind = 'waypoints', waypoints = [[1.0, 1.0]] }]\n"
+    )
+    run(w, STOP, 100)  # 2 s at 0.5 m/s: first corner
+    assert w.human_positions()[0][1:] == pytest.approx((2.0, 1.0))
+    run(w, STOP, 150, 100)  # 5 s: end of the path, standing
+    assert w.human_positions()[0][1:] == pytest.approx((2.0, 2.0))
+    run(w, STOP, 400, 250)  # the segment at 10 s walks back
+    assert w.human_positions()[0][1:] == pytest.approx((1.0, 1.0))
