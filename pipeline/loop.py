@@ -124,8 +124,10 @@ class Pipeline:
         self._note_joystick()
         if step.commands:
             emitter.emit(
-                Topic.ACTUATOR_COMMANDS, ActuatorCommands,
-                commands=step.commands, block=info.block if fresh or step.commands else None,
+                Topic.ACTUATOR_COMMANDS,
+                ActuatorCommands,
+                commands=step.commands,
+                block=info.block if fresh or step.commands else None,
             )
         for text in (*step.clamps, *step.notes):
             emitter.log(Level.WARNING, "actuator", text, info.currentactivity)
@@ -165,7 +167,9 @@ class Pipeline:
                 case PushScripts():
                     self.reader.push(
                         ScriptEntry(
-                            activity=e.activity, script=e.script, source=f"generator:{e.activity}",
+                            activity=e.activity,
+                            script=e.script,
+                            source=f"generator:{e.activity}",
                             operator=True,
                         )
                         for e in effect.lifo_order()
@@ -183,8 +187,12 @@ class Pipeline:
             self.chain.unlock()
         active, held, removed = self.chain.names()
         emitter.emit(
-            Topic.RULE_CHAIN, RuleChainState,
-            applied=tuple(outcome.rule_messages), active=active, held=held, removed=removed,
+            Topic.RULE_CHAIN,
+            RuleChainState,
+            applied=tuple(outcome.rule_messages),
+            active=active,
+            held=held,
+            removed=removed,
             locked=self.chain.locked,
         )
 
@@ -207,8 +215,12 @@ class Pipeline:
             return
         self._last_place = place
         emitter.emit(
-            Topic.READER_PROGRESS, ReaderProgress,
-            activity=place[0], goalid=place[1], actionid=place[2], blockid=place[3],
+            Topic.READER_PROGRESS,
+            ReaderProgress,
+            activity=place[0],
+            goalid=place[1],
+            actionid=place[2],
+            blockid=place[3],
             items=tuple(outcome.items),
         )
 

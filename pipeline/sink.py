@@ -32,7 +32,11 @@ class FanOut:
     """Hands each event to several sinks in turn."""
 
     def __init__(self, *sinks: Sink) -> None:
-        self.sinks = sinks
+        self.sinks = list(sinks)
+
+    def add(self, sink: Sink) -> None:
+        """Hand every later event to ``sink`` too."""
+        self.sinks.append(sink)
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         for sink in self.sinks:

@@ -37,7 +37,9 @@ class RuleChain:
                 self.locked = True
             problem = self._apply_one(message)
             if problem:
-                problems.append(LogEntry(level=Level.WARNING, source="rules", message=problem, ref=message.id))
+                problems.append(
+                    LogEntry(level=Level.WARNING, source="rules", message=problem, ref=message.id)
+                )
             if message.mutexcmd == MutexCmd.U:
                 self.locked = False
         return problems

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Final
 
-from pipeline.messages import AudioOut, Entity, InstructionBlock, Led, Move, WorldMap
+from pipeline.messages import AudioOut, InstructionBlock, Led, Move, WorldMap
 from pipeline.think import rulecodes
 from pipeline.think.conditions import Evaluation
 from pipeline.think.rules import Rule, RuleContext, RuleRegistry

@@ -120,7 +120,7 @@ class BlockReader:
         self.current = idle
         self.position: Position = idle.start
         self.fresh = False
-        """A script was just loaded: read from ``position`` inclusive, whatever the actuator says."""
+        """A script was just loaded: read from ``position`` inclusive, done or not."""
         self.new_block = False
         """A new instruction block was put in the map since the loop last issued one."""
         self._conditions: dict[str, Condition] = {}
@@ -150,7 +150,9 @@ class BlockReader:
             for source in wanted:
                 entry = next((e for e in spare if e.source == source), None) or self.resolve(source)
                 if entry is None:
-                    outcome.logs.append(_warn(f"script_vect: no script {source!r}; skipped", source))
+                    outcome.logs.append(
+                        _warn(f"script_vect: no script {source!r}; skipped", source)
+                    )
                     continue
                 if entry in spare:
                     spare.remove(entry)
@@ -183,21 +185,33 @@ class BlockReader:
             outcome.logs.append(_warn(f"compulsory switch refused: {reason}", target))
             return outcome
         interrupted = self.current
-        outcome.items.append(self._item(ProgressKind.SWITCH, detail=f"to {target} {path_of(start)}"))
+        outcome.items.append(
+            self._item(ProgressKind.SWITCH, detail=f"to {target} {path_of(start)}")
+        )
         outcome.extend(self._end_current(ProgressKind.SWITCH, completed=False, now_ms=now_ms))
         if not self._is_idle_entry(interrupted) and entry is not self.idle:
             goal = self.position[0]
-            self.lifo.append(ScriptEntry(
-                activity=interrupted.activity,
-                script=interrupted.script,
-                source=interrupted.source,
-                start=(goal, 0, 0),
-                operator=interrupted.operator,
-            ))
-        outcome.extend(self._load(ScriptEntry(
-            activity=entry.activity, script=entry.script, source=entry.source, start=start,
-            operator=entry.operator,
-        ), now_ms=now_ms))
+            self.lifo.append(
+                ScriptEntry(
+                    activity=interrupted.activity,
+                    script=interrupted.script,
+                    source=interrupted.source,
+                    start=(goal, 0, 0),
+                    operator=interrupted.operator,
+                )
+            )
+        outcome.extend(
+            self._load(
+                ScriptEntry(
+                    activity=entry.activity,
+                    script=entry.script,
+                    source=entry.source,
+                    start=start,
+                    operator=entry.operator,
+                ),
+                now_ms=now_ms,
+            )
+        )
         return outcome
 
     def escape_idle(self, *, now_ms: int) -> ReadOutcome:
@@ -248,12 +262,18 @@ class BlockReader:
                     position = self._after(position, outcome, now_ms)
                 case _:
                     position = self._after(position, outcome, now_ms)
-        outcome.logs.append(LogEntry(
-            level=Level.ERROR, source="reader", ref=self.current.activity,
-            message=f"{self.current.activity}: {MAX_BLOCKS_PER_READ} blocks read without an "
-            "instruction block (a jump loop?); the script is ended",
-        ))
-        self._set_goal(self.position[0], GoalStatus.FAILED, now_ms, ProgressKind.GOAL_FAILED, outcome)
+        outcome.logs.append(
+            LogEntry(
+                level=Level.ERROR,
+                source="reader",
+                ref=self.current.activity,
+                message=f"{self.current.activity}: {MAX_BLOCKS_PER_READ} blocks read without an "
+                "instruction block (a jump loop?); the script is ended",
+            )
+        )
+        self._set_goal(
+            self.position[0], GoalStatus.FAILED, now_ms, ProgressKind.GOAL_FAILED, outcome
+        )
         outcome.extend(self._end_current(ProgressKind.END, completed=False, now_ms=now_ms))
         outcome.extend(self._load(self._pop(), now_ms=now_ms))
         return outcome
@@ -295,10 +315,14 @@ class BlockReader:
         outcome = ReadOutcome()
         problem = self._check_conditions(entry.script)
         if problem:
-            outcome.logs.append(LogEntry(
-                level=Level.ERROR, source="reader", ref=entry.activity,
-                message=f"{entry.activity}: not loaded: {problem}",
-            ))
+            outcome.logs.append(
+                LogEntry(
+                    level=Level.ERROR,
+                    source="reader",
+                    ref=entry.activity,
+                    message=f"{entry.activity}: not loaded: {problem}",
+                )
+            )
             outcome.finished.append((entry.activity, False))
             if entry is self.idle:
                 raise ValueError(f"the idle activity cannot run: {problem}")
@@ -318,8 +342,11 @@ class BlockReader:
         outcome.rule_messages += entry.script.alfarulemessages
         outcome.unlock = not entry.script.alfarulemessages
         outcome.started.append(entry.activity)
-        outcome.items.append(self._item(ProgressKind.IDLE if self.is_idle else ProgressKind.LOAD,
-                                        detail=entry.source))
+        outcome.items.append(
+            self._item(
+                ProgressKind.IDLE if self.is_idle else ProgressKind.LOAD, detail=entry.source
+            )
+        )
         return outcome
 
     def _end_current(
@@ -331,15 +358,20 @@ class BlockReader:
         goal = self.position[0]
         if completed:
             self._set_goal(goal, GoalStatus.REACHED, now_ms, ProgressKind.GOAL_REACHED, outcome)
-        elif not self._is_idle_entry(entry) and goal < len(tracking.goals) and (
-            tracking.goals[goal].status == GoalStatus.ACTIVE
+        elif (
+            not self._is_idle_entry(entry)
+            and goal < len(tracking.goals)
+            and (tracking.goals[goal].status == GoalStatus.ACTIVE)
         ):
-            self._set_goal(goal, GoalStatus.INTERRUPTED, now_ms, ProgressKind.GOAL_INTERRUPTED,
-                           outcome)
+            self._set_goal(
+                goal, GoalStatus.INTERRUPTED, now_ms, ProgressKind.GOAL_INTERRUPTED, outcome
+            )
         tracking.status = "completed" if completed else "interrupted"
         outcome.rule_messages += entry.script.omegarulemessages
         if not quiet:
-            outcome.items.append(self._item(kind, detail="completed" if completed else "interrupted"))
+            outcome.items.append(
+                self._item(kind, detail="completed" if completed else "interrupted")
+            )
         outcome.finished.append((entry.activity, completed))
         self.map.aliases.clear()
         self.map.variables.clear()
@@ -353,13 +385,21 @@ class BlockReader:
             found = ActivityTracking(
                 activityname=entry.activity,
                 creationtime=now_ms,
-                goals=[GoalTracking(goalid=g.goalid, changetime=now_ms) for g in entry.script.goals],
+                goals=[
+                    GoalTracking(goalid=g.goalid, changetime=now_ms) for g in entry.script.goals
+                ],
             )
             activities.append(found)
         return found
 
-    def _set_goal(self, goal: int, status: GoalStatus, now_ms: int | None,
-                  kind: ProgressKind | None, outcome: ReadOutcome | None) -> None:
+    def _set_goal(
+        self,
+        goal: int,
+        status: GoalStatus,
+        now_ms: int | None,
+        kind: ProgressKind | None,
+        outcome: ReadOutcome | None,
+    ) -> None:
         tracking = self._tracking(self.current, now_ms or 0)
         if goal >= len(tracking.goals) or tracking.goals[goal].status == status:
             return
@@ -375,9 +415,11 @@ class BlockReader:
         }[status]
         register.append(GoalEvent(goalid=record.goalid, timestamp=now_ms))
         del register[: max(0, len(register) - self.capacity)]
-        outcome.items.append(ProgressItem(
-            kind=kind, activity=self.current.activity, path=f"goal{goal}", detail=record.goalid
-        ))
+        outcome.items.append(
+            ProgressItem(
+                kind=kind, activity=self.current.activity, path=f"goal{goal}", detail=record.goalid
+            )
+        )
 
     def _after(self, position: Position, outcome: ReadOutcome, now_ms: int) -> Position | None:
         """The next block in reading order; leaving a goal marks it reached."""
@@ -398,16 +440,17 @@ class BlockReader:
     def _jump(self, block: JumpBlock, outcome: ReadOutcome, now_ms: int) -> Position | None:
         found = self._conditions[block.toparse].evaluate(self.map, now_ms=now_ms)
         target = block.truejump if found.result else block.falsejump
-        outcome.items.append(self._item(
-            ProgressKind.JUMP, detail=f"{found.result} -> {target or 'next'}"
-        ))
+        outcome.items.append(
+            self._item(ProgressKind.JUMP, detail=f"{found.result} -> {target or 'next'}")
+        )
         if not target:
             return self._after(self.position, outcome, now_ms)
         position = parse_path(target)
         if position[0] != self.position[0]:
             if position[0] > self.position[0]:
-                self._set_goal(self.position[0], GoalStatus.REACHED, now_ms,
-                               ProgressKind.GOAL_REACHED, outcome)
+                self._set_goal(
+                    self.position[0], GoalStatus.REACHED, now_ms, ProgressKind.GOAL_REACHED, outcome
+                )
             self._set_goal(position[0], GoalStatus.PENDING, None, None, None)
         return position
 
@@ -420,8 +463,10 @@ class BlockReader:
                         continue
                     where = path_of((g, a, b))
                     for target in (block.truejump, block.falsejump):
-                        if target and (_safe_parse(target) is None
-                                       or block_at(script, _safe_parse(target)) is None):
+                        if target and (
+                            _safe_parse(target) is None
+                            or block_at(script, _safe_parse(target)) is None
+                        ):
                             return f"{where}: jump to {target!r}, which does not exist"
                     if block.toparse not in self._conditions:
                         try:

@@ -56,7 +56,9 @@ def test_core_uses_only_stdlib_msgspec_and_lark_and_no_clock_or_threads() -> Non
         for line, name in imported_modules(path):
             top = name.split(".")[0]
             if top in FORBIDDEN_IN_CORE:
-                broken.append(f"{path.relative_to(ROOT)}:{line}: {name} (clock/threads/global random)")
+                broken.append(
+                    f"{path.relative_to(ROOT)}:{line}: {name} (clock/threads/global random)"
+                )
             elif top not in stdlib and top not in THIRD_PARTY_IN_CORE and top != "pipeline":
                 broken.append(f"{path.relative_to(ROOT)}:{line}: {name} (not allowed in the core)")
     assert not broken, "\n".join(broken)

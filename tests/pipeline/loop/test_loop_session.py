@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 
 import msgspec
@@ -37,33 +38,71 @@ from pipeline.think.reader import ScriptEntry
 
 
 def rm(code: int, name: str, action: str, mutex: str) -> RuleMessage:
-    return RuleMessage(rulecode=code, id=name, intopic="", outtopic="",
-                       action=RuleAction[action], mutexcmd=MutexCmd[mutex])
+    return RuleMessage(
+        rulecode=code,
+        id=name,
+        intopic="",
+        outtopic="",
+        action=RuleAction[action],
+        mutexcmd=MutexCmd[mutex],
+    )
 
 
 IDLE = Script(
     activityname="idle_activity",
     alfarulemessages=(rm(0, "kick_starter", "C", "U"),),
     omegarulemessages=(rm(0, "kick_starter", "R", "L"),),
-    goals=(Goal(goalid="rest", actions=(Action(blocks=(
-        InstructionBlock(led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)),
-        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
-    )),)),),
+    goals=(
+        Goal(
+            goalid="rest",
+            actions=(
+                Action(
+                    blocks=(
+                        InstructionBlock(
+                            led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)
+                        ),
+                        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
+                    )
+                ),
+            ),
+        ),
+    ),
 )
-WAIT = Script(activityname="wait_for_child", goals=(Goal(goalid="wait", actions=(Action(blocks=(
-    InstructionBlock(led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)),)),)),))
+WAIT = Script(
+    activityname="wait_for_child",
+    goals=(
+        Goal(
+            goalid="wait",
+            actions=(
+                Action(
+                    blocks=(
+                        InstructionBlock(
+                            led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)
+                        ),
+                    )
+                ),
+            ),
+        ),
+    ),
+)
 
 
 def pose(seq: int, rho: float, t: int) -> MapUpdate:
     body = json.dumps({"positionrho": rho, "positiontheta": 0.0, "positionchangetime": t})
-    return MapUpdate(objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=body, seq=seq)
+    return MapUpdate(
+        objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=body, seq=seq
+    )
 
 
 def pipeline(sink: MemorySink) -> Pipeline:
     return Pipeline(
         PipelineConfig(),
         idle=ScriptEntry(activity="idle_activity", script=IDLE, source="idle_activity"),
-        resolve=lambda name: ScriptEntry(activity=name, script=WAIT, source=name) if name == "wait_for_child" else None,
+        resolve=lambda name: (
+            ScriptEntry(activity=name, script=WAIT, source=name)
+            if name == "wait_for_child"
+            else None
+        ),
         handler=GeneratorHandler(default_catalogue()),
         sink=sink,
     )
@@ -74,12 +113,21 @@ def cmd(i: int, verb: OperatorVerb, activity: str = "", **kw) -> OperatorCommand
 
 
 SCRIPTED = {
-    0: dict(commands=[cmd(1, OperatorVerb.ADD, "example_act"), cmd(2, OperatorVerb.ADD, "test_dance"),
-                      cmd(3, OperatorVerb.START)]),
+    0: dict(
+        commands=[
+            cmd(1, OperatorVerb.ADD, "example_act"),
+            cmd(2, OperatorVerb.ADD, "test_dance"),
+            cmd(3, OperatorVerb.START),
+        ]
+    ),
     1: dict(commands=[cmd(4, OperatorVerb.GET_READY)]),
     3: dict(commands=[cmd(5, OperatorVerb.START)], updates=[pose(1, 1.5, 60)]),
-    40: dict(updates=[pose(2, 1.4, 800), MapUpdate(objectid="Nowhere/x", attributename="a",
-                                                      policy=Policy.R, jsonmsg="1", seq=3)]),
+    40: dict(
+        updates=[
+            pose(2, 1.4, 800),
+            MapUpdate(objectid="Nowhere/x", attributename="a", policy=Policy.R, jsonmsg="1", seq=3),
+        ]
+    ),
     60: dict(joystick=JoystickInput(tick=60, time_ms=1200, left_y=1.0, buttons=("LB",))),
     70: dict(joystick=JoystickInput(tick=70, time_ms=1400)),
 }
@@ -94,8 +142,12 @@ def run_session(ticks: int = 1300) -> MemorySink:
 
 
 def progress_kinds(sink: MemorySink) -> list[tuple[int, str, str]]:
-    return [(e.tick, i.kind.value, i.activity) for e in sink.on(Topic.READER_PROGRESS) for i in e.items
-            if i.kind not in (ProgressKind.BLOCK, ProgressKind.JUMP)]
+    return [
+        (e.tick, i.kind.value, i.activity)
+        for e in sink.on(Topic.READER_PROGRESS)
+        for i in e.items
+        if i.kind not in (ProgressKind.BLOCK, ProgressKind.JUMP)
+    ]
 
 
 def test_a_two_activity_session_runs_start_to_end_in_order() -> None:
@@ -103,7 +155,9 @@ def test_a_two_activity_session_runs_start_to_end_in_order() -> None:
     kinds = progress_kinds(sink)
     assert kinds[0] == (0, "idle", "idle_activity")
     loads = [(t, a) for t, k, a in kinds if k == "load"]
-    assert [a for _, a in loads] == ["example_act", "test_dance"], "list order: first selected runs first"
+    assert [a for _, a in loads] == ["example_act", "test_dance"], (
+        "list order: first selected runs first"
+    )
     assert loads[0][0] == 3, "start at tick 3 leaves idle in the same tick"
     ends = [(a, k) for t, k, a in kinds if k == "end"]
     assert ends[:2] == [("example_act", "end"), ("test_dance", "end")]
@@ -122,7 +176,12 @@ def test_refused_commands_and_rejected_updates_are_logged_and_the_session_goes_o
 
 def test_the_joystick_overrides_the_script_while_the_lock_is_held_and_stops_on_release() -> None:
     sink = run_session(100)
-    commands = [(e.tick, c) for e in sink.on(Topic.ACTUATOR_COMMANDS) for c in e.commands if c.channel == "move"]
+    commands = [
+        (e.tick, c)
+        for e in sink.on(Topic.ACTUATOR_COMMANDS)
+        for c in e.commands
+        if c.channel == "move"
+    ]
     by_joystick = [t for t, c in commands if c.source == Source.JOYSTICK and c.v_x > 0]
     assert by_joystick and by_joystick[0] == 60, "the input acts in the tick it is read"
     safety = [t for t, c in commands if c.source == Source.SAFETY]
@@ -134,7 +193,7 @@ def test_every_tick_emits_rule_decisions_and_the_map_only_when_it_changed() -> N
     assert len(sink.on(Topic.RULE_DECISIONS)) == 50
     maps = sink.on(Topic.MAP)
     assert len(maps) < 50
-    assert all(a.map != b.map for a, b in zip(maps, maps[1:], strict=False))
+    assert all(a.map != b.map for a, b in itertools.pairwise(maps))
 
 
 def test_a_rule_forced_switch_takes_effect_in_the_next_tick() -> None:
@@ -142,11 +201,18 @@ def test_a_rule_forced_switch_takes_effect_in_the_next_tick() -> None:
     p = pipeline(sink)
     p.tick(tick=0)
     info = p.map.scriptinfo
-    info.currentactivity, info.goalid, info.actionid, info.blockid = "wait_for_child", "goal0", "act0", "blk0"
+    info.currentactivity, info.goalid, info.actionid, info.blockid = (
+        "wait_for_child",
+        "goal0",
+        "act0",
+        "blk0",
+    )
     info.overridecmd = True
     p.tick(tick=1)
     assert p.map.scriptinfo.currentactivity == "wait_for_child"
-    assert any(i.kind == ProgressKind.SWITCH for e in sink.on(Topic.READER_PROGRESS) for i in e.items)
+    assert any(
+        i.kind == ProgressKind.SWITCH for e in sink.on(Topic.READER_PROGRESS) for i in e.items
+    )
 
 
 def test_a_block_changed_by_a_rule_restarts_in_the_actuator() -> None:
@@ -154,10 +220,18 @@ def test_a_block_changed_by_a_rule_restarts_in_the_actuator() -> None:
     p = pipeline(sink)
     for tick in range(5):
         p.tick(tick=tick)
-    p.map.scriptinfo.block = InstructionBlock(move=(Move(v_x=0.2, v_y=0, v_theta=0, wait_t=0, duration=100),))
+    p.map.scriptinfo.block = InstructionBlock(
+        move=(Move(v_x=0.2, v_y=0, v_theta=0, wait_t=0, duration=100),)
+    )
     p.map.scriptinfo.changed = True
     p.tick(tick=5)
-    moves = [c for e in sink.on(Topic.ACTUATOR_COMMANDS) if e.tick == 5 for c in e.commands if c.channel == "move"]
+    moves = [
+        c
+        for e in sink.on(Topic.ACTUATOR_COMMANDS)
+        if e.tick == 5
+        for c in e.commands
+        if c.channel == "move"
+    ]
     assert moves and moves[0].v_x == 0.2 and not p.map.scriptinfo.changed
 
 

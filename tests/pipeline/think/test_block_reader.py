@@ -22,19 +22,30 @@ from pipeline.think.reader import MAX_BLOCKS_PER_READ, BlockReader, ScriptEntry,
 
 
 def inst(tag: str) -> InstructionBlock:
-    return InstructionBlock(led=(Led(r=1, g=0, b=0, turnas=1, wait_t=0, duration=100),), flagged=tag)
+    return InstructionBlock(
+        led=(Led(r=1, g=0, b=0, turnas=1, wait_t=0, duration=100),), flagged=tag
+    )
 
 
 def script(name: str, *goals: list[list[object]], alfa=(), omega=()) -> Script:
     return Script(
-        activityname=name, alfarulemessages=alfa, omegarulemessages=omega,
-        goals=tuple(Goal(goalid=f"{name}_g{i}", actions=tuple(Action(blocks=tuple(a)) for a in g))
-                    for i, g in enumerate(goals)),
+        activityname=name,
+        alfarulemessages=alfa,
+        omegarulemessages=omega,
+        goals=tuple(
+            Goal(goalid=f"{name}_g{i}", actions=tuple(Action(blocks=tuple(a)) for a in g))
+            for i, g in enumerate(goals)
+        ),
     )
 
 
-IDLE = ScriptEntry(activity="idle_activity", source="idle_activity",
-                   script=script("idle_activity", [[inst("idle"), JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0")]]))
+IDLE = ScriptEntry(
+    activity="idle_activity",
+    source="idle_activity",
+    script=script(
+        "idle_activity", [[inst("idle"), JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0")]]
+    ),
+)
 
 
 def reader(library: dict[str, Script] | None = None) -> BlockReader:
@@ -43,7 +54,9 @@ def reader(library: dict[str, Script] | None = None) -> BlockReader:
 
     def resolve(name: str) -> ScriptEntry | None:
         found = library.get(name)
-        return ScriptEntry(activity=found.activityname, script=found, source=name) if found else None
+        return (
+            ScriptEntry(activity=found.activityname, script=found, source=name) if found else None
+        )
 
     r = BlockReader(world, idle=IDLE, resolve=resolve)
     r.start(now_ms=0)
@@ -75,19 +88,30 @@ def test_reading_waits_for_the_actuator_to_finish_the_block() -> None:
 
 
 def test_jump_true_false_and_empty_targets() -> None:
-    s = script("j", [[
-        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk2"),
-        inst("skipped"),
-        JumpBlock(toparse="{CLASS #Human L ?nobody} ! {TRUE}", truejump="goal0/act0/blk1", falsejump=""),
-        inst("after_false"),
-    ]])
+    s = script(
+        "j",
+        [
+            [
+                JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk2"),
+                inst("skipped"),
+                JumpBlock(
+                    toparse="{CLASS #Human L ?nobody} ! {TRUE}",
+                    truejump="goal0/act0/blk1",
+                    falsejump="",
+                ),
+                inst("after_false"),
+            ]
+        ],
+    )
     r = reader()
     r.push([entry(s)])
     r.escape_idle(now_ms=0)
     out = r.read(actuator_done=True, now_ms=0)
     assert shown(r) == "after_false"
     assert [i.detail for i in out.items if i.kind == ProgressKind.JUMP] == [
-        "True -> goal0/act0/blk2", "False -> next"]
+        "True -> goal0/act0/blk2",
+        "False -> next",
+    ]
 
 
 def test_terminus_ends_the_script_and_the_next_one_in_the_lifo_runs() -> None:
@@ -112,13 +136,22 @@ def test_sensor_blocks_emit_a_request_and_move_on() -> None:
     r.escape_idle(now_ms=0)
     out = r.read(actuator_done=True, now_ms=0)
     assert [(i.kind, i.detail) for i in out.items if i.kind == ProgressKind.SENSOR] == [
-        (ProgressKind.SENSOR, "look")]
+        (ProgressKind.SENSOR, "look")
+    ]
     assert shown(r) == "x"
 
 
 def test_alfa_on_load_and_omega_on_end_in_order() -> None:
-    alfa = (RuleMessage(rulecode=1, id="r", intopic="", outtopic="", action=RuleAction.A, mutexcmd=MutexCmd.U),)
-    omega = (RuleMessage(rulecode=1, id="r", intopic="", outtopic="", action=RuleAction.R, mutexcmd=MutexCmd.L),)
+    alfa = (
+        RuleMessage(
+            rulecode=1, id="r", intopic="", outtopic="", action=RuleAction.A, mutexcmd=MutexCmd.U
+        ),
+    )
+    omega = (
+        RuleMessage(
+            rulecode=1, id="r", intopic="", outtopic="", action=RuleAction.R, mutexcmd=MutexCmd.L
+        ),
+    )
     s = script("s", [[inst("x")]], alfa=alfa, omega=omega)
     r = reader()
     r.push([entry(s)])
@@ -152,7 +185,12 @@ def test_a_compulsory_switch_loads_the_named_script_and_resumes_the_interrupted_
     r.read(actuator_done=True, now_ms=100)
     assert shown(r) == "play2"
     info = r.map.scriptinfo
-    info.currentactivity, info.goalid, info.actionid, info.blockid = "wait_for_child", "goal0", "act0", "blk0"
+    info.currentactivity, info.goalid, info.actionid, info.blockid = (
+        "wait_for_child",
+        "goal0",
+        "act0",
+        "blk0",
+    )
     info.overridecmd = True
     out = r.compulsory_switch(now_ms=150)
     assert ("game", False) in out.finished
@@ -166,7 +204,11 @@ def test_a_compulsory_switch_loads_the_named_script_and_resumes_the_interrupted_
 def test_a_switch_to_an_unknown_script_is_refused_and_logged() -> None:
     r = reader()
     r.map.scriptinfo.currentactivity = "nowhere"
-    r.map.scriptinfo.goalid, r.map.scriptinfo.actionid, r.map.scriptinfo.blockid = "goal0", "act0", "blk0"
+    r.map.scriptinfo.goalid, r.map.scriptinfo.actionid, r.map.scriptinfo.blockid = (
+        "goal0",
+        "act0",
+        "blk0",
+    )
     r.map.scriptinfo.overridecmd = True
     out = r.compulsory_switch(now_ms=0)
     assert "no script 'nowhere'" in out.logs[0].message

@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import json
 
-from pipeline.messages import InstructionBlock, MapUpdate, Move, MutexCmd, Policy, RuleAction, RuleMessage, WorldMap
+from pipeline.messages import (
+    InstructionBlock,
+    MapUpdate,
+    Move,
+    MutexCmd,
+    Policy,
+    RuleAction,
+    RuleMessage,
+    WorldMap,
+)
 from pipeline.sense.producer import MapProducer
 from pipeline.think import rulecodes
 from pipeline.think.chain import RuleChain
@@ -23,17 +32,26 @@ ALL = [
 
 def pose(seq: int, rho: float, theta: float, t: int) -> MapUpdate:
     msg = json.dumps({"positionrho": rho, "positiontheta": theta, "positionchangetime": t})
-    return MapUpdate(objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=msg, seq=seq)
+    return MapUpdate(
+        objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=msg, seq=seq
+    )
 
 
 def touch(seq: int, kind: str, t: int) -> MapUpdate:
     msg = json.dumps({"touchtype": kind, "duration": 500, "startingtime": t})
-    return MapUpdate(objectid="RobotStatus", attributename="touch", policy=Policy.A, jsonmsg=msg, seq=seq)
+    return MapUpdate(
+        objectid="RobotStatus", attributename="touch", policy=Policy.A, jsonmsg=msg, seq=seq
+    )
 
 
 def battery(seq: int, ms: int) -> MapUpdate:
-    return MapUpdate(objectid="RobotStatus", attributename="batterytimeleft", policy=Policy.R,
-                     jsonmsg=str(ms), seq=seq)
+    return MapUpdate(
+        objectid="RobotStatus",
+        attributename="batterytimeleft",
+        policy=Policy.R,
+        jsonmsg=str(ms),
+        seq=seq,
+    )
 
 
 class Session:
@@ -45,11 +63,19 @@ class Session:
         self.map.robotstatus.batterytimeleft = 3_600_000
         self.producer = MapProducer(self.map)
         self.chain = RuleChain(RULES)
-        self.chain.apply([
-            RuleMessage(rulecode=code, id=name, intopic="", outtopic="", action=RuleAction.A,
-                        mutexcmd=MutexCmd.U if name == "joystick_note" else MutexCmd.M)
-            for name, code in ALL
-        ])
+        self.chain.apply(
+            [
+                RuleMessage(
+                    rulecode=code,
+                    id=name,
+                    intopic="",
+                    outtopic="",
+                    action=RuleAction.A,
+                    mutexcmd=MutexCmd.U if name == "joystick_note" else MutexCmd.M,
+                )
+                for name, code in ALL
+            ]
+        )
 
     def tick(self, now_ms: int, *updates: MapUpdate) -> dict[str, list[str]]:
         for update in updates:
@@ -61,7 +87,9 @@ class Session:
 
 def test_the_library_decides_tick_by_tick_through_a_session() -> None:
     s = Session()
-    s.map.scriptinfo.block = InstructionBlock(move=(Move(v_x=0.3, v_y=0, v_theta=0, wait_t=0, duration=2000),))
+    s.map.scriptinfo.block = InstructionBlock(
+        move=(Move(v_x=0.3, v_y=0, v_theta=0, wait_t=0, duration=2000),)
+    )
 
     # The child plays in front at 1.2 m: kick_starter's condition holds, but it only acts in idle.
     assert s.tick(100, pose(1, 1.2, 0.0, 100)) == {"kick_starter": []}
@@ -88,7 +116,9 @@ def test_the_library_decides_tick_by_tick_through_a_session() -> None:
     s.map.scriptinfo.currentactivity = "game"
     s.map.scriptinfo.script_vect = ["activities/next.json"]
     s.tick(500, battery(8, 60_000))
-    assert s.map.scriptinfo.script_vect == [] and s.map.scriptinfo.currentactivity == "idle_activity"
+    assert (
+        s.map.scriptinfo.script_vect == [] and s.map.scriptinfo.currentactivity == "idle_activity"
+    )
 
 
 def test_attention_lost_calls_back_at_most_every_ten_seconds() -> None:

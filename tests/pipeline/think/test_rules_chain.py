@@ -11,8 +11,14 @@ from pipeline.think.rules import Rule, RuleRegistry, diff
 
 
 def msg(code: int, name: str, action: str, mutex: str = "M") -> RuleMessage:
-    return RuleMessage(rulecode=code, id=name, intopic="", outtopic="",
-                       action=RuleAction[action], mutexcmd=MutexCmd[mutex])
+    return RuleMessage(
+        rulecode=code,
+        id=name,
+        intopic="",
+        outtopic="",
+        action=RuleAction[action],
+        mutexcmd=MutexCmd[mutex],
+    )
 
 
 def test_a_adds_in_order_and_r_removes_keeping_the_rule_for_c() -> None:

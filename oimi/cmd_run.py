@@ -1,0 +1,70 @@
+"""Run a scenario: world, sensors and the robot's mind, recorded to MCAP (and Rerun).
+
+Exit 0 when every expectation holds, 1 when one fails, 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from oimi import console
+from scenarios.loader import load_scenario
+from scenarios.recording import recorded
+from scenarios.runner import RunResult, Session
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file (.toml)")
+    parser.add_argument("-o", "--output", type=Path, help="MCAP file (default: out/NAME.mcap)")
+    parser.add_argument("--rrd", type=Path, help="also write a Rerun recording here")
+    parser.add_argument("--seed", type=int, help="override the scenario's seed")
+    parser.add_argument("--realtime", action="store_true", help="pace to the wall clock")
+    parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
+    parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    loaded = load_scenario(args.scenario)
+    output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
+    session = Session(loaded, seed=args.seed)
+    progress = None if args.quiet else console.Progress(f"{session.scenario.name}", session.tick_ms)
+    pace = console.Pacer(session.tick_ms) if args.realtime else None
+    with recorded(session, mcap=output, rrd=args.rrd):
+        try:
+            result = session.run(progress=progress, pace=pace)
+        finally:
+            if progress is not None:
+                progress.close()
+    print_result(result)
+    if output is not None:
+        print(f"recording: {output}")
+    if args.rrd is not None:
+        print(f"rerun:     {args.rrd}")
+    if args.junit is not None:
+        console.write_junit(args.junit, [(args.scenario.stem, result)])
+    return 0 if result.ok else 1
+
+
+def print_result(result: RunResult) -> None:
+    """The end-of-run summary and each expectation's verdict."""
+    s = result.summary
+    print(f"scenario {s.scenario} (seed {s.seed}): {s.ticks} ticks, {s.duration_s:.1f} s simulated")
+    for name, state in s.activities.items():
+        print(f"  activity {name}: {state}")
+    for goal, at_ms in s.goals_reached.items():
+        print(f"  goal {goal} reached at {at_ms / 1000:.2f} s")
+    if s.rules_fired:
+        fired = ", ".join(f"{rule} x{count}" for rule, count in s.rules_fired.items())
+        print(f"  rules fired: {fired}")
+    closest = ", ".join(f"{h} {d:.2f} m" for h, d in s.min_distance_m.items())
+    print(
+        f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest {closest or '-'}, "
+        f"{s.contacts} contact ticks, {s.rejected_inputs} rejected inputs"
+    )
+    for verdict in result.verdicts:
+        mark = "PASS" if verdict.ok else "FAIL"
+        print(f"  {mark} {verdict.name}: {verdict.detail}")
+    passed = sum(v.ok for v in result.verdicts)
+    print(f"{passed} passed, {len(result.verdicts) - passed} failed")

@@ -1,0 +1,81 @@
+"""Terminal helpers for the CLI: a progress bar, wall-clock pacing, JUnit XML."""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from xml.etree import ElementTree
+
+from scenarios.runner import RunResult
+
+
+class Progress:
+    """A one-line progress bar on stderr: simulated time, share done and speed-up.
+
+    On a terminal it redraws in place; elsewhere (CI logs) it prints a line per quarter.
+    """
+
+    def __init__(self, label: str, tick_ms: int, *, stream=None) -> None:
+        self.label = label
+        self.tick_ms = tick_ms
+        self.stream = stream or sys.stderr
+        self.live = self.stream.isatty()
+        self.start = time.perf_counter()
+        self.shown = -1
+
+    def __call__(self, tick: int, total: int) -> None:
+        step = 200 if self.live else 4
+        share = tick * step // max(total, 1)
+        if share == self.shown and tick != total:
+            return
+        self.shown = share
+        elapsed = max(time.perf_counter() - self.start, 1e-9)
+        simulated = tick * self.tick_ms / 1000
+        bar = "#" * (tick * 30 // max(total, 1))
+        line = (
+            f"{self.label} [{bar:<30}] {tick * 100 // max(total, 1):3d}% "
+            f"{simulated:7.1f} s simulated, {simulated / elapsed:6.0f}x real time"
+        )
+        if self.live:
+            self.stream.write("\r" + line)
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.live:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+class Pacer:
+    """Sleeps so that tick ``n`` ends no earlier than ``n * tick_ms`` after the start."""
+
+    def __init__(self, tick_ms: int) -> None:
+        self.tick_s = tick_ms / 1000
+        self.start = time.monotonic()
+
+    def __call__(self, tick: int) -> None:
+        delay = self.start + (tick + 1) * self.tick_s - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+
+def write_junit(path: Path, results: Sequence[tuple[str, RunResult]]) -> None:
+    """One test suite per scenario, one test case per expectation."""
+    suites = ElementTree.Element("testsuites")
+    for name, result in results:
+        failures = sum(not v.ok for v in result.verdicts)
+        suite = ElementTree.SubElement(
+            suites, "testsuite", name=name, tests=str(len(result.verdicts)), failures=str(failures)
+        )
+        for verdict in result.verdicts:
+            case = ElementTree.SubElement(suite, "testcase", classname=name, name=verdict.name)
+            if not verdict.ok:
+                ElementTree.SubElement(
+                    case, "failure", message=verdict.detail
+                ).text = verdict.detail
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ElementTree.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)

@@ -1,0 +1,74 @@
+"""Activity scripts on disk: loading a file by its format, and finding scripts by name."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Final
+
+from pipeline.messages import Script
+from pipeline.script.errors import ScriptError
+from pipeline.script.files import parse_script
+from pipeline.think.reader import ScriptEntry
+
+LIBRARY: Final = Path(__file__).resolve().parent / "library"
+"""The shipped scenarios; their activities are in ``LIBRARY / "activities"``."""
+ACTIVITIES: Final = LIBRARY / "activities"
+IDLE: Final = "idle_activity"
+
+
+def load_script_file(path: Path) -> Script:
+    """A script from a ``.json`` or DSL ``.txt`` file; ``ScriptError`` names the place."""
+    try:
+        raw = path.read_bytes()
+    except OSError as error:
+        raise ScriptError(f"cannot read the script: {error.strerror}", source=str(path)) from None
+    return parse_script(raw, source=str(path)).script
+
+
+class ActivityLibrary:
+    """Finds scripts by activity name or relative path in a list of folders (first wins)."""
+
+    def __init__(self, folders: Sequence[Path]) -> None:
+        self.folders = tuple(folders)
+        self.loaded: dict[Path, Script] = {}
+        """Every script file read so far, by resolved path (attached to recordings)."""
+
+    def find(self, name: str) -> Path | None:
+        """The file for ``name`` (``x``, ``x.json``, ``activities/x.txt``), or None."""
+        candidate = Path(name)
+        if candidate.is_absolute() or ".." in candidate.parts:
+            return None
+        names = (
+            [candidate]
+            if candidate.suffix
+            else [candidate.with_suffix(".json"), candidate.with_suffix(".txt")]
+        )
+        for folder in self.folders:
+            for option in names:
+                for path in (folder / option, folder / option.name):
+                    if path.is_file():
+                        return path.resolve()
+        return None
+
+    def load(self, path: Path) -> Script:
+        """Load (once) and remember a script file."""
+        path = path.resolve()
+        if path not in self.loaded:
+            self.loaded[path] = load_script_file(path)
+        return self.loaded[path]
+
+    def resolve(self, name: str) -> ScriptEntry | None:
+        """The Block Reader's resolver: a script entry for a name or path, or None."""
+        path = self.find(name)
+        if path is None:
+            return None
+        script = self.load(path)
+        return ScriptEntry(activity=script.activityname, script=script, source=name)
+
+    def idle(self) -> ScriptEntry:
+        """The idle activity (always present in the shipped library)."""
+        entry = self.resolve(IDLE)
+        if entry is None:
+            raise ScriptError("the idle activity is missing", source=str(ACTIVITIES))
+        return entry

@@ -1,0 +1,187 @@
+"""Checking a scenario's expectations: a sink that watches the session as it streams by."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import msgspec
+
+from pipeline.events import (
+    Event,
+    Level,
+    LogEntries,
+    ProgressKind,
+    ReaderProgress,
+    RuleDecisions,
+    Topic,
+    WorldState,
+)
+from scenarios.schema import (
+    ActivityCompleted,
+    ActivityState,
+    Expectation,
+    GoalReached,
+    MaxSpeed,
+    MinDistance,
+    NoRejectedInputs,
+    RobotInArena,
+    RuleFired,
+    Scenario,
+)
+
+REJECTING_SOURCES = ("producer", "operator", "reader", "rules")
+"""Log sources whose warnings mean an input (update, command, script, rule) was rejected."""
+
+
+class Verdict(msgspec.Struct, frozen=True, kw_only=True):
+    """One expectation's outcome, with the figures behind it."""
+
+    name: str
+    ok: bool
+    detail: str
+
+
+class Tracker:
+    """A sink that keeps only the figures the expectations and the summary need."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.min_distance_m: dict[str, float] = {h.id: math.inf for h in scenario.humans}
+        self.max_speed_mps = 0.0
+        self.left_arena_ms: int | None = None
+        self.fired: Counter[str] = Counter()
+        self.goals_reached: dict[str, int] = {}
+        self.activity_states: dict[str, list[tuple[int, str]]] = {}
+        self.rejections: list[str] = []
+        self.contacts = 0
+        self.last_ms = 0
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        self.last_ms = message.time_ms
+        match message:
+            case WorldState():
+                self._world(message)
+            case RuleDecisions():
+                self.fired.update(d.rule for d in message.decisions if d.fired)
+            case ReaderProgress():
+                self._progress(message)
+            case LogEntries():
+                self.rejections += [
+                    f"{message.time_ms} ms {e.source}: {e.message}"
+                    for e in message.entries
+                    if e.level >= Level.WARNING and e.source in REJECTING_SOURCES
+                ]
+
+    def _world(self, state: WorldState) -> None:
+        robot = state.robot
+        self.max_speed_mps = max(self.max_speed_mps, math.hypot(robot.vx_mps, robot.vy_mps))
+        for human in state.humans:
+            distance = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
+            if distance < self.min_distance_m.get(human.id, math.inf):
+                self.min_distance_m[human.id] = distance
+        self.contacts += len(state.contacts)
+        world = self.scenario.world
+        inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
+        if not inside and self.left_arena_ms is None:
+            self.left_arena_ms = state.time_ms
+
+    def _progress(self, progress: ReaderProgress) -> None:
+        for item in progress.items:
+            if item.kind == ProgressKind.GOAL_REACHED:
+                self.goals_reached.setdefault(item.detail, progress.time_ms)
+            elif item.kind in (ProgressKind.LOAD, ProgressKind.IDLE):
+                self._state(item.activity, progress.time_ms, "running")
+            elif item.detail in ("completed", "interrupted"):
+                self._state(item.activity, progress.time_ms, item.detail)
+
+    def _state(self, activity: str, time_ms: int, state: str) -> None:
+        self.activity_states.setdefault(activity, []).append((time_ms, state))
+
+    def state_at(self, activity: str, time_ms: int) -> str:
+        """The activity's state at ``time_ms`` (``loaded`` before it first ran)."""
+        state = "loaded"
+        for when, value in self.activity_states.get(activity, ()):
+            if when <= time_ms:
+                state = value
+        return state
+
+    # --------------------------------------------------------------------- verdicts
+
+    def verdicts(self) -> list[Verdict]:
+        """Every expectation of the scenario, checked against what was seen."""
+        return [self._check(expectation) for expectation in self.scenario.expect]
+
+    def _check(self, e: Expectation) -> Verdict:
+        end_ms = self.last_ms
+        match e:
+            case GoalReached():
+                at = self.goals_reached.get(e.goal)
+                deadline = _ms(e.by_s, end_ms)
+                ok = at is not None and at <= deadline
+                seen = "never" if at is None else f"at {at / 1000:.2f} s"
+                return self._verdict(
+                    e, f"goal {e.goal} reached by {deadline / 1000:.2f} s", ok, f"reached {seen}"
+                )
+            case ActivityCompleted():
+                deadline = _ms(e.by_s, end_ms)
+                done = [t for t, s in self.activity_states.get(e.activity, ()) if s == "completed"]
+                ok = bool(done) and done[0] <= deadline
+                seen = f"at {done[0] / 1000:.2f} s" if done else "never"
+                return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
+            case RuleFired():
+                count = self.fired[e.rule]
+                ok = count >= e.at_least and (e.at_most is None or count <= e.at_most)
+                bound = f">= {e.at_least}" + (
+                    f" and <= {e.at_most}" if e.at_most is not None else ""
+                )
+                return self._verdict(e, f"rule {e.rule} fired {bound} times", ok, f"fired {count}")
+            case MinDistance():
+                humans = [e.human] if e.human else list(self.min_distance_m)
+                closest = min(
+                    (self.min_distance_m.get(h, math.inf) for h in humans), default=math.inf
+                )
+                ok = closest >= e.at_least_m
+                who = e.human or "every human"
+                return self._verdict(
+                    e, f"distance to {who} >= {e.at_least_m} m", ok, f"closest {closest:.3f} m"
+                )
+            case MaxSpeed():
+                ok = self.max_speed_mps <= e.at_most_mps + 1e-9
+                return self._verdict(
+                    e, f"speed <= {e.at_most_mps} m/s", ok, f"max {self.max_speed_mps:.3f} m/s"
+                )
+            case NoRejectedInputs():
+                first = self.rejections[0] if self.rejections else ""
+                return self._verdict(
+                    e,
+                    "no rejected inputs",
+                    not self.rejections,
+                    f"{len(self.rejections)} rejected" + (f"; first: {first}" if first else ""),
+                )
+            case RobotInArena():
+                ok = self.left_arena_ms is None
+                return self._verdict(
+                    e,
+                    "robot stays in the arena",
+                    ok,
+                    "stayed in" if ok else f"left at {self.left_arena_ms} ms",
+                )
+            case ActivityState():
+                when = _ms(e.at_s, end_ms)
+                state = self.state_at(e.activity, when)
+                return self._verdict(
+                    e,
+                    f"activity {e.activity} is {e.state} at {when / 1000:.2f} s",
+                    state == e.state,
+                    f"was {state}",
+                )
+        raise AssertionError(f"unhandled expectation {e!r}")
+
+    @staticmethod
+    def _verdict(e: Expectation, default_name: str, ok: bool, detail: str) -> Verdict:
+        return Verdict(name=e.name or default_name, ok=ok, detail=detail)
+
+
+def _ms(seconds: float | None, default_ms: int) -> int:
+    return default_ms if seconds is None else round(seconds * 1000)

@@ -1,0 +1,305 @@
+"""The scenario runner: world + sensors + pipeline + sinks, ticked by the simulated clock.
+
+Each tick: the world steps with the actuator's current outputs; the sensors
+sample it and the scenario's events fall due; then the pipeline's loop runs
+once. Everything goes to the sinks; a ``Tracker`` checks the expectations.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+from collections.abc import Callable, Iterable, Sequence
+from importlib import metadata as package_metadata
+from pathlib import Path
+
+import msgspec
+
+from pipeline.act.limits import RobotLimits
+from pipeline.events import JoystickInput, OperatorCommand, OperatorVerb, Topic
+from pipeline.loop import Pipeline, PipelineConfig
+from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
+from pipeline.operator.generators import default_catalogue
+from pipeline.operator.handler import GeneratorHandler
+from pipeline.sink import FanOut, Sink
+from pipeline.think import library as rule_library
+from pipeline.think.functions import default_registry
+from pipeline.think.library import RULES
+from scenarios.activities import ACTIVITIES, ActivityLibrary
+from scenarios.expectations import Tracker, Verdict
+from scenarios.loader import LoadedScenario
+from scenarios.schema import (
+    BehaviourEvent,
+    FaultEvent,
+    JoystickEvent,
+    OperatorEvent,
+    Scenario,
+    TouchEvent,
+)
+from scenarios.sensors import Sensors
+from scenarios.world import World, stream_rng
+
+AUTO_START_VERBS = (OperatorVerb.GET_READY, OperatorVerb.START)
+"""A scenario whose events use one of these drives the session itself; others auto-start."""
+
+
+class Summary(msgspec.Struct, frozen=True, kw_only=True):
+    """What a session did, for the end-of-run report."""
+
+    scenario: str
+    seed: int
+    ticks: int
+    duration_s: float
+    activities: dict[str, str]
+    goals_reached: dict[str, int]
+    rules_fired: dict[str, int]
+    min_distance_m: dict[str, float]
+    max_speed_mps: float
+    contacts: int
+    rejected_inputs: int
+
+
+class RunResult(msgspec.Struct, frozen=True, kw_only=True):
+    summary: Summary
+    verdicts: tuple[Verdict, ...]
+
+    @property
+    def ok(self) -> bool:
+        return all(v.ok for v in self.verdicts)
+
+
+def pipeline_config(scenario: Scenario) -> PipelineConfig:
+    """The pipeline's configuration for a scenario (tick length and robot limits)."""
+    robot = scenario.robot
+    return PipelineConfig(
+        tick_ms=scenario.tick_ms,
+        limits=RobotLimits(
+            max_speed_mps=robot.max_speed_mps,
+            max_angular_speed_radps=robot.max_angular_speed_radps,
+            max_accel_mps2=robot.max_accel_mps2,
+            max_angular_accel_radps2=robot.max_angular_accel_radps2,
+        ),
+    )
+
+
+class Session:
+    """One scenario, set up and ready to tick; ``run`` plays it to the end."""
+
+    def __init__(
+        self, loaded: LoadedScenario, *, sinks: Sequence[Sink] = (), seed: int | None = None
+    ) -> None:
+        scenario = loaded.scenario
+        if seed is not None:
+            scenario = msgspec.structs.replace(scenario, seed=seed)
+        self.loaded = loaded
+        self.scenario = scenario
+        self.tick_ms = scenario.tick_ms
+        self.library = ActivityLibrary(
+            [loaded.source.parent, loaded.source.parent / "activities", ACTIVITIES]
+        )
+        scripts = self._activity_scripts()
+        self.activity_names = list(scripts)
+        self.tracker = Tracker(scenario)
+        self.sink = FanOut(self.tracker, *sinks)
+        self.world = World(scenario, stream_rng(scenario.seed, "world"))
+        self.sensors = Sensors(scenario.sensors, scenario, stream_rng(scenario.seed, "sensors"))
+        self.config = pipeline_config(scenario)
+        self.pipeline = Pipeline(
+            self.config,
+            idle=self.library.idle(),
+            resolve=self.library.resolve,
+            handler=GeneratorHandler(default_catalogue(scripts)),
+            sink=self.sink,
+        )
+        self.outputs = ActuatorOutputs()
+        self.schedule = self._schedule()
+        self._command_id = 0
+
+    # ------------------------------------------------------------------- set-up
+
+    def _activity_scripts(self) -> dict[str, Script]:
+        scripts: dict[str, Script] = {}
+        for path in self.loaded.activity_paths:
+            if path is not None:
+                script = self.library.load(path)
+                scripts[script.activityname] = script
+        return scripts
+
+    def _selection(self) -> list[tuple[str, dict[str, str]]]:
+        selection = []
+        for spec, path in zip(self.scenario.activities, self.loaded.activity_paths, strict=True):
+            name = self.library.load(path).activityname if path is not None else spec.generator
+            selection.append((name or "", dict(spec.options)))
+        return selection
+
+    def _schedule(self) -> dict[int, list[object]]:
+        """Scenario events (and the automatic start) by the tick at which they fall due."""
+        schedule: dict[int, list[object]] = {}
+
+        def at(tick: int, item: object) -> None:
+            schedule.setdefault(tick, []).append(item)
+
+        for name, options in self._selection():
+            at(0, OperatorEvent(at_s=0, verb=OperatorVerb.ADD, activity=name, options=options))
+        drives = any(
+            isinstance(e, OperatorEvent) and e.verb in AUTO_START_VERBS
+            for e in self.scenario.events
+        )
+        if self.scenario.activities and not drives:
+            at(0, OperatorEvent(at_s=0, verb=OperatorVerb.GET_READY))
+            at(1, OperatorEvent(at_s=0, verb=OperatorVerb.START))
+        for event in self.scenario.events:
+            tick = self._tick_of(event.at_s)
+            at(tick, event)
+            if isinstance(event, JoystickEvent) and event.hold_s > 0:
+                at(max(tick + 1, self._tick_of(event.at_s + event.hold_s)), JoystickEvent(at_s=0))
+        return schedule
+
+    def _tick_of(self, seconds: float) -> int:
+        return round(seconds * 1000) // self.tick_ms
+
+    # -------------------------------------------------------------------- ticking
+
+    def step(
+        self,
+        tick: int,
+        *,
+        commands: Iterable[OperatorCommand] = (),
+        joystick: JoystickInput | None = None,
+    ) -> None:
+        """One tick: world, sensors and due events, the pipeline, the world's state."""
+        time_ms = tick * self.tick_ms
+        self.world.step(self.outputs, tick=tick)
+        scheduled: list[OperatorCommand] = []
+        for event in self.schedule.pop(tick, ()):
+            match event:
+                case OperatorEvent():
+                    scheduled.append(
+                        self.command(
+                            event.verb,
+                            activity=event.activity,
+                            options=event.options,
+                            position=event.position,
+                        )
+                    )
+                case JoystickEvent():
+                    joystick = JoystickInput(
+                        tick=tick,
+                        time_ms=time_ms,
+                        left_x=event.left_x,
+                        left_y=event.left_y,
+                        right_x=event.right_x,
+                        buttons=tuple(event.buttons),
+                    )
+                case TouchEvent():
+                    self.sensors.touch(event, time_ms=time_ms)
+                case FaultEvent():
+                    self.sensors.fault(event)
+                case BehaviourEvent():
+                    self.world.apply_event(event)
+        updates: list[MapUpdate] = self.sensors.sample(self.world, tick=tick, time_ms=time_ms)
+        self.outputs = self.pipeline.tick(
+            tick=tick, updates=updates, commands=[*scheduled, *commands], joystick=joystick
+        )
+        self.world.led, self.world.audio = self.outputs.led, self.outputs.audio
+        self.sink.record(
+            Topic.WORLD_STATE, time_ms * 1_000_000, self.world.state(tick=tick, time_ms=time_ms)
+        )
+
+    def command(self, verb: OperatorVerb, **fields: object) -> OperatorCommand:
+        """A new operator command with the session's next id."""
+        self._command_id += 1
+        return OperatorCommand(id=self._command_id, verb=verb, **fields)  # type: ignore[arg-type]
+
+    def run(
+        self,
+        *,
+        progress: Callable[[int, int], None] | None = None,
+        pace: Callable[[int], None] | None = None,
+    ) -> RunResult:
+        """Play every tick of the scenario; ``progress(tick, total)`` and ``pace(tick)`` are
+        called after each tick (pace sleeps to the wall clock in ``--realtime`` mode)."""
+        total = self.scenario.ticks
+        for tick in range(total):
+            self.step(tick)
+            if progress is not None:
+                progress(tick + 1, total)
+            if pace is not None:
+                pace(tick)
+        return self.result()
+
+    def result(self) -> RunResult:
+        t = self.tracker
+        summary = Summary(
+            scenario=self.scenario.name,
+            seed=self.scenario.seed,
+            ticks=t.last_ms // self.tick_ms + 1,
+            duration_s=t.last_ms / 1000,
+            activities={a.name: a.state for a in self.pipeline.handler.activities()},
+            goals_reached=dict(t.goals_reached),
+            rules_fired=dict(sorted(t.fired.items())),
+            min_distance_m={h: round(d, 4) for h, d in t.min_distance_m.items()},
+            max_speed_mps=round(t.max_speed_mps, 4),
+            contacts=t.contacts,
+            rejected_inputs=len(t.rejections),
+        )
+        return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
+
+    # ------------------------------------------------------------------ recording
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """MCAP metadata records: enough, with the attachments, to rebuild this run."""
+        s = self.scenario
+        return {
+            "oimi": {
+                "version": _version(),
+                "format_version": str(FORMAT_VERSION),
+                "rule_registry": _rule_registry_version(),
+                "function_registry": default_registry().version,
+            },
+            "scenario": {
+                "name": s.name,
+                "file": self.loaded.source.name,
+                "seed": str(s.seed),
+                "tick_hz": str(s.tick_hz),
+                "duration_s": repr(s.duration_s),
+                "ticks": str(s.ticks),
+            },
+            "configuration": {
+                "pipeline": msgspec.json.encode(self.config).decode(),
+                "robot": msgspec.json.encode(s.robot).decode(),
+                "sensors": msgspec.json.encode(s.sensors).decode(),
+            },
+        }
+
+    def attachments(self) -> list[tuple[str, bytes]]:
+        """The scenario file, every script its activity folders hold (first folder wins a name),
+        and the rule library's source."""
+        files = [(f"scenario/{self.loaded.source.name}", self.loaded.raw)]
+        seen: set[str] = set()
+        for folder in self.library.folders:
+            for path in sorted([*folder.glob("*.json"), *folder.glob("*.txt")]):
+                if path.name not in seen:
+                    seen.add(path.name)
+                    files.append((f"activities/{path.name}", path.read_bytes()))
+        files.append(("rules/library.py", inspect.getsource(rule_library).encode()))
+        return files
+
+
+def _version() -> str:
+    try:
+        return package_metadata.version("oimi")
+    except package_metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
+def _rule_registry_version() -> str:
+    text = ";".join(
+        f"{code}:{cls.__name__}:{cls.condition_text}" for code, cls in RULES.codes().items()
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def library_scenarios() -> list[Path]:
+    """The shipped scenario files, sorted by name."""
+    return sorted(ACTIVITIES.parent.glob("*.toml"))
