@@ -54,9 +54,12 @@ class Rule:
         found = self.condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            before = msgspec.to_builtins(world_map)
+            before = msgspec.json.encode(world_map)
             self.act(world_map, found, ctx)
-            changes = tuple(diff(before, msgspec.to_builtins(world_map)))
+            after = msgspec.json.encode(world_map)
+            if after != before:
+                old = msgspec.json.decode(before)
+                changes = tuple(diff(old, msgspec.json.decode(after)))
         return RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,
