@@ -16,6 +16,9 @@ from pipeline.think.conditions import Evaluation
 from pipeline.think.rules import Rule, RuleContext, RuleRegistry
 
 IDLE_ACTIVITY: Final = "idle_activity"
+TOO_CLOSE_M: Final = 0.7
+"""``child_too_close`` threshold, centre to centre (as ``positionrho`` is measured): a 0.3 m
+robot and a 0.25 m child touch at 0.55 m, so 0.7 m leaves room to brake from 0.3 m/s."""
 WAITING_ACTIVITY: Final = "wait_for_child"
 
 RULES = RuleRegistry()
@@ -60,25 +63,42 @@ class KickStarter(Rule):
         )
 
 
+def soften(world_map: WorldMap, found: Evaluation, alias: str, ctx: RuleContext) -> None:
+    """Stop moving and dim the lights, unless the block does not move or is already softened."""
+    block = world_map.scriptinfo.block
+    moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
+    if not moving or (block is not None and block.flagged == "softened"):
+        return
+    entity = found.entity(world_map, alias)
+    if entity is not None:
+        entity.attributes["too_close_at"] = str(ctx.now_ms)
+    replace_block(
+        world_map,
+        InstructionBlock(led=(_led(0.3, 0.15, 0.05, duration=2000),), flagged="softened"),
+    )
+
+
 @RULES.register
 class ChildTooClose(Rule):
-    """A child closer than 0.5 m: stop moving and soften the lights (the block is replaced)."""
+    """A child closer than 0.8 m (centre to centre, a gap of about 0.25 m): stop moving and
+    soften the lights (the block is replaced)."""
 
     rulecode = rulecodes.CHILD_TOO_CLOSE
-    condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.5} ! {TRUE}"
+    condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        block = world_map.scriptinfo.block
-        moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
-        if not moving or (block is not None and block.flagged == "softened"):
-            return
-        child = found.entity(world_map, "?child")
-        if child is not None:
-            child.attributes["too_close_at"] = str(ctx.now_ms)
-        replace_block(
-            world_map,
-            InstructionBlock(led=(_led(0.3, 0.15, 0.05, duration=2000),), flagged="softened"),
-        )
+        soften(world_map, found, "?child", ctx)
+
+
+@RULES.register
+class ObstacleTooClose(Rule):
+    """Furniture closer than 0.45 m (sonar): stop moving and soften the lights."""
+
+    rulecode = rulecodes.OBSTACLE_TOO_CLOSE
+    condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        soften(world_map, found, "?thing", ctx)
 
 
 @RULES.register
@@ -96,35 +116,53 @@ class ChildLeft(Rule):
         force_switch(world_map, WAITING_ACTIVITY)
 
 
+def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> None:
+    """Play ``block`` once for the latest touch of ``touchtype`` (remembered in a variable)."""
+    touches = [t for t in world_map.robotstatus.touch if t.touchtype == touchtype]
+    if not touches:
+        return
+    key, stamp = f"@rewarded_{touchtype}", str(touches[-1].startingtime)
+    if world_map.variables.get(key) == stamp:
+        return
+    world_map.variables[key] = stamp
+    replace_block(world_map, block)
+
+
 @RULES.register
 class TouchReward(Rule):
     """A caress (``C``) is rewarded with a rainbow of light and a chime, once per touch."""
 
     rulecode = rulecodes.TOUCH_REWARD
     condition_text = '! {E: touched ("C")}'
-
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        touches = [t for t in world_map.robotstatus.touch if t.touchtype == "C"]
-        if not touches:
-            return
-        stamp = str(touches[-1].startingtime)
-        if world_map.variables.get("@rewarded_touch") == stamp:
-            return
-        world_map.variables["@rewarded_touch"] = stamp
-        rainbow = (
+    reward = InstructionBlock(
+        led=(
             _led(1.0, 0.2, 0.2, duration=400),
             _led(1.0, 0.8, 0.1, duration=400),
             _led(0.2, 1.0, 0.3, duration=400),
             _led(0.2, 0.4, 1.0, duration=400),
-        )
-        replace_block(
-            world_map,
-            InstructionBlock(
-                led=rainbow,
-                audioout=(AudioOut(track_path="reward_chime.wav", wait_t=0, duration=1600),),
-                flagged="reward",
-            ),
-        )
+        ),
+        audioout=(AudioOut(track_path="reward_chime.wav", wait_t=0, duration=1600),),
+        flagged="reward",
+    )
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        reward_touch(world_map, "C", self.reward)
+
+
+@RULES.register
+class HugReward(Rule):
+    """A hug (``H``) is answered with a slow warm glow and a purr, once per hug."""
+
+    rulecode = rulecodes.HUG_REWARD
+    condition_text = '! {E: touched ("H")}'
+    reward = InstructionBlock(
+        led=(_led(1.0, 0.5, 0.2, duration=1500),),
+        audioout=(AudioOut(track_path="purr.wav", wait_t=0, duration=1500),),
+        flagged="reward",
+    )
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        reward_touch(world_map, "H", self.reward)
 
 
 @RULES.register
@@ -182,3 +220,16 @@ class JoystickNote(Rule):
             world_map.variables["@joystick_engaged_since"] = str(ctx.now_ms)
             count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
             world_map.variables["@joystick_takeovers"] = str(count)
+
+
+@RULES.register
+class ToyNearby(Rule):
+    """The target toy is within 1 m: noted on the toy (``$nearby_since``) for scripts to use."""
+
+    rulecode = rulecodes.TOY_NEARBY
+    condition_text = "{CLASS #Object L ?toy ?THIS>&istarget OP= 1} ! {E: near (?toy, 1.0)}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        toy = found.entity(world_map, "?toy")
+        if toy is not None and "nearby_since" not in toy.attributes:
+            toy.attributes["nearby_since"] = str(ctx.now_ms)

@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Final
 
+import msgspec
+
 from pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
 from pipeline.messages import (
     REGISTER_CAPACITY,
@@ -190,25 +192,13 @@ class BlockReader:
         )
         outcome.extend(self._end_current(ProgressKind.SWITCH, completed=False, now_ms=now_ms))
         if not self._is_idle_entry(interrupted) and entry is not self.idle:
-            goal = self.position[0]
-            self.lifo.append(
-                ScriptEntry(
-                    activity=interrupted.activity,
-                    script=interrupted.script,
-                    source=interrupted.source,
-                    start=(goal, 0, 0),
-                    operator=interrupted.operator,
-                )
-            )
+            # Suspended, not finished: it waits in the LIFO and resumes at the goal it was in.
+            outcome.finished.remove((interrupted.activity, False))
+            self.lifo.append(msgspec.structs.replace(interrupted, start=(self.position[0], 0, 0)))
+            self._mirror()
         outcome.extend(
             self._load(
-                ScriptEntry(
-                    activity=entry.activity,
-                    script=entry.script,
-                    source=entry.source,
-                    start=start,
-                    operator=entry.operator,
-                ),
+                msgspec.structs.replace(entry, start=start),
                 now_ms=now_ms,
             )
         )

@@ -26,6 +26,12 @@ class RuleCode(enum.IntEnum):
     """Ends the activity when the battery runs low."""
     JOYSTICK_NOTE = 6
     """Notes the operator's joystick taking over."""
+    OBSTACLE_TOO_CLOSE = 7
+    """Safety: stops motion when furniture is closer than the safety distance."""
+    HUG_REWARD = 8
+    """Answers a hug with a warm glow."""
+    TOY_NEARBY = 9
+    """Notes in the map when the target toy is within reach."""
 
 
 KICK_STARTER = RuleCode.KICK_STARTER
@@ -35,3 +41,6 @@ TOUCH_REWARD = RuleCode.TOUCH_REWARD
 ATTENTION_LOST = RuleCode.ATTENTION_LOST
 BATTERY_LOW = RuleCode.BATTERY_LOW
 JOYSTICK_NOTE = RuleCode.JOYSTICK_NOTE
+OBSTACLE_TOO_CLOSE = RuleCode.OBSTACLE_TOO_CLOSE
+HUG_REWARD = RuleCode.HUG_REWARD
+TOY_NEARBY = RuleCode.TOY_NEARBY

@@ -193,7 +193,8 @@ def test_a_compulsory_switch_loads_the_named_script_and_resumes_the_interrupted_
     )
     info.overridecmd = True
     out = r.compulsory_switch(now_ms=150)
-    assert ("game", False) in out.finished
+    assert out.finished == [], "suspended, not finished: the operator still sees it current"
+    assert [e.activity for e in r.lifo] == ["game"] and r.map.scriptinfo.script_vect == ["game"]
     assert r.map.robotstatus.goalinterrupted[-1].goalid == "game_g1"
     r.read(actuator_done=False, now_ms=150)
     assert shown(r) == "wait" and not info.overridecmd

@@ -27,6 +27,9 @@ ALL = [
     ("attention_lost", rulecodes.ATTENTION_LOST),
     ("battery_low", rulecodes.BATTERY_LOW),
     ("joystick_note", rulecodes.JOYSTICK_NOTE),
+    ("obstacle_too_close", rulecodes.OBSTACLE_TOO_CLOSE),
+    ("hug_reward", rulecodes.HUG_REWARD),
+    ("toy_nearby", rulecodes.TOY_NEARBY),
 ]
 
 
@@ -151,3 +154,41 @@ def test_kick_starter_welcomes_a_child_once_and_only_while_idle() -> None:
     s.map.scriptinfo.block = None
     s.tick(300, pose(3, 1.5, 0.1, 300))
     assert s.map.scriptinfo.block is None, "welcomed once"
+
+
+def sighting(seq: int, objectid: str, rho: float, t: int) -> MapUpdate:
+    msg = json.dumps({"positionrho": rho, "positiontheta": 0.0, "positionchangetime": t})
+    return MapUpdate(
+        objectid=objectid, attributename="poses", policy=Policy.R, jsonmsg=msg, seq=seq
+    )
+
+
+def test_furniture_too_close_stops_a_moving_block() -> None:
+    s = Session()
+    s.map.scriptinfo.block = InstructionBlock(
+        move=(Move(v_x=0.0, v_y=0.2, v_theta=0, wait_t=0, duration=2000),)
+    )
+    s.tick(100, sighting(1, "Obstacle/shelf", 0.6, 100))
+    assert s.map.scriptinfo.block.move
+    s.tick(200, sighting(2, "Obstacle/shelf", 0.4, 200))
+    assert s.map.scriptinfo.block.flagged == "softened" and s.map.scriptinfo.block.move == ()
+
+
+def test_a_hug_gets_its_own_reward_once() -> None:
+    s = Session()
+    s.tick(100, touch(1, "H", 100))
+    assert s.map.scriptinfo.block.flagged == "reward" and s.map.variables["@rewarded_H"] == "100"
+    s.map.scriptinfo.block = None
+    s.tick(200)
+    assert s.map.scriptinfo.block is None
+
+
+def test_the_target_toy_within_reach_is_noted_on_the_toy() -> None:
+    s = Session()
+    target = MapUpdate(
+        objectid="Object/ball", attributename="istarget", policy=Policy.R, jsonmsg="s_true", seq=1
+    )
+    s.tick(100, target, sighting(2, "Object/ball", 1.5, 100))
+    assert "nearby_since" not in s.map.objects[0].attributes
+    s.tick(200, sighting(3, "Object/ball", 0.8, 200))
+    assert s.map.objects[0].attributes["nearby_since"] == "200"
