@@ -26,10 +26,11 @@ COMMANDS: tuple[str, ...] = (
 """Sub-commands, each in ``oimi/cmd_<name>.py`` with ``add_arguments(parser)`` and ``run(args)``."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(names: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
+    """The parser with the given sub-commands (importing only their modules)."""
     parser = argparse.ArgumentParser(prog="oimi", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    for name in names:
         try:
             module = importlib.import_module(f"oimi.cmd_{name}")
         except ModuleNotFoundError as error:
@@ -44,7 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    wanted = next((word for word in argv if not word.startswith("-")), None)
+    args = build_parser([wanted] if wanted in COMMANDS else COMMANDS).parse_args(argv)
     try:
         return int(args.handler(args) or EXIT_OK)
     except LocatedError as error:

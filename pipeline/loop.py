@@ -23,6 +23,7 @@ from pipeline.events import (
     MapSnapshot,
     OperatorCommand,
     OperatorCommands,
+    OperatorReply,
     ReaderProgress,
     RuleChainState,
     RuleDecisions,
@@ -120,7 +121,9 @@ class Pipeline:
         self.actuator.issue(info.block, changed=info.changed or fresh, now_ms=now_ms)
         info.changed = False
         step = self.actuator.step(now_ms=now_ms)
-        info.submove, info.subled, info.subaout = self.actuator.progress
+        progress = self.actuator.progress
+        moved_on = progress != (info.submove, info.subled, info.subaout)
+        info.submove, info.subled, info.subaout = progress
         self._note_joystick()
         if step.commands:
             emitter.emit(
@@ -132,7 +135,24 @@ class Pipeline:
         for text in (*step.clamps, *step.notes):
             emitter.log(Level.WARNING, "actuator", text, info.currentactivity)
 
-        # 3-4. Consume the pending updates into the map.
+        # 3. Pending update? Nothing new in the world or in the block's execution: stall.
+        if not (
+            self.producer.pending
+            or moved_on
+            or step.done
+            or step.commands
+            or commands
+            or joystick is not None
+            or outcome.items
+            or self.reader.fresh
+            or info.overridecmd
+            or info.restart
+        ):
+            self._publish_operator(emitter)
+            emitter.flush_logs()
+            return step.outputs
+
+        # 4. Consume the pending updates into the map.
         for rejection in self.producer.consume(now_ms):
             emitter.log(Level.WARNING, "producer", str(rejection), str(rejection.update.seq))
 
@@ -151,7 +171,8 @@ class Pipeline:
 
         # 2. Publish progress (after this tick's reading, so it names the block in the works).
         self._publish_progress(outcome, emitter)
-        self._publish_state(emitter)
+        self._publish_map(emitter)
+        self._publish_operator(emitter)
         emitter.flush_logs()
         return step.outputs
 
@@ -159,6 +180,7 @@ class Pipeline:
 
     def _operate(self, command: OperatorCommand, emitter: _Emitter, now_ms: int) -> ReadOutcome:
         result = self.handler.handle(command, now_ms=now_ms)
+        emitter.replies.append(result.reply)
         outcome = ReadOutcome()
         if not result.reply.ok:
             emitter.log(Level.WARNING, "operator", result.reply.reason, str(command.id))
@@ -224,12 +246,16 @@ class Pipeline:
             items=tuple(outcome.items),
         )
 
-    def _publish_state(self, emitter: _Emitter) -> None:
+    def _publish_map(self, emitter: _Emitter) -> None:
         encoded = msgspec.json.encode(self.map)
         if encoded != self._last_map:
             self._last_map = encoded
             emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.json.decode(encoded, type=WorldMap))
-        state = self.handler.state(tick=emitter.tick, time_ms=emitter.time_ms)
+
+    def _publish_operator(self, emitter: _Emitter) -> None:
+        state = self.handler.state(
+            tick=emitter.tick, time_ms=emitter.time_ms, replies=tuple(emitter.replies)
+        )
         key = msgspec.json.encode((state.button, state.activities, state.replies))
         if key != self._last_operator:
             self._last_operator = key
@@ -245,6 +271,8 @@ class _Emitter:
         self.time_ms = time_ms
         self.time_ns = time_ms * 1_000_000
         self.logs: list[LogEntry] = []
+        self.replies: list[OperatorReply] = []
+        """The replies to this tick's operator commands, for ``/operator/state``."""
 
     def emit(self, topic: Topic, kind: type[Event], **fields: object) -> None:
         self.sink.record(topic, self.time_ns, kind(tick=self.tick, time_ms=self.time_ms, **fields))

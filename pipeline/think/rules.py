@@ -27,6 +27,8 @@ class RuleContext:
 
     now_ms: int
     tick_scope: dict[str, str] = field(default_factory=dict)
+    snapshot: bytes | None = None
+    """The map's JSON as the last fired rule left it (saves encoding it again)."""
 
 
 class Rule:
@@ -54,12 +56,11 @@ class Rule:
         found = self.condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            before = msgspec.json.encode(world_map)
+            before = ctx.snapshot or msgspec.json.encode(world_map)
             self.act(world_map, found, ctx)
-            after = msgspec.json.encode(world_map)
+            after = ctx.snapshot = msgspec.json.encode(world_map)
             if after != before:
-                old = msgspec.json.decode(before)
-                changes = tuple(diff(old, msgspec.json.decode(after)))
+                changes = tuple(diff(msgspec.json.decode(before), msgspec.json.decode(after)))
         return RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,

@@ -188,11 +188,35 @@ def test_the_joystick_overrides_the_script_while_the_lock_is_held_and_stops_on_r
     assert safety and safety[0] == 70
 
 
-def test_every_tick_emits_rule_decisions_and_the_map_only_when_it_changed() -> None:
-    sink = run_session(50)
-    assert len(sink.on(Topic.RULE_DECISIONS)) == 50
-    maps = sink.on(Topic.MAP)
-    assert len(maps) < 50
+def test_the_loop_stalls_until_an_update_or_the_block_moves_on() -> None:
+    sink = MemorySink()
+    p = pipeline(sink)
+    for tick in range(10):
+        p.tick(tick=tick)
+    evaluated = [e.tick for e in sink.on(Topic.RULE_DECISIONS)]
+    assert evaluated == [0, 1], "the idle block starts at tick 1; then nothing changes"
+    behind = json.dumps({"positionrho": 1.5, "positiontheta": 3.0, "positionchangetime": 200})
+    p.tick(
+        tick=10,
+        updates=[
+            MapUpdate(
+                objectid="Human/child",
+                attributename="poses",
+                policy=Policy.R,
+                jsonmsg=behind,
+                seq=1,
+            )
+        ],
+    )
+    assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
+    assert sink.on(Topic.MAP)[-1].map.humans[0].positionrho == 1.5
+    p.tick(tick=11)
+    assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
+
+
+def test_the_map_is_published_only_when_it_changed() -> None:
+    maps = run_session(50).on(Topic.MAP)
+    assert 0 < len(maps) < 50
     assert all(a.map != b.map for a, b in itertools.pairwise(maps))
 
 
