@@ -401,7 +401,8 @@ def run_suite(
 
 def header() -> str:
     return (
-        f"| {'case':<34} | {'median':>14} | {'unit':<14} | {'floor':>14} | {'ratio':>6} | target |\n"
+        f"| {'case':<34} | {'median':>14} | {'unit':<14} | {'floor':>14} | {'ratio':>6} "
+        "| target |\n"
         f"|{'-' * 36}|{'-' * 16}:|{'-' * 16}|{'-' * 15}:|{'-' * 7}:|--------|"
     )
 
