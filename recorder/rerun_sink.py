@@ -36,7 +36,7 @@ from pipeline.events import (
 )
 from pipeline.messages import InstructionBlock
 from recorder.errors import RecordingError
-from recorder.reader import open_recording
+from recorder.reader import Recording, open_recording
 from recorder.scene import SceneGeometry
 from recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
 
@@ -410,11 +410,12 @@ def mcap_to_rrd(
     rrd_path: str | os.PathLike[str],
     *,
     world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
-) -> None:
+) -> Recording:
     """Convert an oimi MCAP recording to an ``.rrd`` through :class:`RerunSink`.
 
     The scene comes from the ``oimi/scene.json`` attachment when present. A damaged
-    MCAP is converted up to its damage (see ``Recording.recovery``).
+    MCAP is converted up to its damage; the returned recording's ``recovery`` says
+    how much was read (None for an intact file).
     """
     recording = open_recording(mcap_path)
     source = os.fspath(mcap_path)
@@ -433,3 +434,4 @@ def mcap_to_rrd(
     ) as sink:
         for message in recording.iter_messages():
             sink.record(message.topic, message.time_ns, message.decoded())
+    return recording

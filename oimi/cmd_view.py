@@ -1,0 +1,165 @@
+"""View a recording in the Rerun viewer; an MCAP recording is converted to Rerun first.
+
+``--save OUT.rrd`` only writes the Rerun recording (no screen needed). Otherwise the
+viewer starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics
+off; ``--web`` serves the web viewer on 127.0.0.1 instead of opening a window. A
+damaged MCAP (a killed run) is converted up to its damage, and how much was
+recovered is printed. Exit 0 on success, 1 when the viewer cannot run, 2 on a
+missing or unreadable recording.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Final
+
+from recorder.errors import RecordingError
+from recorder.rerun_sink import mcap_to_rrd
+
+EXIT_OK, EXIT_FAILED = 0, 1
+BIND_ADDRESS: Final = "127.0.0.1"
+"""Every server the viewer opens listens here only (Rerun's own default is 0.0.0.0)."""
+DEFAULT_WEB_PORT: Final = 9090
+ANALYTICS_OFF_VARIABLE: Final = "CI"
+"""Rerun 0.41's viewer records no analytics when ``CI`` is set (any value); it has no
+other switch but ``rerun analytics disable``, which is persistent and left to the user."""
+ANALYTICS_FORCE_VARIABLE: Final = "FORCE_RERUN_ANALYTICS"
+"""Overrides the above in Rerun; removed from the viewer's environment."""
+SUFFIXES: Final = (".mcap", ".rrd")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "recording", type=Path, metavar="SESSION", help="an oimi recording (.mcap) or a .rrd"
+    )
+    parser.add_argument(
+        "--save",
+        type=Path,
+        metavar="OUT.rrd",
+        help="write the Rerun recording here and do not start the viewer",
+    )
+    parser.add_argument(
+        "--port", type=_port, help="port of the viewer's gRPC server (default: Rerun's, 9876)"
+    )
+    parser.add_argument(
+        "--web",
+        action="store_true",
+        help=f"serve the web viewer on {BIND_ADDRESS} instead of opening a window",
+    )
+    parser.add_argument(
+        "--web-port",
+        type=_port,
+        default=DEFAULT_WEB_PORT,
+        help=f"HTTP port of the web viewer (default {DEFAULT_WEB_PORT})",
+    )
+
+
+def _port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be 1 to 65535, got {port}")
+    return port
+
+
+def run(args: argparse.Namespace) -> int:
+    source: Path = args.recording
+    _check_readable(source)
+    if args.save is not None:
+        write_rrd(source, args.save)
+        print(f"rerun: {args.save}")
+        return EXIT_OK
+    problem = display_problem(web=args.web, environ=os.environ, platform=sys.platform)
+    if problem is not None:
+        print(f"oimi view: {problem}", file=sys.stderr)
+        return EXIT_FAILED
+    with tempfile.TemporaryDirectory(prefix="oimi-view-") as folder:
+        rrd = source
+        if source.suffix.lower() == ".mcap":
+            rrd = Path(folder) / f"{source.stem}.rrd"
+            write_rrd(source, rrd)
+        return start_viewer(rrd, port=args.port, web=args.web, web_port=args.web_port)
+
+
+def _check_readable(source: Path) -> None:
+    """A clear ``RecordingError`` (exit 2) for a wrong suffix or a file that cannot be read."""
+    if source.suffix.lower() not in SUFFIXES:
+        raise RecordingError(
+            f"expected an oimi recording (.mcap) or a Rerun recording (.rrd), not {source.name!r}",
+            source=str(source),
+        )
+    try:
+        with open(source, "rb"):
+            pass
+    except OSError as error:
+        raise RecordingError(f"cannot read: {error.strerror}", source=str(source)) from None
+
+
+def write_rrd(source: Path, target: Path) -> None:
+    """``source`` as a Rerun recording at ``target``; a damaged MCAP's recovery is printed."""
+    if source.suffix.lower() == ".rrd":
+        if source.resolve() != target.resolve():
+            shutil.copyfile(source, target)
+        return
+    recording = mcap_to_rrd(source, target)
+    if recording.recovery is not None:
+        print(f"oimi view: {source}: damaged recording, {recording.recovery}", file=sys.stderr)
+
+
+def display_problem(*, web: bool, environ: Mapping[str, str], platform: str) -> str | None:
+    """Why a native viewer window cannot open here, or None."""
+    if web or not platform.startswith("linux"):
+        return None
+    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+        return None
+    return (
+        "no display ($DISPLAY and $WAYLAND_DISPLAY are not set): write the Rerun recording"
+        f" with --save OUT.rrd, or serve the web viewer on {BIND_ADDRESS} with --web"
+    )
+
+
+def viewer_command(rrd: Path, *, port: int | None, web: bool, web_port: int) -> list[str]:
+    """The command line that starts Rerun's viewer on ``rrd``, bound to 127.0.0.1."""
+    command = [sys.executable, "-m", "rerun_cli", "--bind", BIND_ADDRESS]
+    if port is not None:
+        command += ["--port", str(port)]
+    if web:
+        command += ["--web-viewer", "--web-viewer-port", str(web_port)]
+    return [*command, str(rrd)]
+
+
+def viewer_environment(environ: Mapping[str, str]) -> dict[str, str]:
+    """The viewer's environment: ours, with Rerun's analytics off (this process only)."""
+    env = {k: v for k, v in environ.items() if k != ANALYTICS_FORCE_VARIABLE}
+    env.setdefault(ANALYTICS_OFF_VARIABLE, "1")
+    return env
+
+
+def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> int:
+    """Run the viewer on ``rrd`` until it is closed (or Ctrl-C)."""
+    command = viewer_command(rrd, port=port, web=web, web_port=web_port)
+    if web:
+        print(f"web viewer: http://{BIND_ADDRESS}:{web_port} (Ctrl-C to stop)")
+    else:
+        print(f"Rerun viewer on {rrd.name} (gRPC on {BIND_ADDRESS}:{port or 9876})")
+    sys.stdout.flush()
+    try:
+        status = subprocess.run(command, env=viewer_environment(os.environ), check=False)
+    except OSError as error:
+        print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    if status.returncode != 0:
+        print(
+            f"oimi view: the Rerun viewer exited with status {status.returncode}", file=sys.stderr
+        )
+        return EXIT_FAILED
+    return EXIT_OK
