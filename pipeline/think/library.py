@@ -16,9 +16,6 @@ from pipeline.think.conditions import Evaluation
 from pipeline.think.rules import Rule, RuleContext, RuleRegistry
 
 IDLE_ACTIVITY: Final = "idle_activity"
-TOO_CLOSE_M: Final = 0.7
-"""``child_too_close`` threshold, centre to centre (as ``positionrho`` is measured): a 0.3 m
-robot and a 0.25 m child touch at 0.55 m, so 0.7 m leaves room to brake from 0.3 m/s."""
 WAITING_ACTIVITY: Final = "wait_for_child"
 
 RULES = RuleRegistry()

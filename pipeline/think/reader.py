@@ -7,6 +7,12 @@ yields its omega messages; the loop hands both to the rule chain.
 
 The LIFO is mirrored in ``map.scriptinfo.script_vect`` (last = top): a
 ``script_vect`` update or a rule that changes it changes what runs next.
+
+Goals: a goal is *reached* when its last action finishes in order, when a jump
+goes on to the first block of the next goal, or when a terminus ends the script
+inside it. A goal left by any other jump into another goal is not reached; if the script then completes without reaching it, it is *failed*. A goal
+cut short by a rule-forced switch or the operator is *interrupted*; a switched-out
+script waits in the LIFO and resumes from the start of the goal it was in.
 """
 
 from __future__ import annotations
@@ -126,6 +132,8 @@ class BlockReader:
         self.new_block = False
         """A new instruction block was put in the map since the loop last issued one."""
         self._conditions: dict[str, Condition] = {}
+        self._abandoned: set[int] = set()
+        """Goals of the current script left by a jump (membership only, never iterated)."""
 
     # ----------------------------------------------------------------- public steps
 
@@ -321,6 +329,7 @@ class BlockReader:
         self.current = entry
         self.position = entry.start
         self.fresh = True
+        self._abandoned = set()
         info = self.map.scriptinfo
         info.currentactivity = entry.activity
         info.scriptpath = entry.source
@@ -348,6 +357,11 @@ class BlockReader:
         goal = self.position[0]
         if completed:
             self._set_goal(goal, GoalStatus.REACHED, now_ms, ProgressKind.GOAL_REACHED, outcome)
+            for index, record in enumerate(tracking.goals):
+                if index in self._abandoned and record.status != GoalStatus.REACHED:
+                    self._set_goal(
+                        index, GoalStatus.FAILED, now_ms, ProgressKind.GOAL_FAILED, outcome
+                    )
         elif (
             not self._is_idle_entry(entry)
             and goal < len(tracking.goals)
@@ -436,12 +450,14 @@ class BlockReader:
         if not target:
             return self._after(self.position, outcome, now_ms)
         position = parse_path(target)
-        if position[0] != self.position[0]:
-            if position[0] > self.position[0]:
-                self._set_goal(
-                    self.position[0], GoalStatus.REACHED, now_ms, ProgressKind.GOAL_REACHED, outcome
-                )
-            self._set_goal(position[0], GoalStatus.PENDING, None, None, None)
+        goal = self.position[0]
+        if position == (goal + 1, 0, 0):
+            # Straight on to the next goal: the same as finishing this one.
+            self._set_goal(goal, GoalStatus.REACHED, now_ms, ProgressKind.GOAL_REACHED, outcome)
+        elif position[0] != goal:
+            # Left elsewhere: not reached; failed if the script ends without reaching it.
+            self._set_goal(goal, GoalStatus.PENDING, None, None, None)
+            self._abandoned.add(goal)
         return position
 
     def _check_conditions(self, script: Script) -> str:

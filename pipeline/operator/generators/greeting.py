@@ -1,13 +1,16 @@
-"""Greeting: turn to the nearest child, approach slowly to about 0.8 m, greet with light and sound.
+"""Greeting: turn to the nearest child, approach slowly to about 1 m, greet with light and sound.
 
 Scripts are open loop, so the search and the approach are bounded loops
 unrolled into numbered steps: each step checks a condition with a jump block
-and either moves on or does one small turn or step. When the child is never
-found (or never reached), the script ends in ``no_child_found``.
+and either moves on or does one small turn or step. A step is taken only while
+the camera keeps seeing someone (a stale pose would walk the robot into the child);
+otherwise the step waits. When the child is never found (or never reached), the
+script ends in ``no_child_found``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Final
 
@@ -30,7 +33,23 @@ STEP_MS: Final = 500
 DIM: Final[Colour] = (0.1, 0.1, 0.3)
 """Colour shown while searching and approaching."""
 
+REACH_M: Final = 4.0
+"""With ``steps = auto``: the farthest child (centre to centre, m) the approach can reach."""
+
+BLIND_STEPS: Final = 20
+"""With ``steps = auto``: extra steps for waiting while the camera does not see the child."""
+
 NO_HUMAN_IN_FRONT: Final = "! {E: no_human_in_front ()}"
+SEEN_LATELY: Final = "{CLASS #Human L ?child B: seen_within (500)} ! {TRUE}"
+"""Some human's pose was refreshed in the last 500 ms (the camera runs at 10 Hz)."""
+
+
+def auto_steps(*, distance_m: float, speed_mps: float) -> tuple[int, int]:
+    """``(turns, steps)`` for ``steps = auto``: turns enough for a full circle, steps enough
+    to come from ``REACH_M`` to ``distance_m`` at ``speed_mps`` and to wait ``BLIND_STEPS``."""
+    turns = math.ceil(2 * math.pi / (TURN_RADPS * STEP_MS / 1000))
+    steps = math.ceil((REACH_M - distance_m) / (speed_mps * STEP_MS / 1000)) + BLIND_STEPS
+    return turns, steps
 
 
 def near_child(distance_m: float) -> str:
@@ -45,16 +64,17 @@ class GreetingGenerator(BaseGenerator):
     title = "Greeting"
     description = (
         "The robot turns towards the nearest child, comes slowly closer until about "
-        "0.8 m, and says hello with light and sound."
+        "1 m, and says hello with light and sound."
     )
     options = (
         OptionSpec(
             name="distance_m",
             kind=OptionKind.NUMBER,
-            default="0.8",
+            default="1.0",
             min=0.5,
             max=1.5,
-            help="how close to come, metres",
+            help="how close to come, metres (centre to centre; the approach overshoots by "
+            "up to 0.1 m, and child_too_close softens a moving block under 0.8 m)",
         ),
         OptionSpec(
             name="speed_mps",
@@ -66,12 +86,14 @@ class GreetingGenerator(BaseGenerator):
         ),
         OptionSpec(
             name="steps",
-            kind=OptionKind.NUMBER,
-            default="10",
+            kind=OptionKind.CHOICE,
+            default="auto",
+            choices=("auto",),
             min=1,
             max=40,
             integer=True,
-            help="most turns (and most steps) before giving up",
+            help="most turns (and most steps) before giving up; auto: a full circle of "
+            "turns and enough steps to reach a child 4 m away",
         ),
         OptionSpec(
             name="colour", kind=OptionKind.COLOUR, default="yellow", help="the greeting's light"
@@ -87,7 +109,10 @@ class GreetingGenerator(BaseGenerator):
     def build(self, values: Mapping[str, OptionValue]) -> Script:
         distance = float(values["distance_m"])  # type: ignore[arg-type]
         speed = float(values["speed_mps"])  # type: ignore[arg-type]
-        steps = int(values["steps"])  # type: ignore[arg-type]
+        if values["steps"] == "auto":
+            turns, steps = auto_steps(distance_m=distance, speed_mps=speed)
+        else:
+            turns = steps = int(values["steps"])  # type: ignore[arg-type]
         colour: Colour = values["colour"]  # type: ignore[assignment]
         sound = str(values["sound"])
 
@@ -105,7 +130,7 @@ class GreetingGenerator(BaseGenerator):
         dim = led(DIM, duration_ms=STEP_MS)
 
         b.goal("turn_to_child")
-        for i in range(steps):
+        for i in range(turns):
             b.jump(NO_HUMAN_IN_FRONT, true=f"turn{i}", false="approach0", label=f"look{i}")
             b.instruction(
                 moves=(move(v_theta_radps=TURN_RADPS, duration_ms=STEP_MS),),
@@ -117,13 +142,18 @@ class GreetingGenerator(BaseGenerator):
         b.goal("approach_child")
         for i in range(steps):
             b.jump(near_child(distance), true="greet", label=f"approach{i}")
-            b.jump(NO_HUMAN_IN_FRONT, true=f"realign{i}", false=f"step{i}")
+            following = f"approach{i + 1}" if i + 1 < steps else "last_check"
+            b.jump(NO_HUMAN_IN_FRONT, true=f"realign{i}", false=f"check{i}")
             b.instruction(
                 moves=(move(v_theta_radps=TURN_RADPS, duration_ms=STEP_MS // 2),),
                 leds=(dim,),
                 label=f"realign{i}",
             )
-            b.jump("! {TRUE}", true=f"approach{i + 1}" if i + 1 < steps else "last_check")
+            b.jump("! {TRUE}", true=following)
+            # A pose not refreshed lately (camera offline or frozen) is stale: wait, not step.
+            b.jump(SEEN_LATELY, true=f"step{i}", false=f"blind{i}", label=f"check{i}")
+            b.instruction(leds=(dim,), label=f"blind{i}")
+            b.jump("! {TRUE}", true=following)
             b.instruction(
                 moves=(move(v_x_mps=speed, duration_ms=STEP_MS),), leds=(dim,), label=f"step{i}"
             )

@@ -1,0 +1,65 @@
+"""Run a library scenario end to end, recorded to MCAP and Rerun, and say how to watch it.
+
+Exit 0 when every expectation holds, 1 when one fails, 2 on bad input (an unknown
+scenario name included).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Final
+
+from oimi import console
+from oimi.cmd_run import print_result
+from scenarios.errors import ScenarioError
+from scenarios.loader import load_scenario
+from scenarios.recording import recorded
+from scenarios.runner import Session, library_scenarios
+
+DEFAULT_SCENARIO: Final = "three_activity_session"
+"""A lively session: a greeting, the test dance and the blink, one after the other."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--out", type=Path, default=Path("out"), help="folder for the recordings (default: out)"
+    )
+    parser.add_argument(
+        "--scenario",
+        default=DEFAULT_SCENARIO,
+        help=f"a library scenario's file name without .toml (default: {DEFAULT_SCENARIO})",
+    )
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def scenario_path(name: str) -> Path:
+    """The library scenario called ``name`` (file stem); a ``ScenarioError`` lists the others."""
+    paths = {path.stem: path for path in library_scenarios()}
+    if name not in paths:
+        raise ScenarioError(
+            f"no library scenario {name!r}; choose one of {', '.join(paths)}",
+            source="--scenario",
+        )
+    return paths[name]
+
+
+def run(args: argparse.Namespace) -> int:
+    path = scenario_path(args.scenario)
+    session = Session(load_scenario(path))
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    mcap, rrd = out / f"{path.stem}.mcap", out / f"{path.stem}.rrd"
+    progress = None if args.quiet else console.Progress(session.scenario.name, session.tick_ms)
+    with recorded(session, mcap=mcap, rrd=rrd):
+        try:
+            result = session.run(progress=progress)
+        finally:
+            if progress is not None:
+                progress.close()
+    print(f"{path.name}: {session.scenario.description.strip()}")
+    print_result(result)
+    print(f"recording: {mcap}")
+    print(f"rerun:     {rrd}")
+    print(f"watch it:  oimi view {rrd}   (or open {mcap} in Foxglove)")
+    return 0 if result.ok else 1

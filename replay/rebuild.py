@@ -1,0 +1,98 @@
+"""Rebuilding a session from a recording: its attached scenario and scripts, its seed.
+
+The recording carries the scenario file (``scenario/<file>``), every script of
+its activity folders (``activities/<name>``) and the metadata of the run
+(``scenario``: name, file, seed...; ``configuration``: the pipeline's set-up).
+They are written into a temporary folder laid out as ``<tmp>/<file>`` and
+``<tmp>/activities/``, so that the attached scripts win over the installed
+library: a recording replays with the scripts it was made with.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path, PurePosixPath
+from typing import Final
+
+from pipeline.errors import LocatedError
+from recorder.errors import RecordingError
+from recorder.reader import Recording
+from scenarios.loader import parse_scenario
+from scenarios.runner import Session
+
+SCENARIO_RECORD: Final = "scenario"
+CONFIGURATION_RECORD: Final = "configuration"
+SCENARIO_PREFIX: Final = "scenario/"
+ACTIVITY_PREFIX: Final = "activities/"
+
+
+def _safe_name(name: str, *, source: str) -> str:
+    """An attachment's file name, refusing anything that would leave the folder."""
+    path = PurePosixPath(name)
+    if len(path.parts) != 1 or path.name in ("", ".", ".."):
+        raise RecordingError(f"attachment name {name!r} is not a plain file name", source=source)
+    return path.name
+
+
+@contextlib.contextmanager
+def rebuilt_session(recording: Recording) -> Iterator[Session]:
+    """A fresh ``Session`` of the recorded scenario with the recorded seed and scripts.
+
+    The temporary folder lives as long as the context (scripts load lazily).
+    Raises ``RecordingError`` when the recording lacks what a rebuild needs.
+    """
+    where = recording.path
+    scenario_meta = recording.metadata.get(SCENARIO_RECORD)
+    if scenario_meta is None or "file" not in scenario_meta or "seed" not in scenario_meta:
+        raise RecordingError(
+            f"no {SCENARIO_RECORD!r} metadata record with 'file' and 'seed':"
+            " not the recording of a scenario run",
+            source=where,
+        )
+    file_name = _safe_name(scenario_meta["file"], source=where)
+    raw = recording.attachments.get(SCENARIO_PREFIX + file_name)
+    if raw is None:
+        raise RecordingError(
+            f"the scenario file {file_name!r} is not attached ({SCENARIO_PREFIX}{file_name})",
+            source=where,
+        )
+    try:
+        seed = int(scenario_meta["seed"])
+    except ValueError:
+        raise RecordingError(
+            f"scenario seed {scenario_meta['seed']!r} is not an integer", source=where
+        ) from None
+    with tempfile.TemporaryDirectory(prefix="oimi-replay-") as folder:
+        base = Path(folder)
+        scripts = base / "activities"
+        scripts.mkdir()
+        for name, data in recording.attachments.items():
+            if name.startswith(ACTIVITY_PREFIX):
+                script = _safe_name(name.removeprefix(ACTIVITY_PREFIX), source=where)
+                (scripts / script).write_bytes(data)
+        source = base / file_name
+        source.write_bytes(raw)
+        try:
+            loaded = parse_scenario(raw, source=source, base_dir=base)
+            session = Session(loaded, seed=seed, overrides=recording.metadata.get("variation"))
+        except LocatedError as error:  # a scenario or script error, placed in the temp folder
+            text = str(error).replace(str(base) + "/", "")
+            raise RecordingError(
+                f"the attached scenario does not load: {text}", source=where
+            ) from None
+        yield session
+
+
+def rebuild_notes(recording: Recording, session: Session) -> list[str]:
+    """What differs between the recording's set-up and the rebuilt one (likely causes of a
+    divergence): oimi's version, its registries' versions and the configuration."""
+    now = session.metadata()
+    notes = []
+    for record in ("oimi", CONFIGURATION_RECORD):
+        then = recording.metadata.get(record, {})
+        for key, value in now.get(record, {}).items():
+            if key in then and then[key] != value:
+                notes.append(f"{record}.{key} differs: recorded {then[key]}, now {value}")
+    return notes

@@ -1,0 +1,58 @@
+"""Redrive: the recorded inputs fed to a rebuilt pipeline, its outputs compared (open loop).
+
+No world is simulated: the pipeline is ticked from tick 0 to the recording's
+last tick with the sensor updates, operator commands and joystick input
+recorded at each tick (for as many ticks as the recording has world states), and
+every message it emits (inputs echoed, map, rule
+decisions and chain, progress, actuator commands, operator state, log) must
+equal the recorded one, byte for byte.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Final
+
+from pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
+from recorder.reader import Recording, open_recording
+from replay.compare import Comparator, Comparison, compare_ticks
+from replay.rebuild import rebuild_notes, rebuilt_session
+
+REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
+"""What the pipeline emits (every topic but the world's state)."""
+
+
+def recorded_ticks(recording: Recording) -> int | None:
+    """How many ticks the session lasted: the world's state is recorded once per tick
+    (None when the file has no usable summary: the messages read decide then)."""
+    return recording.summary.get(Topic.WORLD_STATE.value) or None
+
+
+def redrive(path: str | os.PathLike[str]) -> Comparison:
+    """Redrive a recording (``RecordingError`` when it cannot be read or rebuilt)."""
+    return redrive_recording(open_recording(path))
+
+
+def redrive_recording(recording: Recording) -> Comparison:
+    """Redrive an opened recording."""
+    with rebuilt_session(recording) as session:
+        notes = rebuild_notes(recording, session)
+        comparator = Comparator(recording, compared=REDRIVE_TOPICS, ticks=recorded_ticks(recording))
+        session.sink.add(comparator)
+        pipeline = session.pipeline
+        assert set(INPUT_TOPICS) <= set(REDRIVE_TOPICS)
+
+        def step(tick: int) -> None:
+            updates = comparator.inputs_at(Topic.SENSOR_UPDATES, tick)
+            commands = comparator.inputs_at(Topic.OPERATOR_COMMANDS, tick)
+            joystick = comparator.inputs_at(Topic.JOYSTICK, tick)
+            pipeline.tick(
+                tick=tick,
+                updates=[u for e in updates if isinstance(e, SensorUpdates) for u in e.updates],
+                commands=[
+                    c for e in commands if isinstance(e, OperatorCommands) for c in e.commands
+                ],
+                joystick=next((e for e in joystick if isinstance(e, JoystickInput)), None),
+            )
+
+        return compare_ticks(comparator, step, mode="redrive", notes=notes)

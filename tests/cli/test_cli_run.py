@@ -1,0 +1,83 @@
+"""`oimi run` and `oimi demo` through `python -m oimi`: determinism across processes, exit
+codes, the failing expectation named, JUnit, located errors."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+ROOT = Path(__file__).parents[2]
+LIBRARY = ROOT / "scenarios" / "library"
+
+
+def oimi(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "oimi", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_one_scenario_run_twice_in_two_processes_gives_identical_mcap(tmp_path: Path) -> None:
+    first, second = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    for out in (first, second):
+        done = oimi("run", "-q", LIBRARY / "caress_reward.toml", "-o", out)
+        assert done.returncode == 0, done.stdout + done.stderr
+    assert first.read_bytes() == second.read_bytes()
+    assert first.stat().st_size > 10_000
+
+
+def broken_copy(tmp_path: Path) -> Path:
+    """The greeting with one expectation that cannot hold (greeted within 2 s)."""
+    text = (LIBRARY / "greeting.toml").read_text()
+    text = text.replace("duration_s = 30.0", "duration_s = 4.0")
+    text += (
+        '\n[[expect]]\nkind = "goal_reached"\nname = "greets at once"\n'
+        'goal = "greet_child"\nby_s = 2.0\n'
+    )
+    path = tmp_path / "greeting_broken.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_broken_expectation_exits_1_and_is_named(tmp_path: Path) -> None:
+    junit = tmp_path / "report.xml"
+    done = oimi("run", "-q", broken_copy(tmp_path), "--no-record", "--junit", junit)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "FAIL greets at once: reached never" in done.stdout
+    assert "PASS the robot finds the child" in done.stdout
+    root = ET.parse(junit).getroot()
+    failed = [
+        case.get("name") for case in root.iter("testcase") if case.find("failure") is not None
+    ]
+    assert any("greets at once" in (name or "") for name in failed)
+
+
+def test_a_malformed_scenario_exits_2_with_file_line_col(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "bad"\nduration_s = 10.0\n\n[robot]\nmax_speed_mps = "fast"\n')
+    done = oimi("run", "-q", bad, "--no-record")
+    assert done.returncode == 2
+    assert f"{bad}:5:" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_demo_writes_mcap_and_rrd_and_says_how_to_open_them(tmp_path: Path) -> None:
+    done = oimi("demo", "-q", "--out", tmp_path / "out")
+    assert done.returncode == 0, done.stdout + done.stderr
+    mcap = tmp_path / "out" / "three_activity_session.mcap"
+    rrd = tmp_path / "out" / "three_activity_session.rrd"
+    assert mcap.stat().st_size > 0 and rrd.stat().st_size > 0
+    assert f"oimi view {rrd}" in done.stdout
+    assert "Foxglove" in done.stdout
+    assert "0 failed" in done.stdout
+
+
+def test_demo_rejects_an_unknown_scenario_with_the_choices(tmp_path: Path) -> None:
+    done = oimi("demo", "--out", tmp_path, "--scenario", "nope")
+    assert done.returncode == 2
+    assert "no library scenario 'nope'" in done.stderr and "greeting" in done.stderr

@@ -1,0 +1,359 @@
+"""Redrive and rerun of recordings: clean replays, tampered files, refusals, the CLI."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+import pytest
+from replay_tamper import SHORT, rewrite
+
+from oimi.cli import main
+from pipeline.events import Topic
+from pipeline.messages import FORMAT_VERSION
+from recorder.errors import RecordingError
+from recorder.reader import open_recording
+from replay.compare import (
+    Comparator,
+    Comparison,
+    DivergenceKind,
+    compare_ticks,
+    first_difference,
+    format_report,
+)
+from replay.redrive import REDRIVE_TOPICS, recorded_ticks, redrive
+from replay.rerun import rerun
+from scenarios.activities import ACTIVITIES
+from scenarios.loader import load_scenario
+from scenarios.recording import recorded
+from scenarios.runner import Session
+
+OUTPUT_TOPICS = (
+    Topic.MAP,
+    Topic.RULE_DECISIONS,
+    Topic.RULE_CHAIN,
+    Topic.READER_PROGRESS,
+    Topic.ACTUATOR_COMMANDS,
+    Topic.OPERATOR_STATE,
+    Topic.LOG,
+)
+
+
+def record(scenario: Path, target: Path) -> Path:
+    session = Session(load_scenario(scenario))
+    with recorded(session, mcap=target, rrd=None):
+        session.run()
+    return target
+
+
+def ticks_of(path: Path, topic: Topic) -> list[int]:
+    return [m.tick for m in open_recording(path).iter_messages(topics=[topic])]
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return record(SHORT, tmp_path_factory.mktemp("replay") / "short.mcap")
+
+
+def test_a_fresh_recording_redrives_clean_with_every_output_topic_compared(
+    recording: Path,
+) -> None:
+    comparison = redrive(recording)
+    assert comparison.ok, format_report(comparison)
+    assert comparison.ticks == 300
+    summary = open_recording(recording).summary
+    for topic in REDRIVE_TOPICS:
+        assert comparison.compared[topic.value] == summary[topic.value]
+    for topic in (*OUTPUT_TOPICS, Topic.JOYSTICK, Topic.SENSOR_UPDATES):
+        assert comparison.compared[topic.value] > 0, topic
+    assert Topic.WORLD_STATE.value not in comparison.compared
+
+
+def test_a_fresh_recording_reruns_clean_world_state_included(recording: Path) -> None:
+    comparison = rerun(recording)
+    assert comparison.ok, format_report(comparison)
+    assert comparison.compared[Topic.WORLD_STATE.value] == 300
+    assert sum(comparison.compared.values()) == sum(
+        n for t, n in open_recording(recording).summary.items() if not t.startswith("/foxglove")
+    )
+
+
+def first_move(path: Path) -> tuple[int, int, int, float]:
+    """(index of the message on /actuator/commands, its tick, the move's index, its v_x)."""
+    for index, message in enumerate(
+        open_recording(path).iter_messages(topics=[Topic.ACTUATOR_COMMANDS])
+    ):
+        for number, command in enumerate(msgspec.json.decode(message.payload_bytes)["commands"]):
+            if command["channel"] == "move":
+                return index, message.tick, number, command["v_x"]
+    raise AssertionError("no move command recorded")
+
+
+def test_a_changed_message_is_reported_with_topic_tick_field_and_both_values(
+    recording: Path, tmp_path: Path
+) -> None:
+    index, tick, number, v_x = first_move(recording)
+
+    def edit(topic: str, at: int, data: bytes) -> bytes:
+        if topic != "/actuator/commands" or at != index:
+            return data
+        event = msgspec.json.decode(data)
+        event["commands"][number]["v_x"] = v_x + 0.25
+        return msgspec.json.encode(event)
+
+    tampered = tmp_path / "changed.mcap"
+    rewrite(recording, tampered, message=edit)
+    for replay in (redrive, rerun):
+        comparison = replay(tampered)
+        d = comparison.divergence
+        assert d is not None
+        assert (d.kind, d.topic, d.tick, d.time_ms) == (
+            "changed",
+            "/actuator/commands",
+            tick,
+            tick * 20,
+        )
+        assert d.path == f"$.commands[{number}].v_x"
+        assert (float(d.recorded), float(d.replayed)) == (v_x + 0.25, v_x)
+        assert d.before and all(seen.tick <= tick for seen in d.before)
+        report = format_report(comparison)
+        for text in (
+            f"DIVERGENCE (changed) on /actuator/commands at tick {tick} (t = {tick * 0.02:.3f} s)",
+            f"field:    $.commands[{number}].v_x",
+            f"recorded: {v_x + 0.25}",
+            f"replayed: {v_x}",
+            "before it (matched):",
+        ):
+            assert text in report
+
+
+def test_a_removed_message_is_reported_as_produced_but_not_recorded(
+    recording: Path, tmp_path: Path
+) -> None:
+    tampered = tmp_path / "removed.mcap"
+    rewrite(
+        recording,
+        tampered,
+        message=lambda topic, index, data: (
+            None if topic == "/rules/decisions" and index == 50 else data
+        ),
+    )
+    tick = ticks_of(recording, Topic.RULE_DECISIONS)[50]
+    d = redrive(tampered).divergence
+    assert d is not None
+    assert (d.kind, d.topic, d.tick, d.path, d.recorded) == (
+        DivergenceKind.EXTRA,
+        "/rules/decisions",
+        tick,
+        "$",
+        "<none>",
+    )
+    assert d.replayed.startswith(f'{{"tick":{tick},')
+
+
+def test_a_recorded_message_the_replay_does_not_produce_is_reported_missing(
+    recording: Path, tmp_path: Path
+) -> None:
+    tampered = tmp_path / "doubled.mcap"
+    rewrite(
+        recording,
+        tampered,
+        message=lambda topic, index, data: (
+            (data, data) if topic == "/reader/progress" and index == 2 else data
+        ),
+    )
+    d = redrive(tampered).divergence
+    assert d is not None
+    assert (d.kind, d.topic, d.path, d.replayed) == (
+        DivergenceKind.MISSING,
+        "/reader/progress",
+        "$",
+        "<none>",
+    )
+    assert d.recorded.startswith(f'{{"tick":{d.tick},')
+
+
+def test_an_item_added_to_a_message_is_reported_at_its_index(
+    recording: Path, tmp_path: Path
+) -> None:
+    tampered = tmp_path / "added.mcap"
+
+    def double_decisions(topic: str, index: int, data: bytes) -> bytes:
+        if topic == "/rules/decisions" and index == 10:
+            event = msgspec.json.decode(data)
+            event["decisions"] = [*event["decisions"], event["decisions"][0]]
+            return msgspec.json.encode(event)
+        return data
+
+    rewrite(recording, tampered, message=double_decisions)
+    d = redrive(tampered).divergence
+    assert d is not None
+    tick = ticks_of(recording, Topic.RULE_DECISIONS)[10]
+    assert (d.kind, d.topic, d.tick, d.replayed) == (
+        "changed",
+        "/rules/decisions",
+        tick,
+        "<absent>",
+    )
+    assert d.path == "$.decisions[2]" and d.recorded.startswith('{"rule":"child_too_close"')
+
+
+def test_a_truncated_recording_is_refused_saying_where_it_is_damaged(
+    recording: Path, tmp_path: Path
+) -> None:
+    data = recording.read_bytes()
+    truncated = tmp_path / "truncated.mcap"
+    truncated.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(
+        RecordingError, match=r"truncated.mcap: the recording is damaged \(recovered"
+    ):
+        redrive(truncated)
+    assert main(["replay", str(truncated)]) == 2
+
+
+def test_a_recording_of_another_format_version_is_refused_naming_both_versions(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    old = tmp_path / "old.mcap"
+    rewrite(
+        recording,
+        old,
+        metadata=lambda name, data: {**data, "format_version": "0"} if name == "oimi" else data,
+    )
+    assert main(["replay", str(old)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"recorded with format version 0, but this oimi reads format version {FORMAT_VERSION}"
+        in err
+    )
+    assert "Traceback" not in err
+
+
+def test_a_recording_without_its_scenario_attachment_is_refused(
+    recording: Path, tmp_path: Path
+) -> None:
+    bare = tmp_path / "bare.mcap"
+    rewrite(
+        recording,
+        bare,
+        metadata=lambda name, data: {**data, "file": "gone.toml"} if name == "scenario" else data,
+    )
+    with pytest.raises(RecordingError, match=r"scenario file 'gone.toml' is not attached"):
+        redrive(bare)
+
+
+def test_the_attached_scripts_win_over_the_installed_library(
+    recording: Path, tmp_path: Path
+) -> None:
+    edited = tmp_path / "script.mcap"
+    rewrite(
+        recording,
+        edited,
+        attachment=lambda name, data: (
+            data.replace(b'LD("1, 0, 0, 1, 0, 2000"', b'LD("0, 0, 1, 1, 0, 2000"', 1)
+            if name == "activities/test_act.txt"
+            else data
+        ),
+    )
+    d = redrive(edited).divergence
+    assert d is not None
+    assert d.topic == "/map" or d.topic == "/actuator/commands"
+    assert d.time_ms >= 5000  # test_act starts after greeting ends
+
+
+def test_a_recording_replays_from_its_attachments_after_the_scenario_files_are_gone(
+    tmp_path: Path,
+) -> None:
+    folder = tmp_path / "mine"
+    (folder / "activities").mkdir(parents=True)
+    script = ACTIVITIES / "test_act.txt"
+    (folder / "activities" / "mine.txt").write_text(
+        script.read_text().replace("[test_act]", "[mine]")
+    )
+    (folder / "mine.toml").write_text(
+        'name = "mine"\nduration_s = 2.0\n[[activities]]\nscript = "activities/mine.txt"\n'
+    )
+    path = record(folder / "mine.toml", tmp_path / "mine.mcap")
+    assert "activities/mine.txt" in open_recording(path).attachments
+    for child in (folder / "activities" / "mine.txt", folder / "mine.toml"):
+        child.unlink()
+    for replay in (redrive, rerun):
+        comparison = replay(path)
+        assert comparison.ok, format_report(comparison)
+        assert comparison.compared[Topic.ACTUATOR_COMMANDS.value] > 0
+
+
+def test_the_comparator_holds_only_the_current_ticks_messages(recording: Path) -> None:
+    opened = open_recording(recording)
+    with_session = Session(load_scenario(SHORT))
+    comparator = Comparator(opened, compared=REDRIVE_TOPICS, ticks=recorded_ticks(opened))
+    with_session.sink.add(comparator)
+    held: list[int] = []
+
+    def step(tick: int) -> None:
+        held.append(comparator.buffered)
+        with_session.step(tick)
+
+    comparison = compare_ticks(comparator, step, mode="redrive")
+    assert comparison.ticks == 300 and max(held) <= len(Topic)
+
+
+def test_first_difference_names_the_path_of_the_first_differing_leaf() -> None:
+    a = {"x": 1, "items": [{"v": 1.0}, {"v": 2.0}], "tail": "same"}
+    assert first_difference(a, a) is None
+    assert first_difference(a, {**a, "items": [{"v": 1.0}, {"v": 2.5}]}) == (
+        "$.items[1].v",
+        2.0,
+        2.5,
+    )
+    path, old, _ = first_difference(a, {**a, "items": [{"v": 1.0}]}) or ("", None, None)
+    assert (path, old) == ("$.items[1]", {"v": 2.0})
+    assert first_difference({"a": 1}, {"a": 1.0}) == ("$.a", 1, 1.0)
+    assert first_difference({"a": 1}, {"a": 1, "b": 2})[0] == "$.b"  # type: ignore[index]
+
+
+def test_replay_cli_exits_0_with_counts_in_both_modes_and_1_at_a_divergence(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["replay", str(recording)]) == 0
+    out = capsys.readouterr().out
+    assert "redrive replay" in out and "identical:" in out and "/rules/decisions" in out
+    assert main(["replay", str(recording), "--mode", "rerun"]) == 0
+    assert "/world/state        300" in capsys.readouterr().out
+    tampered = tmp_path / "t.mcap"
+    rewrite(
+        recording,
+        tampered,
+        message=lambda topic, index, data: None if topic == "/map" and index == 3 else data,
+    )
+    assert main(["replay", str(tampered)]) == 1
+    assert "DIVERGENCE (extra) on /map" in capsys.readouterr().out
+
+
+def test_an_identical_report_lists_the_count_per_topic() -> None:
+    report = format_report(
+        Comparison(mode="redrive", recording="x.mcap", ticks=3, compared={"/map": 2, "/log": 0})
+    )
+    assert report.splitlines() == [
+        "redrive replay of x.mcap: 3 ticks",
+        "identical: 2 messages compared",
+        "  /map  2",
+        "  /log  0",
+    ]
+
+
+def test_an_attached_scenario_that_does_not_load_is_refused_with_its_place(
+    recording: Path, tmp_path: Path
+) -> None:
+    broken = tmp_path / "broken.mcap"
+    rewrite(
+        recording,
+        broken,
+        attachment=lambda name, data: (
+            data.replace(b"seed = 7", b"seed = 'seven'") if name.startswith("scenario/") else data
+        ),
+    )
+    with pytest.raises(
+        RecordingError, match=r"attached scenario does not load: replay_short.toml:\d+:\d+: "
+    ):
+        redrive(broken)

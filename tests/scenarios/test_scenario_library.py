@@ -1,0 +1,129 @@
+"""The scenario library: every scenario passes its expectations, and the expectations pin
+what each scenario is meant to show (a sibling run without the safety part fails them)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from pipeline.events import ActuatorCommands, Topic
+from pipeline.operator.generators import GreetingGenerator
+from pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
+from pipeline.sink import MemorySink
+from scenarios.loader import load_scenario
+from scenarios.runner import RunResult, Session, library_scenarios
+
+LIBRARY = {path.stem: path for path in library_scenarios()}
+
+
+def run(path: Path, *sinks: MemorySink) -> RunResult:
+    session = Session(load_scenario(path))
+    for sink in sinks:
+        session.sink.add(sink)
+    return session.run()
+
+
+def failures(result: RunResult) -> list[str]:
+    return [f"{v.name}: {v.detail}" for v in result.verdicts if not v.ok]
+
+
+@pytest.mark.parametrize("path", list(LIBRARY.values()), ids=list(LIBRARY))
+def test_library_scenario_passes_its_expectations(path: Path) -> None:
+    result = run(path)
+    assert result.verdicts, f"{path.name} has no expectations"
+    assert failures(result) == []
+
+
+@pytest.mark.parametrize("path", list(LIBRARY.values()), ids=list(LIBRARY))
+def test_library_scenario_is_short_described_and_at_50_hz(path: Path) -> None:
+    scenario = load_scenario(path).scenario
+    assert scenario.description.strip()
+    assert scenario.tick_hz == 50
+    assert 14.0 <= scenario.duration_s <= 60.0
+
+
+def test_library_covers_every_part_of_the_thesis() -> None:
+    wanted = {
+        "idle_alone",
+        "idle_welcome",
+        "test_dance",
+        "blink",
+        "greeting",
+        "child_too_close",
+        "child_leaves",
+        "joystick_takeover",
+        "joystick_without_lock",
+        "operator_controls",
+        "camera_fault",
+        "three_activity_session",
+        "caress_reward",
+        "script_speed_clamped",
+    }
+    assert wanted <= set(LIBRARY)
+
+
+def test_without_child_too_close_the_robot_drives_into_the_child(tmp_path: Path) -> None:
+    # The same crossing with the rule's alfa/omega messages taken out of the activity.
+    library = LIBRARY["child_too_close"].parent
+    script = (library / "activities" / "cross_the_room.txt").read_text()
+    (tmp_path / "activities").mkdir()
+    (tmp_path / "activities" / "cross_the_room.txt").write_text(
+        "\n".join(line for line in script.splitlines() if "child_too_close" not in line)
+    )
+    (tmp_path / "no_rule.toml").write_text(LIBRARY["child_too_close"].read_text())
+    result = run(tmp_path / "no_rule.toml")
+    assert "child_too_close" not in result.summary.rules_fired
+    assert result.summary.min_distance_m["child"] < 0.6
+    assert result.summary.contacts > 0
+    failed = failures(result)
+    assert any(f.startswith("the robot stops short of the child") for f in failed)
+
+
+def test_joystick_moves_the_robot_only_with_the_safety_lock() -> None:
+    held = run(LIBRARY["joystick_takeover"]).summary
+    free = run(LIBRARY["joystick_without_lock"]).summary
+    assert held.max_speed_mps > 0.3
+    assert held.rules_fired["joystick_note"] > 0
+    assert free.max_speed_mps < 0.05
+
+
+def test_operator_clear_empties_the_selection_at_the_end() -> None:
+    result = run(LIBRARY["operator_controls"])
+    assert result.summary.activities == {}
+    assert result.summary.rejected_inputs == 0
+
+
+def test_each_caress_plays_the_chime_once_and_the_push_none() -> None:
+    sink = MemorySink()
+    run(LIBRARY["caress_reward"], sink)
+    chimes = [
+        event.time_ms
+        for event in sink.on(Topic.ACTUATOR_COMMANDS)
+        if isinstance(event, ActuatorCommands)
+        for command in event.commands
+        if command.track_path == "reward_chime.wav" and not command.stop
+    ]
+    assert len(chimes) == 2
+    assert 6000 < chimes[0] < 8000 and 14000 < chimes[1] < 16000
+
+
+def test_greeting_auto_steps_reach_a_child_four_metres_away() -> None:
+    g = GreetingGenerator()
+    g.activate({})
+    script = g.generate()
+    steps = [
+        block
+        for block in script.goals[1].actions[0].blocks
+        if getattr(block, "move", ()) and block.move[0].v_x > 0  # type: ignore[union-attr]
+    ]
+    step_m = 0.15 * STEP_MS / 1000
+    assert len(steps) * step_m >= REACH_M - 1.0
+    assert len(steps) == math.ceil((REACH_M - 1.0) / step_m) + BLIND_STEPS
+    turned = sum(
+        block.move[0].v_theta * block.move[0].duration / 1000  # type: ignore[union-attr]
+        for block in script.goals[0].actions[0].blocks
+        if getattr(block, "move", ())
+    )
+    assert turned >= 2 * math.pi
