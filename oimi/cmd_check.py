@@ -1,0 +1,128 @@
+"""Check scripts (.txt DSL, .json), scenarios (.toml) and rule conditions without running them.
+
+Prints ``FILE: ok`` for each good file and ``FILE:LINE:COL: message`` (to stderr) for each
+problem; checks every file and exits 2 if any failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from pipeline.errors import LocatedError
+from pipeline.script import ParsedScript, ScriptError, condition_errors, parse_script
+
+EXIT_OK, EXIT_BAD_INPUT = 0, 2
+
+ConditionCompiler = Callable[[str], object]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "files", nargs="*", metavar="FILE", help="scripts (.txt, .json) or scenarios (.toml)"
+    )
+    parser.add_argument(
+        "--condition",
+        action="append",
+        default=[],
+        metavar="TEXT",
+        help="a rule condition to check (repeatable)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.files and not args.condition:
+        report("nothing to check: give FILEs or --condition TEXT")
+        return EXIT_BAD_INPUT
+    failed = False
+    for name in args.files:
+        errors = check_file(Path(name))
+        if errors:
+            failed = True
+            for error in errors:
+                report_error(error)
+        else:
+            print(f"{name}: ok")
+    for number, text in enumerate(args.condition, start=1):
+        message = check_condition(text, number)
+        if message:
+            failed = True
+            report(message)
+        else:
+            print(f"<condition {number}>: ok")
+    return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def check_file(path: Path) -> list[LocatedError]:
+    """Every problem found in one file (empty when it is fine)."""
+    if path.suffix.lower() == ".toml":
+        return check_scenario(path)
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
+    try:
+        parsed = parse_script(data, source=str(path))
+    except ScriptError as error:
+        return [error]
+    return check_conditions(parsed)
+
+
+def check_conditions(parsed: ParsedScript) -> list[LocatedError]:
+    """The jump conditions' errors, placed in the script file (none if rules are unavailable)."""
+    compile_condition = condition_compiler()
+    if compile_condition is None:
+        return []
+    return condition_errors(parsed, compile_condition)
+
+
+def check_scenario(path: Path) -> list[LocatedError]:
+    """Scenario checking, delegated to ``scenarios.loader.load_scenario`` when it exists."""
+    try:
+        from scenarios.loader import load_scenario
+    except ImportError:
+        return [LocatedError("scenario checking not available", source=str(path))]
+    try:
+        load_scenario(path)
+    except LocatedError as error:
+        return [error]
+    except OSError as error:
+        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
+    return []
+
+
+def check_condition(text: str, number: int) -> str:
+    """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
+    compile_condition = condition_compiler()
+    if compile_condition is None:
+        return f"<condition {number}>: condition checking not available"
+    try:
+        compile_condition(text)
+    except LocatedError as error:
+        return f"<condition {number}>:{error.column}: {error.message}"
+    return ""
+
+
+def condition_compiler() -> ConditionCompiler | None:
+    """``pipeline.think.conditions.compile_condition``, or None while it does not exist."""
+    try:
+        from pipeline.think.conditions import compile_condition
+    except ImportError as error:
+        if error.name not in (None, "pipeline.think", "pipeline.think.conditions"):
+            raise
+        return None
+    return compile_condition
+
+
+def report(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def report_error(error: LocatedError) -> None:
+    """``FILE:LINE:COL: message``, then the line and a caret when known."""
+    report(str(error))
+    context = getattr(error, "context", "")
+    if context:
+        report("\n".join(f"    {line}" for line in context.splitlines()))

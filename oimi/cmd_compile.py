@@ -1,0 +1,68 @@
+"""Compile a script (the DSL of thesis section 4.4) to the thesis's Script JSON.
+
+Writes the JSON to stdout, or atomically to ``-o OUT.json`` (nothing is written on error).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from oimi.cmd_check import check_conditions, report, report_error
+from pipeline.script import ScriptError, dump_script_json, parse_script
+
+EXIT_OK, EXIT_BAD_INPUT = 0, 2
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("script", metavar="SCRIPT", help="a DSL script (.txt) or a Script JSON")
+    parser.add_argument(
+        "-o", "--output", metavar="OUT", help="JSON file to write (default: stdout)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    source = Path(args.script)
+    try:
+        data = source.read_bytes()
+    except OSError as error:
+        report(f"{source}: cannot read the file: {error.strerror}")
+        return EXIT_BAD_INPUT
+    try:
+        parsed = parse_script(data, source=str(source))
+    except ScriptError as error:
+        report_error(error)
+        return EXIT_BAD_INPUT
+    errors = check_conditions(parsed)
+    for error in errors:
+        report_error(error)
+    if errors:
+        return EXIT_BAD_INPUT
+    text = dump_script_json(parsed.script)
+    if args.output is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    try:
+        write_atomically(Path(args.output), text)
+    except OSError as error:
+        report(f"{args.output}: cannot write the file: {error.strerror}")
+        return EXIT_BAD_INPUT
+    return EXIT_OK
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary file beside ``path``, then rename it over ``path``."""
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    try:
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the usual mode
+        with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise

@@ -1,0 +1,173 @@
+"""`oimi compile` and `oimi check` through oimi.cli.main, and once through `python -m oimi`."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from oimi.cli import main
+from pipeline.script import load_script_json
+
+ROOT = Path(__file__).parents[2]
+ACTIVITIES = ROOT / "scenarios" / "library" / "activities"
+LISTING = ROOT / "tests" / "pipeline" / "script" / "fixtures" / "listing_4_1.json"
+BAD = '[a]\n[goal:g]\n[action]\n[b##blk_inst: MV() LD("1, 2, 0, 1, 0, 0") AO()]\n'
+
+
+def listing():
+    return load_script_json(LISTING.read_bytes(), source="listing")
+
+
+def test_compile_prints_json_equal_to_listing_4_1(capsys):
+    assert main(["compile", str(ACTIVITIES / "test_act.txt")]) == 0
+    out = capsys.readouterr().out
+    assert load_script_json(out, source="stdout") == listing()
+    assert json.loads(out)["goal0"]["act0"]["blk2"]["truejump"] == "goal0/act0/blk4"
+
+
+def test_compile_writes_the_output_file(tmp_path, capsys):
+    out = tmp_path / "test_act.json"
+    assert main(["compile", str(ACTIVITIES / "test_act.txt"), "-o", str(out)]) == 0
+    assert load_script_json(out.read_bytes(), source=str(out)) == listing()
+    assert capsys.readouterr().out == ""
+    assert [p.name for p in tmp_path.iterdir()] == ["test_act.json"]
+    assert out.stat().st_mode & 0o044  # readable by others like any new file, not 0600
+
+
+def test_compile_error_is_located_and_writes_nothing(tmp_path, capsys):
+    script = tmp_path / "bad.txt"
+    script.write_text(BAD, encoding="utf-8")
+    out = tmp_path / "out.json"
+    assert main(["compile", str(script), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{script}:4:27: goal0/act0/blk0.led[0].g: colour g must be between")
+    assert "^" in err
+    assert not out.exists()
+
+
+def test_compile_error_leaves_an_existing_output_untouched(tmp_path):
+    script = tmp_path / "bad.txt"
+    script.write_text(BAD, encoding="utf-8")
+    out = tmp_path / "out.json"
+    out.write_text("previous", encoding="utf-8")
+    assert main(["compile", str(script), "-o", str(out)]) == 2
+    assert out.read_text(encoding="utf-8") == "previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.txt", "out.json"]
+
+
+def test_compile_of_a_missing_file_is_an_error(tmp_path, capsys):
+    assert main(["compile", str(tmp_path / "none.txt")]) == 2
+    assert "cannot read the file" in capsys.readouterr().err
+
+
+def test_check_reports_every_file_and_fails_if_any_failed(tmp_path, capsys):
+    bad = tmp_path / "bad.txt"
+    bad.write_text(BAD, encoding="utf-8")
+    binary = tmp_path / "blob.json"
+    binary.write_bytes(b"\x89PNG\x00\x00")
+    good = [ACTIVITIES / "test_act.txt", ACTIVITIES / "idle_activity.json"]
+    assert main(["check", str(good[0]), str(bad), str(binary), str(good[1])]) == 2
+    captured = capsys.readouterr()
+    assert captured.out.splitlines() == [f"{good[0]}: ok", f"{good[1]}: ok"]
+    errors = [line for line in captured.err.splitlines() if not line.startswith(" ")]
+    assert errors[0].startswith(f"{bad}:4:27: ")
+    assert errors[1].startswith(f"{binary}:1:5: not a text script")
+
+
+def test_check_passes_good_files(capsys):
+    files = [str(p) for p in sorted(ACTIVITIES.iterdir()) if p.suffix in (".txt", ".json")]
+    assert main(["check", *files]) == 0
+    assert capsys.readouterr().out.count(": ok") == len(files)
+
+
+def test_check_conditions_given_on_the_command_line(capsys):
+    pytest.importorskip("pipeline.think.conditions")
+    assert main(["check", "--condition", "! {TRUE}", "--condition", "! {E: f (}"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "<condition 1>: ok\n"
+    assert captured.err.startswith("<condition 2>:")
+    column = captured.err.split(":")[1]
+    assert column.isdigit() and int(column) > 1
+
+
+def test_check_places_a_bad_jump_condition_in_the_script_file(tmp_path, capsys):
+    conditions = pytest.importorskip("pipeline.think.conditions")
+    condition = "! {E: no_such_function ()}"
+    try:
+        conditions.compile_condition(condition)
+    except Exception as error:  # the rule engineer's RuleSyntaxError
+        inner = error.column
+    else:
+        pytest.skip("the condition compiler accepts this text")
+    script = tmp_path / "jump.txt"
+    line = f"[b##blk_jump: CND({condition}) TRJMP() FLSJMP()]"
+    script.write_text(f"[a]\n[goal:g]\n[action]\n{line}\n", encoding="utf-8")
+    assert main(["check", str(script)]) == 2
+    start = line.index("CND(") + len("CND(") + 1
+    assert capsys.readouterr().err.startswith(f"{script}:4:{start + inner - 1}: ")
+
+
+def test_check_places_a_bad_json_condition_at_its_value(tmp_path, capsys):
+    conditions = pytest.importorskip("pipeline.think.conditions")
+    condition = "! {E: no_such_function ()}"
+    try:
+        conditions.compile_condition(condition)
+    except Exception as error:
+        inner = error.column
+    else:
+        pytest.skip("the condition compiler accepts this text")
+    text = LISTING.read_text(encoding="utf-8").replace(
+        '"toparse": "! {TRUE}"', f'"toparse": "{condition}"', 1
+    )
+    script = tmp_path / "jump.json"
+    script.write_text(text, encoding="utf-8")
+    assert main(["check", str(script)]) == 2
+    line_no = text[: text.index(condition)].count("\n") + 1
+    column = text.index(condition) - text.rfind("\n", 0, text.index(condition))
+    assert capsys.readouterr().err.startswith(f"{script}:{line_no}:{column + inner - 1}: ")
+
+
+def test_check_without_scenario_support_says_so(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "scenarios.loader", None)
+    scenario = tmp_path / "s.toml"
+    scenario.write_text("name = 'x'\n", encoding="utf-8")
+    assert main(["check", str(scenario)]) == 2
+    assert capsys.readouterr().err.strip() == f"{scenario}: scenario checking not available"
+
+
+def test_check_without_condition_support_skips_script_conditions(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pipeline.think.conditions", None)
+    script = tmp_path / "jump.txt"
+    script.write_text(
+        "[a]\n[goal:g]\n[action]\n[b##blk_jump: CND(! {E: no_such_function ()}) TRJMP() FLSJMP()]",
+        encoding="utf-8",
+    )
+    assert main(["check", str(script)]) == 0
+    assert capsys.readouterr().out == f"{script}: ok\n"
+
+
+def test_python_dash_m_oimi_compiles(tmp_path):
+    out = tmp_path / "idle.json"
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "oimi",
+            "compile",
+            str(ACTIVITIES / "idle_activity.txt"),
+            "-o",
+            str(out),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    expected = load_script_json((ACTIVITIES / "idle_activity.json").read_bytes(), source="i")
+    assert load_script_json(out.read_bytes(), source=str(out)) == expected
