@@ -30,7 +30,7 @@ from pipeline.events import (
     OperatorVerb,
 )
 from pipeline.messages import Message, Script
-from pipeline.operator.checks import script_problems
+from pipeline.script.validate import script_errors
 from pipeline.operator.generator import (
     Catalogue,
     Generator,
@@ -314,7 +314,7 @@ class GeneratorHandler:
                 activated.append(s)
                 s.generator.activate(s.options)
                 script = s.generator.generate()
-                problems = script_problems(script)
+                problems = [error.message for error in script_errors(script)]
                 if problems:
                     raise GeneratorError(
                         "generated an invalid script: " + "; ".join(problems), source=s.name

@@ -387,9 +387,8 @@ def test_get_ready_refuses_a_script_that_breaks_the_alfa_rules():
     env.ok(V.ADD, "bad")
     result = env.do(V.GET_READY)
     assert not result.reply.ok
-    assert result.reply.reason == (
-        "bad: generated an invalid script: alfa[0] (r): mutexcmd is L, expected U"
-    )
+    assert result.reply.reason.startswith("bad: generated an invalid script: ")
+    assert "alfarulemessages[0].mutexcmd: mutexcmd must be U here, got L" in result.reply.reason
     assert env.h.button is Button.GET_READY
 
 
