@@ -30,7 +30,6 @@ from pipeline.events import (
     OperatorVerb,
 )
 from pipeline.messages import Message, Script
-from pipeline.script.validate import script_errors
 from pipeline.operator.generator import (
     Catalogue,
     Generator,
@@ -38,6 +37,7 @@ from pipeline.operator.generator import (
     GeneratorInfo,
     resolve_options,
 )
+from pipeline.script.validate import script_errors
 
 
 class Button(enum.StrEnum):

@@ -10,9 +10,10 @@ The LIFO is mirrored in ``map.scriptinfo.script_vect`` (last = top): a
 
 Goals: a goal is *reached* when its last action finishes in order, when a jump
 goes on to the first block of the next goal, or when a terminus ends the script
-inside it. A goal left by any other jump into another goal is not reached; if the script then completes without reaching it, it is *failed*. A goal
-cut short by a rule-forced switch or the operator is *interrupted*; a switched-out
-script waits in the LIFO and resumes from the start of the goal it was in.
+inside it. A goal left by any other jump into another goal is not reached; if the
+script then completes without reaching it, it is *failed*. A goal cut short by a
+rule-forced switch or the operator is *interrupted*; a switched-out script waits in
+the LIFO and resumes from the start of the goal it was in.
 """
 
 from __future__ import annotations

@@ -8,7 +8,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline.messages import InstructionBlock, JumpBlock, MutexCmd, RuleAction, Script
-from pipeline.script.validate import script_errors
 from pipeline.operator.generators import (
     BlinkGenerator,
     DanceGenerator,
@@ -16,8 +15,9 @@ from pipeline.operator.generators import (
     JointAttentionGenerator,
     default_catalogue,
 )
-from pipeline.think.rulecodes import RuleCode
+from pipeline.script.validate import script_errors
 from pipeline.think.conditions import compile_condition
+from pipeline.think.rulecodes import RuleCode
 
 ALL = [DanceGenerator, GreetingGenerator, JointAttentionGenerator, BlinkGenerator]
 
