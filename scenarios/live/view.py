@@ -1,0 +1,107 @@
+"""What a live session's clients see: a sink that keeps the latest of each topic.
+
+:class:`LiveView` is added to the session's sinks; after each tick the server
+asks it for the replies to the tick's commands, the console's state (from the
+Generator Handler itself, the one command layer) and a frame of the live view.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Final
+
+from pipeline.events import (
+    Event,
+    Level,
+    LogEntries,
+    LogEntry,
+    OperatorReply,
+    OperatorState,
+    ReaderProgress,
+    RuleDecisions,
+    Topic,
+    WorldState,
+)
+from pipeline.operator.handler import GeneratorHandler
+from scenarios.live.protocol import Block, SessionState, WorldMessage
+
+FIRED_WINDOW_MS: Final = 1000
+"""A rule stays in the live view's "firing" list this long after its condition held."""
+
+LOG_LINES: Final = 8
+
+
+class LiveView:
+    """A sink keeping the latest world state, block, rules fired, log lines and replies."""
+
+    def __init__(self, handler: GeneratorHandler) -> None:
+        self.handler = handler
+        self.tick = 0
+        self.time_ms = 0
+        self.world: WorldState | None = None
+        self.block = Block()
+        self.replies: dict[int, OperatorReply] = {}
+        """Replies to operator commands by command id; the server takes them after each tick."""
+        self._fired: dict[str, int] = {}
+        self._log: deque[LogEntry] = deque(maxlen=LOG_LINES)
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        del time_ns
+        self.tick, self.time_ms = message.tick, message.time_ms
+        match message:
+            case OperatorState():
+                for reply in message.replies:
+                    self.replies[reply.id] = reply
+            case ReaderProgress():
+                self.block = Block(
+                    activity=message.activity,
+                    goal=message.goalid,
+                    action=message.actionid,
+                    block=message.blockid,
+                )
+            case RuleDecisions():
+                for decision in message.decisions:
+                    if decision.fired:
+                        self._fired[decision.rule] = message.time_ms
+            case WorldState():
+                self.world = message
+            case LogEntries():
+                self._log.extend(e for e in message.entries if e.level >= Level.WARNING)
+
+    def take_replies(self) -> dict[int, OperatorReply]:
+        replies, self.replies = self.replies, {}
+        return replies
+
+    def note(self, entry: LogEntry) -> None:
+        """A line from the server itself (the dead-man released the lock...)."""
+        self._log.append(entry)
+
+    def state(self) -> SessionState:
+        """The console's activity screen now."""
+        return SessionState(
+            tick=self.tick,
+            time_ms=self.time_ms,
+            button=self.handler.button.value,
+            activities=self.handler.activities(),
+            block=self.block,
+        )
+
+    def frame(self, *, joystick_engaged: bool) -> WorldMessage | None:
+        """The live view now (None before the first tick)."""
+        world = self.world
+        if world is None:
+            return None
+        since = self.time_ms - FIRED_WINDOW_MS
+        return WorldMessage(
+            tick=world.tick,
+            time_ms=world.time_ms,
+            robot=world.robot,
+            humans=world.humans,
+            objects=world.objects,
+            led=world.led,
+            audio=world.audio,
+            block=self.block,
+            fired=tuple(sorted(r for r, at in self._fired.items() if at > since)),
+            log=tuple(self._log),
+            joystick_engaged=joystick_engaged,
+        )

@@ -1,0 +1,505 @@
+// oimi operator console: the thesis's main activity screen (5.1), a live view of the
+// arena and the joystick. It keeps no state of its own: everything it shows comes from
+// the server (the same command layer as the TCP App Interface), over one WebSocket.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const LABELS = { get_ready: "Get Ready", loading: "Loading…", start: "Start", stop: "Stop" };
+const STATE_LABELS = { current: "current", completed: "completed", not_yet_completed: "not yet completed" };
+const HEARTBEAT_MS = 200;
+
+let ws = null;
+let nextId = 1;
+const pending = new Map(); // request id -> callback(reply)
+let state = null; // the last SessionState
+let scene = null; // the arena (hello)
+let frame = null; // the last WorldMessage
+let catalogue = [];
+let busy = 0; // operator commands sent and not yet answered
+
+// ------------------------------------------------------------------ connection
+
+function connect() {
+  const token = new URLSearchParams(location.search).get("token");
+  ws = new WebSocket(`ws://${location.host}/ws`);
+  ws.onopen = () => {
+    setLink(true);
+    if (token) request({ cmd: "auth", token });
+    request({ cmd: "subscribe", world: true });
+    request({ cmd: "list" }, (reply) => {
+      if (reply.ok) catalogue = reply.catalogue || [];
+      listKey = "";
+      render();
+    });
+  };
+  ws.onmessage = (event) => receive(JSON.parse(event.data));
+  ws.onclose = () => {
+    setLink(false);
+    pending.clear();
+    busy = 0;
+    setTimeout(connect, 1000);
+  };
+}
+
+function setLink(up) {
+  $("link").textContent = up ? "connected" : "disconnected";
+  $("link").className = up ? "up" : "down";
+  document.body.dataset.link = up ? "up" : "down";
+}
+
+function request(body, callback) {
+  if (!ws || ws.readyState !== WebSocket.OPEN) return false;
+  const id = nextId++;
+  if (callback) pending.set(id, callback);
+  ws.send(JSON.stringify({ id, ...body }));
+  return true;
+}
+
+// An operator command: the command button shows "Loading…" until the reply.
+function command(body) {
+  const sent = request(body, (reply) => {
+    busy = Math.max(0, busy - 1);
+    say(reply.ok ? reply.reason : `Refused: ${reply.reason}`, !reply.ok);
+    render();
+  });
+  if (sent) { busy += 1; render(); }
+}
+
+function say(text, refused) {
+  $("message").textContent = text || "";
+  $("message").className = refused ? "refused" : "";
+}
+
+function receive(msg) {
+  switch (msg.type) {
+    case "hello":
+      scene = msg.scene;
+      $("scenario").textContent = msg.scenario;
+      break;
+    case "reply": {
+      const callback = pending.get(msg.id);
+      pending.delete(msg.id);
+      if (callback) callback(msg);
+      else if (!msg.ok) say(`Refused: ${msg.reason}`, true);
+      break;
+    }
+    case "state":
+      state = msg.state;
+      render();
+      break;
+    case "world":
+      frame = msg;
+      drawWorld();
+      break;
+  }
+}
+
+// ------------------------------------------------------------ activity screen
+
+function buttonFace() {
+  if (!state) return "get_ready";
+  return busy > 0 ? "loading" : state.button;
+}
+
+function render() {
+  if (!state) return;
+  const face = buttonFace();
+  const button = $("command");
+  button.textContent = LABELS[face];
+  button.className = `command ${face}`;
+  button.dataset.button = face;
+  button.disabled = face === "loading";
+  const still = face === "loading" || face === "stop";
+  $("restart").disabled = still;
+  $("clear").disabled = still;
+  $("plus").disabled = still;
+  $("clock").textContent = `t = ${(state.time_ms / 1000).toFixed(1)} s`;
+
+  // Rebuild the list only when it changed (a drag in progress survives other updates).
+  const key = JSON.stringify([state.activities, still]);
+  if (key === listKey) return;
+  listKey = key;
+  const list = $("selected");
+  list.replaceChildren();
+  state.activities.forEach((activity, index) => list.append(activityItem(activity, index, still)));
+  $("empty").hidden = state.activities.length > 0;
+}
+let listKey = "";
+
+function activityItem(activity, index, still) {
+  const li = document.createElement("li");
+  li.className = activity.state;
+  li.dataset.name = activity.name;
+  li.dataset.state = activity.state;
+  li.dataset.index = index;
+  const handle = document.createElement("span");
+  handle.className = "handle";
+  handle.textContent = "≡";
+  handle.title = "Drag to reorder";
+  li.draggable = !still;
+  const name = document.createElement("span");
+  name.className = "name";
+  name.textContent = titleOf(activity.name);
+  const options = document.createElement("span");
+  options.className = "options";
+  options.textContent = Object.entries(activity.options).map(([k, v]) => `${k} ${v}`).join(" · ");
+  name.append(options);
+  const badge = document.createElement("span");
+  badge.className = `state ${activity.state}`;
+  badge.textContent = STATE_LABELS[activity.state] || activity.state;
+  const trash = document.createElement("button");
+  trash.className = "trash";
+  trash.textContent = "✕";
+  trash.title = `Remove ${activity.name}`;
+  trash.setAttribute("aria-label", `Remove ${activity.name}`);
+  trash.onclick = () => command({ cmd: "remove", activity: activity.name });
+  li.append(handle, name, badge, trash);
+
+  li.addEventListener("dragstart", (e) => {
+    e.dataTransfer.setData("text/plain", activity.name);
+    e.dataTransfer.effectAllowed = "move";
+  });
+  li.addEventListener("dragover", (e) => { e.preventDefault(); li.classList.add("drop-target"); });
+  li.addEventListener("dragleave", () => li.classList.remove("drop-target"));
+  li.addEventListener("drop", (e) => {
+    e.preventDefault();
+    li.classList.remove("drop-target");
+    const moved = e.dataTransfer.getData("text/plain");
+    if (moved && moved !== activity.name) {
+      command({ cmd: "reorder", activity: moved, position: index });
+    }
+  });
+  return li;
+}
+
+function titleOf(name) {
+  const info = catalogue.find((c) => c.name === name);
+  return info ? info.title : name;
+}
+
+$("command").onclick = () => {
+  const face = buttonFace();
+  if (face !== "loading") command({ cmd: face });
+};
+$("restart").onclick = () => command({ cmd: "restart" });
+$("clear").onclick = () => command({ cmd: "clear" });
+
+// ------------------------------------------------------- selection and options
+
+$("plus").onclick = () => {
+  request({ cmd: "list" }, (reply) => {
+    if (reply.ok) catalogue = reply.catalogue || [];
+    showCatalogue();
+  });
+  $("picker").showModal();
+  showCatalogue();
+};
+
+function showCatalogue() {
+  $("picker-title").textContent = "Add an activity";
+  $("picker-message").textContent = "";
+  $("options").hidden = true;
+  $("picker-add").hidden = true;
+  $("picker-back").hidden = true;
+  const list = $("catalogue");
+  list.hidden = false;
+  list.replaceChildren();
+  for (const info of catalogue) {
+    const li = document.createElement("li");
+    const button = document.createElement("button");
+    button.type = "button";
+    button.dataset.activity = info.name;
+    button.textContent = info.title;
+    const small = document.createElement("small");
+    small.textContent = info.description;
+    button.append(small);
+    button.onclick = () => showOptions(info);
+    li.append(button);
+    list.append(li);
+  }
+}
+
+function showOptions(info) {
+  $("picker-title").textContent = info.title;
+  $("catalogue").hidden = true;
+  $("picker-back").hidden = false;
+  $("picker-add").hidden = false;
+  const form = $("options");
+  form.hidden = false;
+  form.replaceChildren();
+  for (const spec of info.options) form.append(optionField(spec));
+  if (!info.options.length) {
+    const p = document.createElement("p");
+    p.className = "hint";
+    p.textContent = "No options.";
+    form.append(p);
+  }
+  $("picker-add").onclick = () => {
+    const options = {};
+    for (const input of form.querySelectorAll("[data-option]")) {
+      options[input.dataset.option] = input.value.trim();
+    }
+    request({ cmd: "add", activity: info.name, options }, (reply) => {
+      if (reply.ok) {
+        $("picker").close();
+        say(reply.reason, false);
+      } else {
+        $("picker-message").textContent = reply.reason;
+      }
+    });
+  };
+}
+
+function optionField(spec) {
+  const label = document.createElement("label");
+  label.textContent = spec.name.replaceAll("_", " ");
+  let input;
+  if (spec.kind === "choice" && spec.min == null && !spec.multiple) {
+    input = document.createElement("select");
+    for (const choice of spec.choices) input.append(new Option(choice, choice));
+  } else {
+    input = document.createElement("input");
+    if (spec.kind === "number" && !spec.multiple) {
+      input.type = "number";
+      if (spec.min != null) input.min = spec.min;
+      if (spec.max != null) input.max = spec.max;
+      input.step = spec.integer ? "1" : "any";
+    } else {
+      input.type = "text";
+    }
+    const hints = spec.kind === "colour"
+      ? ["red", "green", "blue", "yellow", "cyan", "magenta", "white", "orange", "purple", "pink"]
+      : spec.choices;
+    if (hints.length) {
+      const list = document.createElement("datalist");
+      list.id = `choices-${spec.name}`;
+      for (const h of hints) list.append(new Option(h, h));
+      label.append(list);
+      input.setAttribute("list", list.id);
+    }
+  }
+  input.value = spec.default;
+  input.dataset.option = spec.name;
+  input.name = spec.name;
+  label.append(input);
+  if (spec.kind === "colour") {
+    const swatches = document.createElement("span");
+    swatches.className = "colours";
+    const paint = () => {
+      swatches.replaceChildren();
+      for (const c of input.value.split(",")) {
+        const s = document.createElement("span");
+        s.className = "swatch";
+        s.style.background = c.trim();
+        swatches.append(s);
+      }
+    };
+    input.addEventListener("input", paint);
+    paint();
+    label.append(swatches);
+  }
+  const range = spec.min != null ? ` (${spec.min}–${spec.max})` : "";
+  const help = document.createElement("small");
+  help.textContent = `${spec.help}${range}`;
+  label.append(help);
+  return label;
+}
+
+$("picker-back").onclick = showCatalogue;
+$("picker-cancel").onclick = () => $("picker").close();
+
+// ----------------------------------------------------------------- live view
+
+function drawWorld() {
+  const canvas = $("arena");
+  const g = canvas.getContext("2d");
+  g.clearRect(0, 0, canvas.width, canvas.height);
+  if (!scene || !frame) return;
+  const margin = 16;
+  const scale = Math.min(
+    (canvas.width - 2 * margin) / scene.width_m,
+    (canvas.height - 2 * margin) / scene.height_m,
+  );
+  const X = (x) => margin + x * scale;
+  const Y = (y) => canvas.height - margin - y * scale;
+  g.strokeStyle = "#889";
+  g.lineWidth = 2;
+  g.strokeRect(X(0), Y(scene.height_m), scene.width_m * scale, scene.height_m * scale);
+  g.fillStyle = "#c9c2b4";
+  for (const o of scene.obstacles || []) {
+    if (o.radius_m > 0) {
+      disc(g, X(o.x_m), Y(o.y_m), o.radius_m * scale);
+    } else {
+      g.save();
+      g.translate(X(o.x_m), Y(o.y_m));
+      g.rotate(-(o.angle_rad || 0));
+      g.fillRect((-o.width_m / 2) * scale, (-o.height_m / 2) * scale, o.width_m * scale, o.height_m * scale);
+      g.restore();
+    }
+  }
+  for (const o of frame.objects || []) {
+    g.fillStyle = "#8e6bbf";
+    disc(g, X(o.x_m), Y(o.y_m), Math.max(o.radius_m, 0.06) * scale);
+  }
+  for (const h of frame.humans || []) {
+    g.fillStyle = h.kind === "child" ? "#f29b38" : "#7d8794";
+    disc(g, X(h.x_m), Y(h.y_m), Math.max(h.radius_m, 0.15) * scale);
+    g.fillStyle = "#333";
+    g.font = "12px system-ui";
+    g.fillText(h.id, X(h.x_m) + 0.25 * scale, Y(h.y_m) - 0.2 * scale);
+  }
+  const r = frame.robot;
+  const led = rgb(frame.led);
+  const radius = Math.max(r.radius_m, 0.2) * scale;
+  g.fillStyle = "#3b4250";
+  disc(g, X(r.x_m), Y(r.y_m), radius);
+  g.fillStyle = led;
+  disc(g, X(r.x_m), Y(r.y_m), radius * 0.6);
+  g.strokeStyle = "#fff";
+  g.beginPath();
+  g.moveTo(X(r.x_m), Y(r.y_m));
+  g.lineTo(X(r.x_m) + Math.cos(r.theta_rad) * radius, Y(r.y_m) - Math.sin(r.theta_rad) * radius);
+  g.stroke();
+
+  const b = frame.block || {};
+  $("block").textContent = b.activity ? `${b.activity} / ${b.goal} / ${b.action} / ${b.block}` : "–";
+  $("led").style.background = led;
+  $("led-text").textContent = frame.led.map((v) => v.toFixed(2)).join(", ");
+  $("audio").textContent = frame.audio || "–";
+  $("fired").textContent = (frame.fired || []).join(", ") || "–";
+  $("engaged").textContent = frame.joystick_engaged ? "engaged (operator drives)" : "released";
+  const log = $("log");
+  log.replaceChildren();
+  for (const entry of frame.log || []) {
+    const li = document.createElement("li");
+    li.textContent = `${entry.source}: ${entry.message}`;
+    log.append(li);
+  }
+}
+
+function disc(g, x, y, radius) {
+  g.beginPath();
+  g.arc(x, y, radius, 0, 2 * Math.PI);
+  g.fill();
+}
+
+function rgb(c) {
+  const [r, g, b] = (c || [0, 0, 0]).map((v) => Math.round(Math.max(0, Math.min(1, v)) * 255));
+  return `rgb(${r}, ${g}, ${b})`;
+}
+
+// ------------------------------------------------------------------- joystick
+
+// The pad as the robot reads it; sent on change and, while the lock is held, as a heartbeat.
+const pad = { left_x: 0, left_y: 0, right_x: 0, buttons: new Set() };
+let lastSent = "";
+let lastSentAt = 0;
+
+function sendPad(force) {
+  const body = {
+    cmd: "joystick",
+    left_x: round(pad.left_x),
+    left_y: round(pad.left_y),
+    right_x: round(pad.right_x),
+    buttons: [...pad.buttons].sort(),
+  };
+  const key = JSON.stringify(body);
+  const now = performance.now();
+  const heartbeat = pad.buttons.has("LB") && now - lastSentAt >= HEARTBEAT_MS;
+  if (key !== lastSent || heartbeat || force) {
+    if (request(body)) {
+      lastSent = key;
+      lastSentAt = now;
+    }
+  }
+  $("lock").classList.toggle("held", pad.buttons.has("LB"));
+  $("interrupt").classList.toggle("held", pad.buttons.has("X"));
+}
+
+function round(v) { return Math.round(v * 100) / 100; }
+
+function hold(id, name) {
+  const el = $(id);
+  const press = (e) => { e.preventDefault(); el.setPointerCapture?.(e.pointerId); pad.buttons.add(name); sendPad(); };
+  const release = () => { pad.buttons.delete(name); sendPad(); };
+  el.addEventListener("pointerdown", press);
+  for (const ev of ["pointerup", "pointercancel", "lostpointercapture"]) el.addEventListener(ev, release);
+}
+hold("lock", "LB");
+hold("interrupt", "X");
+$("blocking").onchange = (e) => {
+  if (e.target.checked) pad.buttons.add("RB"); else pad.buttons.delete("RB");
+  sendPad();
+};
+$("turn").addEventListener("input", (e) => { pad.right_x = Number(e.target.value); sendPad(); });
+for (const ev of ["pointerup", "change"]) {
+  $("turn").addEventListener(ev, (e) => { e.target.value = 0; pad.right_x = 0; sendPad(); });
+}
+
+(function stick() {
+  const area = $("stick");
+  const knob = $("knob");
+  let active = false;
+  const move = (e) => {
+    const box = area.getBoundingClientRect();
+    let x = ((e.clientX - box.left) / box.width) * 2 - 1;
+    let y = -(((e.clientY - box.top) / box.height) * 2 - 1);
+    const n = Math.hypot(x, y);
+    if (n > 1) { x /= n; y /= n; }
+    pad.left_x = x;
+    pad.left_y = y;
+    knob.style.left = `${58 + x * 58}px`;
+    knob.style.top = `${58 - y * 58}px`;
+    sendPad();
+  };
+  const centre = () => {
+    active = false;
+    pad.left_x = pad.left_y = 0;
+    knob.style.left = knob.style.top = "58px";
+    sendPad();
+  };
+  area.addEventListener("pointerdown", (e) => { active = true; area.setPointerCapture(e.pointerId); move(e); });
+  area.addEventListener("pointermove", (e) => { if (active) move(e); });
+  for (const ev of ["pointerup", "pointercancel", "lostpointercapture"]) area.addEventListener(ev, centre);
+})();
+
+// Leaving the page or the window releases everything: never leave the robot moving.
+function releaseAll() {
+  pad.buttons.clear();
+  pad.left_x = pad.left_y = pad.right_x = 0;
+  $("blocking").checked = false;
+  sendPad(true);
+}
+window.addEventListener("blur", releaseAll);
+document.addEventListener("visibilitychange", () => { if (document.hidden) releaseAll(); });
+
+// An Xbox 360 pad plugged into the tablet (Gamepad API, standard mapping).
+const PAD_BUTTONS = { 0: "A", 1: "B", 2: "X", 3: "Y", 4: "LB", 5: "RB", 8: "BACK", 9: "START" };
+let gamepadIndex = null;
+window.addEventListener("gamepadconnected", (e) => {
+  gamepadIndex = e.gamepad.index;
+  $("pad-source").textContent = `gamepad: ${e.gamepad.id}`;
+});
+window.addEventListener("gamepaddisconnected", (e) => {
+  if (e.gamepad.index === gamepadIndex) {
+    gamepadIndex = null;
+    $("pad-source").textContent = "on-screen";
+    releaseAll();
+  }
+});
+
+function poll() {
+  const gp = gamepadIndex == null ? null : navigator.getGamepads()[gamepadIndex];
+  if (gp) {
+    pad.left_x = gp.axes[0] || 0;
+    pad.left_y = -(gp.axes[1] || 0);
+    pad.right_x = gp.axes[2] || 0;
+    pad.buttons = new Set(
+      Object.entries(PAD_BUTTONS).filter(([i]) => gp.buttons[i]?.pressed).map(([, n]) => n),
+    );
+  }
+  sendPad();
+}
+setInterval(poll, 50);
+
+connect();

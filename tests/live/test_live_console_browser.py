@@ -1,0 +1,155 @@
+"""The web console in a real browser (headless Chromium from Debian, driven by Playwright)
+against ``oimi serve``: the operator's whole round of thesis 5.1, and the joystick."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+from live_helpers import served
+
+from pipeline.events import JoystickInput, Topic
+from recorder.reader import open_recording
+from replay.redrive import redrive
+
+CHROMIUM = Path("/usr/bin/chromium")
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+def _missing() -> str | None:
+    if not CHROMIUM.exists():
+        return f"{CHROMIUM} is missing (apt-get install chromium)"
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return "the playwright package is missing (pip install playwright)"
+    return None
+
+
+if (why := _missing()) is not None:
+    if os.environ.get("OIMI_REQUIRE_BROWSER") == "1":
+        raise RuntimeError(f"OIMI_REQUIRE_BROWSER=1 but {why}")
+    pytest.skip(f"browser tests skipped: {why}", allow_module_level=True)
+
+from playwright.sync_api import Page, expect, sync_playwright  # noqa: E402
+
+
+@pytest.fixture
+def browser_page():
+    with tempfile.TemporaryDirectory() as profile, sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            profile,
+            executable_path=str(CHROMIUM),
+            args=FLAGS,
+            headless=True,
+            viewport={"width": 1400, "height": 760},
+        )
+        page = context.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        yield page
+        context.close()
+        assert not errors, errors
+
+
+def add(page: Page, activity: str, **options: str) -> None:
+    page.click("#plus")
+    page.click(f"#catalogue button[data-activity={activity}]")
+    for name, value in options.items():
+        page.fill(f"#options [name={name}]", value)
+    page.click("#picker-add")
+    expect(page.locator(f"#selected li[data-name={activity}]")).to_be_visible()
+
+
+def item(page: Page, activity: str):
+    return page.locator(f"#selected li[data-name={activity}]")
+
+
+def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tmp_path):
+    page = browser_page
+    recording = tmp_path / "console.mcap"
+    screenshot = Path(os.environ.get("OIMI_CONSOLE_SCREENSHOT", tmp_path / "console.png"))
+    with served(recording) as live:
+        page.goto(live.console)
+        expect(page.locator("body")).to_have_attribute("data-link", "up")
+        command = page.locator("#command")
+        expect(command).to_have_attribute("data-button", "get_ready")
+
+        page.click("#plus")  # the dance's option screen: tempo and colours
+        page.click("#catalogue button[data-activity=test_dance]")
+        expect(page.locator("#options [name=colours]")).to_have_value("red,green,blue")
+        page.fill("#options [name=tempo]", "lively")
+        page.click("#picker-add")
+        expect(page.locator("#picker-message")).to_contain_text("tempo")
+        page.click("#picker-cancel")
+
+        add(page, "example_act", colour="cyan")
+        add(page, "test_dance", tempo="slow", colours="orange,purple")
+        add(page, "greeting")
+        expect(item(page, "test_dance")).to_contain_text("orange,purple")
+        command.click()  # Get Ready
+        expect(command).to_have_attribute("data-button", "start")
+        expect(command).to_have_text("Start")
+        command.click()
+        expect(command).to_have_text("Stop")
+        expect(item(page, "example_act")).to_have_attribute("data-state", "completed")
+        expect(item(page, "test_dance")).to_have_attribute("data-state", "current")
+        expect(item(page, "greeting")).to_have_attribute("data-state", "not_yet_completed")
+        expect(page.locator("#restart")).to_be_disabled()
+        expect(page.locator("#block")).to_contain_text("test_dance")
+        page.wait_for_timeout(1200)  # the dance lights up
+        page.screenshot(path=str(screenshot))
+
+        command.click()  # Stop
+        expect(command).to_have_text("Start")
+        expect(item(page, "test_dance")).to_have_attribute("data-state", "not_yet_completed")
+        item(page, "greeting").drag_to(item(page, "example_act"))  # reorder: greeting first
+        expect(page.locator("#selected li").first).to_have_attribute("data-name", "greeting")
+        page.click("#selected li[data-name=greeting] .trash")
+        expect(item(page, "greeting")).to_have_count(0)
+        page.click("#restart")
+        expect(item(page, "example_act")).to_have_attribute("data-state", "not_yet_completed")
+        page.click("#clear")
+        expect(page.locator("#selected li")).to_have_count(0)
+        expect(command).to_have_text("Get Ready")
+
+        # The on-screen joystick: hold the lock and push; letting go stops the robot.
+        lock = page.locator("#lock")
+        lock.hover()
+        page.mouse.down()
+        expect(page.locator("#engaged")).to_contain_text("engaged")
+        page.mouse.up()
+        expect(page.locator("#engaged")).to_have_text("released")
+        live.stop()
+    assert live.returncode == 0, live.errors
+
+    rec = open_recording(recording)
+    pads = [m.decoded() for m in rec.iter_messages(topics=[Topic.JOYSTICK])]
+    assert [p.buttons for p in pads if isinstance(p, JoystickInput)][-2:] == [("LB",), ()]
+    verbs = [
+        c.verb
+        for m in rec.iter_messages(topics=[Topic.OPERATOR_COMMANDS])
+        for c in m.decoded().commands  # type: ignore[attr-defined]
+    ]
+    assert [v for v in verbs if v not in ("list", "add")] == [
+        "get_ready",
+        "start",
+        "stop",
+        "reorder",
+        "remove",
+        "restart",
+        "clear",
+    ]
+    comparison = redrive(recording)
+    assert comparison.ok, comparison.divergence
