@@ -6,9 +6,12 @@ Exit 0 when every expectation holds, 1 when one fails, 2 on bad input.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import console
+from scenarios.batch.spec import parse_param
+from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
 from scenarios.recording import recorded
 from scenarios.runner import RunResult, Session
@@ -19,6 +22,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", type=Path, help="MCAP file (default: out/NAME.mcap)")
     parser.add_argument("--rrd", type=Path, help="also write a Rerun recording here")
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scenario field by its dotted path (robot.max_speed_mps=0.3); repeatable",
+    )
     parser.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
@@ -28,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     loaded = load_scenario(args.scenario)
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
-    session = Session(loaded, seed=args.seed)
+    session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))
     progress = None if args.quiet else console.Progress(f"{session.scenario.name}", session.tick_ms)
     pace = console.Pacer(session.tick_ms) if args.realtime else None
     with recorded(session, mcap=output, rrd=args.rrd):
@@ -45,6 +55,17 @@ def run(args: argparse.Namespace) -> int:
     if args.junit is not None:
         console.write_junit(args.junit, [(args.scenario.stem, result)])
     return 0 if result.ok else 1
+
+
+def parse_params(items: Sequence[str]) -> dict[str, str]:
+    """``["a.b=1", ...]`` -> ``{"a.b": "1"}``; a key given twice or without ``=`` is bad input."""
+    params: dict[str, str] = {}
+    for item in items:
+        key, value = parse_param(item)
+        if key in params:
+            raise ScenarioError(f"--param {key!r} given twice", source="<command line>")
+        params[key] = value
+    return params
 
 
 def print_result(result: RunResult) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import metadata as package_metadata
 from pathlib import Path
 
@@ -27,7 +27,7 @@ from pipeline.think.functions import default_registry
 from pipeline.think.library import RULES
 from scenarios.activities import ACTIVITIES, ActivityLibrary
 from scenarios.expectations import Tracker, Verdict
-from scenarios.loader import LoadedScenario
+from scenarios.loader import LoadedScenario, apply_overrides
 from scenarios.schema import (
     BehaviourEvent,
     FaultEvent,
@@ -86,9 +86,21 @@ class Session:
     """One scenario, set up and ready to tick; ``run`` plays it to the end."""
 
     def __init__(
-        self, loaded: LoadedScenario, *, sinks: Sequence[Sink] = (), seed: int | None = None
+        self,
+        loaded: LoadedScenario,
+        *,
+        sinks: Sequence[Sink] = (),
+        seed: int | None = None,
+        autostart: bool = True,
+        overrides: Mapping[str, str] | None = None,
     ) -> None:
+        """``autostart=False`` leaves the scenario's activities selected but not started
+        (a live session: the operator gets them ready and starts them). ``overrides``
+        (``scenarios.loader.apply_overrides``) vary the scenario; recorded as ``variation``."""
         scenario = loaded.scenario
+        self.overrides = dict(overrides or {})
+        if self.overrides:
+            scenario = apply_overrides(scenario, self.overrides)
         if seed is not None:
             scenario = msgspec.structs.replace(scenario, seed=seed)
         self.loaded = loaded
@@ -112,6 +124,7 @@ class Session:
             sink=self.sink,
         )
         self.outputs = ActuatorOutputs()
+        self.autostart = autostart
         self.schedule = self._schedule()
         self._command_id = 0
 
@@ -145,7 +158,7 @@ class Session:
             isinstance(e, OperatorEvent) and e.verb in AUTO_START_VERBS
             for e in self.scenario.events
         )
-        if self.scenario.activities and not drives:
+        if self.scenario.activities and self.autostart and not drives:
             at(0, OperatorEvent(at_s=0, verb=OperatorVerb.GET_READY))
             at(1, OperatorEvent(at_s=0, verb=OperatorVerb.START))
         for event in self.scenario.events:
@@ -270,6 +283,7 @@ class Session:
                 "robot": msgspec.json.encode(s.robot).decode(),
                 "sensors": msgspec.json.encode(s.sensors).decode(),
             },
+            **({"variation": dict(self.overrides)} if self.overrides else {}),
         }
 
     def attachments(self) -> list[tuple[str, bytes]]:
