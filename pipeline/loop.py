@@ -100,6 +100,7 @@ class Pipeline:
             outcome.items += start.items
 
         # Inputs: sensor updates queue in the producer; operator and joystick act at once.
+        self.handler.tick(now_ms)  # before this tick's commands: "loading" lasts one tick
         if updates:
             emitter.emit(Topic.SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
             for update in updates:
@@ -113,7 +114,6 @@ class Pipeline:
         if joystick is not None:
             self.sink.record(Topic.JOYSTICK, emitter.time_ns, joystick)
             self.actuator.joystick(joystick, now_ms=now_ms)
-        self.handler.tick(now_ms)
 
         # 1. Issue the block to the actuator (from the beginning when it changed).
         info = self.map.scriptinfo
