@@ -1,0 +1,107 @@
+"""The batch's results table (polars; Parquet and CSV) and its short text summary.
+
+One row per run, in task order (not finishing order), only scalar columns and
+no wall-clock values, so the same batch gives the same table on any executor:
+
+``run, scenario, file, seed, params, param:KEY..., ok, passed, failed,
+expect:NAME..., ticks, duration_s, max_speed_mps, min_distance_m,
+min_distance_m:HUMAN..., contacts, rejected_inputs, rules_fired, goals_reached,
+recording, error``. ``param:`` values are the override texts; ``expect:`` and
+per-human columns are null for runs whose scenario has no such expectation or human.
+"""
+
+from __future__ import annotations
+
+import shlex
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Final
+
+import polars as pl
+
+from scenarios.batch.tasks import ResultRow
+
+PARQUET: Final = "results.parquet"
+CSV: Final = "results.csv"
+
+_TYPES: Final = {bool: pl.Boolean, int: pl.Int64, float: pl.Float64, str: pl.String}
+
+
+def row_columns(row: ResultRow) -> dict[str, Any]:
+    """One run as flat, typed columns."""
+    s = row.result.summary
+    task = row.task
+    verdicts = row.result.verdicts
+    closest = min(s.min_distance_m.values(), default=None)
+    columns: dict[str, Any] = {
+        "run": task.name,
+        "scenario": s.scenario,
+        "file": Path(task.scenario).name,
+        "seed": task.seed,
+        "params": ",".join(f"{k}={v}" for k, v in task.overrides),
+        **{f"param:{k}": v for k, v in task.overrides},
+        "ok": row.ok,
+        "passed": sum(v.ok for v in verdicts),
+        "failed": sum(not v.ok for v in verdicts),
+        **{f"expect:{v.name}": v.ok for v in verdicts},
+        "ticks": s.ticks,
+        "duration_s": s.duration_s,
+        "max_speed_mps": s.max_speed_mps,
+        "min_distance_m": closest,
+        **{f"min_distance_m:{h}": d for h, d in s.min_distance_m.items()},
+        "contacts": s.contacts,
+        "rejected_inputs": s.rejected_inputs,
+        "rules_fired": sum(s.rules_fired.values()),
+        "goals_reached": len(s.goals_reached),
+        "recording": row.recording,
+        "error": row.error.strip().splitlines()[-1] if row.error.strip() else "",
+    }
+    # Later: metrics from ``analysis`` (joystick interventions, time near each human...) would
+    # be added here from the recording, once that package offers per-session figures.
+    return columns
+
+
+def results_frame(rows: Sequence[ResultRow]) -> pl.DataFrame:
+    """The results table; columns in the order they first appear, rows in the given order."""
+    records = [row_columns(row) for row in rows]
+    kinds: dict[str, type | None] = {}
+    for record in records:
+        for name, value in record.items():
+            known = kinds.setdefault(name, None)
+            if value is not None and (known is None or (known is int and type(value) is float)):
+                kinds[name] = type(value)
+    return pl.DataFrame(
+        {name: [r.get(name) for r in records] for name in kinds},
+        schema={name: _TYPES[kind or float] for name, kind in kinds.items()},
+        strict=False,
+    )
+
+
+def write_results(frame: pl.DataFrame, out_dir: Path) -> list[Path]:
+    """The table as Parquet and CSV in ``out_dir``; returns the files written."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    parquet, csv = out_dir / PARQUET, out_dir / CSV
+    frame.write_parquet(parquet)
+    frame.write_csv(csv)
+    return [parquet, csv]
+
+
+def reproduce_command(row: ResultRow) -> str:
+    """The ``oimi run`` command that runs this one task again."""
+    task = row.task
+    words = ["oimi", "run", task.scenario, "--seed", str(task.seed)]
+    for key, value in task.overrides:
+        words += ["--param", f"{key}={value}"]
+    words += ["-o", str(task.mcap)]
+    return shlex.join(words)
+
+
+def summary_text(rows: Sequence[ResultRow]) -> str:
+    """Pass/fail counts and, for each failing run, what failed and how to reproduce it."""
+    failing = [row for row in rows if not row.ok]
+    lines = [f"batch: {len(rows)} runs, {len(rows) - len(failing)} passed, {len(failing)} failed"]
+    for row in failing:
+        lines.append(f"FAIL {row.task.name}")
+        lines += [f"  {v.name}: {v.detail}" for v in row.result.verdicts if not v.ok]
+        lines.append(f"  reproduce: {reproduce_command(row)}")
+    return "\n".join(lines)
