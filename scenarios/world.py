@@ -169,9 +169,9 @@ class World:
     def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
-        robot_xy = (self.robot.position.x, self.robot.position.y)
+        robot_xy = tuple(self.robot.position)
         for human in self.humans:
-            position = (human.body.position.x, human.body.position.y)
+            position = tuple(human.body.position)
             velocity = human.driver.velocity(
                 position=position, robot=robot_xy, time_ms=time_ms, dt_s=self.step_s
             )
@@ -298,51 +298,56 @@ class World:
     def state(self, *, tick: int, time_ms: int) -> WorldState:
         """Everything that moves, for ``/world/state``."""
         robot = self.robot
+        position, velocity = robot.position, robot.velocity
         return WorldState(
             tick=tick,
             time_ms=time_ms,
             robot=BodyState(
                 id="robot",
                 kind="robot",
-                x_m=robot.position.x,
-                y_m=robot.position.y,
+                x_m=position.x,
+                y_m=position.y,
                 theta_rad=wrap_angle(robot.angle),
-                vx_mps=robot.velocity.x,
-                vy_mps=robot.velocity.y,
+                vx_mps=velocity.x,
+                vy_mps=velocity.y,
                 omega_radps=robot.angular_velocity,
                 radius_m=self.scenario.robot.radius_m,
             ),
-            humans=tuple(
-                BodyState(
-                    id=human.spec.id,
-                    kind=str(human.spec.role),
-                    x_m=human.body.position.x,
-                    y_m=human.body.position.y,
-                    theta_rad=human.driver.heading_rad,
-                    vx_mps=human.body.velocity.x,
-                    vy_mps=human.body.velocity.y,
-                    radius_m=human.spec.radius_m,
-                )
-                for human in self.humans
-                if human.present
-            ),
-            objects=tuple(
-                BodyState(
-                    id=thing.spec.id,
-                    kind=thing.spec.category,
-                    x_m=thing.body.position.x,
-                    y_m=thing.body.position.y,
-                    theta_rad=wrap_angle(thing.body.angle),
-                    vx_mps=thing.body.velocity.x,
-                    vy_mps=thing.body.velocity.y,
-                    omega_radps=thing.body.angular_velocity,
-                    radius_m=thing.spec.radius_m,
-                )
-                for thing in self.things
-            ),
+            humans=tuple(self._human_state(human) for human in self.humans if human.present),
+            objects=tuple(self._thing_state(thing) for thing in self.things),
             led=self.led,
             audio=self.audio,
             contacts=self.last_report.contacts,
+        )
+
+    @staticmethod
+    def _human_state(human: _Human) -> BodyState:
+        position, velocity = human.body.position, human.body.velocity
+        return BodyState(
+            id=human.spec.id,
+            kind=str(human.spec.role),
+            x_m=position.x,
+            y_m=position.y,
+            theta_rad=human.driver.heading_rad,
+            vx_mps=velocity.x,
+            vy_mps=velocity.y,
+            radius_m=human.spec.radius_m,
+        )
+
+    @staticmethod
+    def _thing_state(thing: _Thing) -> BodyState:
+        body = thing.body
+        position, velocity = body.position, body.velocity
+        return BodyState(
+            id=thing.spec.id,
+            kind=thing.spec.category,
+            x_m=position.x,
+            y_m=position.y,
+            theta_rad=wrap_angle(body.angle),
+            vx_mps=velocity.x,
+            vy_mps=velocity.y,
+            omega_radps=body.angular_velocity,
+            radius_m=thing.spec.radius_m,
         )
 
 
