@@ -243,6 +243,10 @@ class LogEntry(Message):
     """What it is about: an update's ``seq``, a rule id, an operator command id."""
 
 
+REJECTING_SOURCES: Final = ("producer", "operator", "reader", "rules")
+"""Log sources whose warnings mean an input (update, command, script, rule) was rejected."""
+
+
 class LogEntries(Event):
     entries: tuple[LogEntry, ...]
 

@@ -8,6 +8,7 @@ from collections import Counter
 import msgspec
 
 from pipeline.events import (
+    REJECTING_SOURCES,
     Event,
     Level,
     LogEntries,
@@ -29,9 +30,6 @@ from scenarios.schema import (
     RuleFired,
     Scenario,
 )
-
-REJECTING_SOURCES = ("producer", "operator", "reader", "rules")
-"""Log sources whose warnings mean an input (update, command, script, rule) was rejected."""
 
 
 class Verdict(msgspec.Struct, frozen=True, kw_only=True):

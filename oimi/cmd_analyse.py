@@ -1,0 +1,105 @@
+"""Analyse recorded sessions: activities, goals, rules, commands and safety figures.
+
+One recording: its metric tables. Several (files or folders): one comparison
+table, a row per session. ``--out DIR`` also writes the tables (Parquet, CSV),
+plots (PNG) and an HTML report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+import polars as pl
+
+from analysis.dataset import build_dataset, recordings, safe_name
+from analysis.load import AnalysisWarning, SessionData
+from analysis.metrics import SessionMetrics
+from analysis.report import transposed, write_comparison_report, write_session_report
+
+SESSION_TABLES = (
+    "activities",
+    "goals",
+    "rules",
+    "rules_by_activity",
+    "commands",
+    "interventions",
+    "operator",
+    "proximity",
+    "rejections",
+)
+
+COMPARISON_COLUMNS = (
+    "session_id",
+    "duration_s",
+    "activities_completed",
+    "goals_reached",
+    "rules_fired",
+    "interventions",
+    "min_distance_m",
+    "max_speed_mps",
+    "rejected_inputs",
+)
+"""What the printed comparison shows (the files hold every column)."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("paths", nargs="+", type=Path, help="MCAP recordings or folders of them")
+    parser.add_argument("--out", type=Path, help="write tables, plots and an HTML report here")
+
+
+def run(args: argparse.Namespace) -> int:
+    files = recordings(args.paths)
+    single = len(files) == 1
+    reports: dict[str, str] = {}
+
+    def on_session(data: SessionData, metrics: SessionMetrics) -> None:
+        if single:
+            print_session(metrics)
+        if args.out is not None:
+            folder = args.out if single else args.out / "sessions" / safe_name(data.session_id)
+            index = write_session_report(data, metrics, folder)
+            reports[data.session_id] = str(index.relative_to(args.out))
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AnalysisWarning)
+        dataset = build_dataset(
+            files, folder=None if args.out is None or single else args.out, on_session=on_session
+        )
+    for warning in caught:
+        print(f"warning: {warning.message}", file=sys.stderr)
+    if not single:
+        with _table_config():
+            print(dataset.comparison.select(COMPARISON_COLUMNS))
+        if args.out is not None:
+            write_comparison_report(dataset.comparison, args.out, links=reports)
+    if args.out is not None:
+        print(f"report: {args.out / 'index.html'}")
+    return 0
+
+
+def _table_config() -> pl.Config:
+    return pl.Config(
+        tbl_rows=40,
+        tbl_cols=-1,
+        tbl_width_chars=160,
+        tbl_hide_dataframe_shape=True,
+        tbl_hide_column_data_types=True,
+        tbl_formatting="ASCII_MARKDOWN",
+        float_precision=3,
+        fmt_str_lengths=40,
+    )
+
+
+def print_session(metrics: SessionMetrics) -> None:
+    """The session's summary (metric, value) and its non-empty tables."""
+    with _table_config():
+        print(f"session {metrics.session_id}")
+        print(transposed(metrics.summary))
+        for name in SESSION_TABLES:
+            frame = metrics[name]
+            if frame.height:
+                print(f"\n{name}")
+                print(frame)

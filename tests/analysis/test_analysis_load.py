@@ -1,0 +1,97 @@
+from __future__ import annotations
+
+from datetime import timedelta
+from pathlib import Path
+
+import msgspec
+import polars as pl
+import pytest
+
+from analysis.load import (
+    TIME,
+    AnalysisWarning,
+    load_session,
+    payloads_to_tables,
+    polars_dtype,
+    read_payloads,
+    struct_schema,
+)
+from pipeline.events import ActuatorCommand, RuleDecision, RuleDecisions, Topic, encode
+from recorder.errors import RecordingError
+from recorder.reader import open_recording
+
+
+def test_schema_follows_the_struct_and_leaves_out_free_keyed_dicts() -> None:
+    schema = struct_schema(RuleDecision)
+    assert schema["rule"] == pl.String
+    assert schema["fired"] == pl.Boolean
+    assert schema["changes"] == pl.List(
+        pl.Struct({"path": pl.String, "old": pl.String, "new": pl.String})
+    )
+    assert "bindings" not in schema
+
+
+def test_optional_fixed_tuple_becomes_a_nullable_list() -> None:
+    info = msgspec.inspect.type_info(ActuatorCommand)
+    requested = next(f for f in info.fields if f.name == "requested")
+    assert polars_dtype(requested.type) == pl.List(pl.Float64)
+
+
+def test_decisions_are_exploded_one_row_per_rule() -> None:
+    payloads = [
+        encode(
+            RuleDecisions(
+                tick=t,
+                time_ms=20 * t,
+                decisions=(
+                    RuleDecision(rule="a", rulecode=1, fired=t == 1, bindings={"?c": "Human/x"}),
+                    RuleDecision(rule="b", rulecode=2, fired=False),
+                ),
+            )
+        )
+        for t in range(3)
+    ]
+    table = payloads_to_tables(Topic.RULE_DECISIONS, payloads)["/rules/decisions"]
+    assert table.height == 6
+    assert table.filter("fired")[["tick", "rule"]].rows() == [(1, "a")]
+    assert table.schema[TIME] == pl.Duration("ms")
+    assert table[TIME][3] == timedelta(milliseconds=20)
+
+
+def test_no_payloads_give_empty_tables_with_the_columns() -> None:
+    frame = read_payloads(Topic.LOG, [])
+    assert frame.height == 0
+    assert {"tick", "time_ms", "entries"} <= set(frame.columns)
+
+
+def test_every_message_of_the_loaded_topics_is_read(walk_mcap: Path) -> None:
+    data = load_session(walk_mcap)
+    summary = open_recording(walk_mcap).summary
+    assert data.recovery is None
+    assert data["/world/state"].height == summary["/world/state"] == 500
+    assert data["/world/state/humans"]["id"].unique().to_list() == ["child"]
+    assert data["/rules/decisions"]["tick"].n_unique() == summary["/rules/decisions"]
+    assert "/map" not in data.tables
+    assert data.session_id == "walk at robot-seed0"
+
+
+def test_a_truncated_recording_is_loaded_up_to_the_damage_with_a_warning(
+    too_close_mcap: Path, tmp_path: Path
+) -> None:
+    whole = too_close_mcap.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(whole[: len(whole) * 6 // 10])
+    with pytest.warns(
+        AnalysisWarning, match=r"cut\.mcap: damaged recording .*recovered: \d+ messages"
+    ):
+        data = load_session(cut)
+    assert data.recovery is not None
+    assert 0 < data["/world/state"].height < 1000
+    assert data["/world/state"]["tick"].to_list() == list(range(data["/world/state"].height))
+
+
+def test_a_file_that_is_not_a_recording_is_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "notes.mcap"
+    bad.write_text("these are notes, not a recording")
+    with pytest.raises(RecordingError, match="not an MCAP file"):
+        load_session(bad)
