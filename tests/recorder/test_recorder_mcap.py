@@ -15,6 +15,7 @@ from mcap.reader import make_reader
 from mcap.records import Channel
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
+from recorder_foxglove_paths import FOXGLOVE_SCHEMAS
 from recorder_synthetic import SCENE, TICK_NS, session, world_state
 
 from pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic
@@ -26,7 +27,6 @@ from recorder.reader import open_recording
 from recorder.scene import SceneGeometry
 from recorder.topics import SCENE_ATTACHMENT, FoxgloveTopic
 
-FOXGLOVE_SHARED = Path("/work/shared/foxglove-schemas")
 METADATA = {"scenario": {"name": "greeting", "seed": "7"}, "oimi": {"recording_id": "greeting-7"}}
 ATTACHMENTS = [("greeting.toml", b'name = "greeting"\n'), ("notes.txt", b"hello")]
 
@@ -97,7 +97,7 @@ def test_foxglove_channels_carry_foxgloves_schema_files_unchanged(recorded: Path
         FoxgloveTopic.TF: "FrameTransforms.json",
         FoxgloveTopic.LOG: "Log.json",
     }.items():
-        assert seen[topic] == (FOXGLOVE_SHARED / name).read_bytes()
+        assert seen[topic] == (FOXGLOVE_SCHEMAS / name).read_bytes()
 
 
 def test_foxglove_messages_validate_against_the_shared_schema_files(recorded: Path) -> None:
@@ -107,7 +107,7 @@ def test_foxglove_messages_validate_against_the_shared_schema_files(recorded: Pa
         FoxgloveTopic.LOG: "Log.json",
     }
     validators = {
-        t: jsonschema.Draft202012Validator(json.loads((FOXGLOVE_SHARED / f).read_text()))
+        t: jsonschema.Draft202012Validator(json.loads((FOXGLOVE_SCHEMAS / f).read_text()))
         for t, f in files.items()
     }
     count = 0
@@ -351,3 +351,12 @@ def test_foxglove_views_can_be_turned_off(tmp_path: Path) -> None:
     path = tmp_path / "plain.mcap"
     write(path, session(2), foxglove_every_n_ticks=0)
     assert set(open_recording(path).summary) == set(Topic)
+
+
+def test_the_packaged_foxglove_schemas_are_the_shared_ones_unchanged() -> None:
+    from recorder_foxglove_paths import PACKAGED, SHARED
+
+    if not SHARED.is_dir():
+        pytest.skip("shared/ is not beside this checkout")
+    for path in sorted(PACKAGED.glob("*.json")):
+        assert path.read_bytes() == (SHARED / path.name).read_bytes(), path.name

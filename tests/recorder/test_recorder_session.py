@@ -12,6 +12,7 @@ import jsonschema
 import msgspec
 import pytest
 from mcap.reader import make_reader
+from recorder_foxglove_paths import FOXGLOVE_SCHEMAS
 from rerun.chunk import RrdReader
 
 from pipeline.events import TOPIC_TYPES, Topic
@@ -23,7 +24,6 @@ from scenarios.recording import recorded
 from scenarios.runner import Session
 
 REPO = Path(__file__).resolve().parents[2]
-FOXGLOVE_SHARED = Path("/work/shared/foxglove-schemas")
 SCENARIO = b"""\
 name = "busy"
 description = "Four busy seconds: two humans, a generator, a script, a touch, a rejected command."
@@ -120,7 +120,7 @@ def test_every_topic_is_recorded_and_every_message_decodes_into_its_struct(
 def validator(schema_name: str, schema_data: bytes) -> jsonschema.protocols.Validator:
     """Our channels carry their schema; Foxglove's are checked against Foxglove's own files."""
     if schema_name.startswith("foxglove."):
-        path = FOXGLOVE_SHARED / f"{schema_name.removeprefix('foxglove.')}.json"
+        path = FOXGLOVE_SCHEMAS / f"{schema_name.removeprefix('foxglove.')}.json"
         schema = json.loads(path.read_text())
     else:
         schema = json.loads(schema_data)
