@@ -76,6 +76,10 @@ class Sensors:
         self._seq = 0
         self._started = False
         self._pending: list[_Update] = []
+        self._led: tuple[tuple[float, float, float], int] = ((0.0, 0.0, 0.0), 0)
+        """The LED colour shown and since when (ms), for the robot's history of actions."""
+        self._audio: tuple[str, int] = ("", 0)
+        """The track playing and since when (ms)."""
         self._seen: set[str] = set()
         """objectids whose once-only attributes were sent (membership only, never iterated)."""
 
@@ -100,7 +104,8 @@ class Sensors:
     # -------------------------------------------------------------- sampling
 
     def sample(self, world: World, *, tick: int, time_ms: int) -> list[MapUpdate]:
-        """This tick's updates, in a fixed order: status, pending, touches, camera, sonar, robot."""
+        """This tick's updates, in a fixed order: status, pending, touches, actions performed
+        (LED, audio), camera, sonar, robot."""
         updates: list[_Update] = []
         if not self._started:
             self._started = True
@@ -110,6 +115,7 @@ class Sensors:
         if world.last_report.tick == tick:
             for span in world.last_report.ended:
                 updates.append(_touch(span.touchtype, span.duration_ms, span.startingtime_ms))
+        updates.extend(self._actions(world, time_ms))
         pose = world.robot_pose()
         if self.camera.due(time_ms):
             seen = [("Human", *h) for h in world.human_positions()]
@@ -211,6 +217,32 @@ class Sensors:
                 _Update(objectid, "category", Policy.R, spec.category),
             ]
         return []
+
+    def _actions(self, world: World, time_ms: int) -> list[_Update]:
+        """The robot's history of performed actions (thesis 4.1): an LED colour or a track,
+        reported (policy A) when it ends, with when it started and how long it lasted."""
+        updates = []
+        colour, since = self._led
+        if world.led != colour:
+            if any(colour):
+                r, g, b = (round(c, DECIMALS) + 0.0 for c in colour)
+                led = {
+                    "r": r,
+                    "g": g,
+                    "b": b,
+                    "frequency": 0,
+                    "duration": time_ms - since,
+                    "startingtime": since,
+                }
+                updates.append(_Update("RobotStatus", "led", Policy.A, _json(led)))
+            self._led = (world.led, time_ms)
+        track, since = self._audio
+        if world.audio != track:
+            if track:
+                audio = {"duration": time_ms - since, "startingtime": since, "trackpath": track}
+                updates.append(_Update("RobotStatus", "audioout", Policy.A, _json(audio)))
+            self._audio = (world.audio, time_ms)
+        return updates
 
     def _robot_status(self, world: World, time_ms: int) -> list[_Update]:
         forward, left, omega = world.robot_body_velocity()

@@ -60,13 +60,16 @@ class KickStarter(Rule):
         )
 
 
-def soften(world_map: WorldMap, found: Evaluation, alias: str, ctx: RuleContext) -> None:
-    """Stop moving and dim the lights, unless the block does not move or is already softened."""
+def soften(
+    world_map: WorldMap, found: Evaluation, ctx: RuleContext, alias: str | None = None
+) -> None:
+    """Stop moving and dim the lights, unless the block does not move or is already softened;
+    the entity bound to ``alias``, if any, is marked with the time (``$too_close_at``)."""
     block = world_map.scriptinfo.block
     moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
     if not moving or (block is not None and block.flagged == "softened"):
         return
-    entity = found.entity(world_map, alias)
+    entity = found.entity(world_map, alias) if alias else None
     if entity is not None:
         entity.attributes["too_close_at"] = str(ctx.now_ms)
     replace_block(
@@ -84,7 +87,7 @@ class ChildTooClose(Rule):
     condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        soften(world_map, found, "?child", ctx)
+        soften(world_map, found, ctx, "?child")
 
 
 @RULES.register
@@ -95,7 +98,19 @@ class ObstacleTooClose(Rule):
     condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        soften(world_map, found, "?thing", ctx)
+        soften(world_map, found, ctx, "?thing")
+
+
+@RULES.register
+class SensorsBlind(Rule):
+    """The camera is offline: the robot cannot see a child coming, so it stops moving
+    (the block is softened, as for a child too close) until the camera is back."""
+
+    rulecode = rulecodes.SENSORS_BLIND
+    condition_text = "! {E: camera_offline ()}"
+
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+        soften(world_map, found, ctx)
 
 
 @RULES.register

@@ -32,6 +32,8 @@ class RuleCode(enum.IntEnum):
     """Answers a hug with a warm glow."""
     TOY_NEARBY = 9
     """Notes in the map when the target toy is within reach."""
+    SENSORS_BLIND = 10
+    """Safety: stops motion while the camera is offline (the robot cannot see children)."""
 
 
 KICK_STARTER = RuleCode.KICK_STARTER
@@ -44,3 +46,4 @@ JOYSTICK_NOTE = RuleCode.JOYSTICK_NOTE
 OBSTACLE_TOO_CLOSE = RuleCode.OBSTACLE_TOO_CLOSE
 HUG_REWARD = RuleCode.HUG_REWARD
 TOY_NEARBY = RuleCode.TOY_NEARBY
+SENSORS_BLIND = RuleCode.SENSORS_BLIND

@@ -346,3 +346,12 @@ def greater_than(ctx: FunctionContext, a: float, b: float) -> bool:
     Example: {VAR @t L F: now ()} ! {E: greater_than (@t, 10000)}
     """
     return a > b
+
+
+@evaluation("camera_offline")
+def camera_offline(ctx: FunctionContext) -> bool:
+    """A camera of the robot reports ``isonline`` false (its readings stopped).
+
+    Example: ! {E: camera_offline ()}
+    """
+    return any(not camera.isonline for camera in ctx.world_map.cameras)

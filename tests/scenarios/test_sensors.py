@@ -266,3 +266,22 @@ def test_every_update_decodes_with_the_map_producers_table():
     assert {u.attributename for u in updates} >= {"poses", "tracking", "touch", "speed"}
     for update in updates:
         decode_update(update)
+
+
+def test_led_colours_and_tracks_are_reported_as_the_robots_history_when_they_end():
+    world, sensors = setup()
+    lit = ActuatorOutputs(led=(0.0, 0.5, 1.0), audio="song.wav")
+    world.step(lit, tick=0)
+    assert of(sensors.sample(world, tick=0, time_ms=0), "RobotStatus", "led") == []
+    world.step(lit, tick=1)
+    assert of(sensors.sample(world, tick=1, time_ms=20), "RobotStatus", "led") == []
+    world.step(STOP, tick=2)
+    updates = sensors.sample(world, tick=2, time_ms=40)
+    assert [(u.policy, u.jsonmsg) for u in of(updates, "RobotStatus", "led")] == [
+        (Policy.A, '{"r":0.0,"g":0.5,"b":1.0,"frequency":0,"duration":40,"startingtime":0}')
+    ]
+    assert [u.jsonmsg for u in of(updates, "RobotStatus", "audioout")] == [
+        '{"duration":40,"startingtime":0,"trackpath":"song.wav"}'
+    ]
+    world.step(STOP, tick=3)
+    assert of(sensors.sample(world, tick=3, time_ms=60), "RobotStatus", "led") == []

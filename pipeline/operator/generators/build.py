@@ -22,6 +22,7 @@ from pipeline.messages import (
     TerminusBlock,
 )
 from pipeline.operator.generator import Colour, GeneratorError
+from pipeline.think.rulecodes import RuleCode
 
 
 def alfa_messages(*rules: tuple[int, str, RuleAction]) -> tuple[RuleMessage, ...]:
@@ -37,6 +38,15 @@ def alfa_messages(*rules: tuple[int, str, RuleAction]) -> tuple[RuleMessage, ...
             mutexcmd=MutexCmd.U if i == last else MutexCmd.M,
         )
         for i, (code, rid, action) in enumerate(rules)
+    )
+
+
+def safety_rules(action: RuleAction) -> tuple[tuple[int, str, RuleAction], ...]:
+    """The safety rules every moving activity loads (``A``) and removes (``R``): a child
+    too close, and the camera offline."""
+    return (
+        (RuleCode.CHILD_TOO_CLOSE, "child_too_close", action),
+        (RuleCode.SENSORS_BLIND, "sensors_blind", action),
     )
 
 

@@ -15,8 +15,8 @@ from pipeline.operator.generators.build import (
     led,
     move,
     omega_messages,
+    safety_rules,
 )
-from pipeline.think.rulecodes import RuleCode
 
 TEMPI_BPM: Final = {"slow": 60, "medium": 90, "fast": 120}
 """Named tempi, beats per minute."""
@@ -97,10 +97,9 @@ class DanceGenerator(BaseGenerator):
         seed = int(values["seed"])  # type: ignore[arg-type]
 
         b = ScriptBuilder(self.name)
-        safety = (RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.A)
         b.rules(
-            alfa=alfa_messages(safety),
-            omega=omega_messages((RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.R)),
+            alfa=alfa_messages(*safety_rules(RuleAction.A)),
+            omega=omega_messages(*safety_rules(RuleAction.R)),
         )
 
         b.goal("dance_warm_up")

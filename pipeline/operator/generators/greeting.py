@@ -23,6 +23,7 @@ from pipeline.operator.generators.build import (
     led,
     move,
     omega_messages,
+    safety_rules,
 )
 from pipeline.think.rulecodes import RuleCode
 
@@ -119,12 +120,10 @@ class GreetingGenerator(BaseGenerator):
         b = ScriptBuilder(self.name)
         b.rules(
             alfa=alfa_messages(
-                (RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.A),
-                (RuleCode.TOUCH_REWARD, "touch_reward", RuleAction.A),
+                *safety_rules(RuleAction.A), (RuleCode.TOUCH_REWARD, "touch_reward", RuleAction.A)
             ),
             omega=omega_messages(
-                (RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.R),
-                (RuleCode.TOUCH_REWARD, "touch_reward", RuleAction.R),
+                *safety_rules(RuleAction.R), (RuleCode.TOUCH_REWARD, "touch_reward", RuleAction.R)
             ),
         )
         dim = led(DIM, duration_ms=STEP_MS)

@@ -21,6 +21,7 @@ from pipeline.operator.generators.build import (
     led,
     move,
     omega_messages,
+    safety_rules,
 )
 from pipeline.think.rulecodes import RuleCode
 
@@ -114,11 +115,11 @@ class JointAttentionGenerator(BaseGenerator):
         b = ScriptBuilder(self.name)
         b.rules(
             alfa=alfa_messages(
-                (RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.A),
+                *safety_rules(RuleAction.A),
                 (RuleCode.ATTENTION_LOST, "attention_lost", RuleAction.A),
             ),
             omega=omega_messages(
-                (RuleCode.CHILD_TOO_CLOSE, "child_too_close", RuleAction.R),
+                *safety_rules(RuleAction.R),
                 (RuleCode.ATTENTION_LOST, "attention_lost", RuleAction.R),
             ),
         )

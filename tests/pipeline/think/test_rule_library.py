@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import msgspec
+
 from pipeline.messages import (
     InstructionBlock,
     MapUpdate,
@@ -30,6 +32,7 @@ ALL = [
     ("obstacle_too_close", rulecodes.OBSTACLE_TOO_CLOSE),
     ("hug_reward", rulecodes.HUG_REWARD),
     ("toy_nearby", rulecodes.TOY_NEARBY),
+    ("sensors_blind", rulecodes.SENSORS_BLIND),
 ]
 
 
@@ -192,3 +195,17 @@ def test_the_target_toy_within_reach_is_noted_on_the_toy() -> None:
     assert "nearby_since" not in s.map.objects[0].attributes
     s.tick(200, sighting(3, "Object/ball", 0.8, 200))
     assert s.map.objects[0].attributes["nearby_since"] == "200"
+
+
+def test_a_camera_offline_stops_a_moving_block_until_it_is_back() -> None:
+    s = Session()
+    s.map.scriptinfo.block = InstructionBlock(
+        move=(Move(v_x=0.2, v_y=0.0, v_theta=0, wait_t=0, duration=2000),)
+    )
+    online = MapUpdate(
+        objectid="Camera/front", attributename="isonline", policy=Policy.R, jsonmsg="s_true", seq=1
+    )
+    s.tick(100, online)
+    assert s.map.scriptinfo.block.move
+    s.tick(200, msgspec.structs.replace(online, jsonmsg="s_false", seq=2))
+    assert s.map.scriptinfo.block.flagged == "softened" and s.map.scriptinfo.block.move == ()
