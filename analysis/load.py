@@ -19,17 +19,12 @@ from typing import IO, Final
 
 import msgspec
 import polars as pl
+import pyarrow as pa
+import pyarrow.json as pa_json
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.records import Channel
-
-try:
-    import pyarrow as pa
-    import pyarrow.json as pa_json
-except ImportError:  # pragma: no cover - pyarrow is in the lock file; polars alone works too
-    pa = None
-    pa_json = None
 
 from pipeline.events import TOPIC_TYPES, Topic
 from recorder.reader import RecoveryReport, open_recording
@@ -225,13 +220,11 @@ def _arrow_type(dtype: pl.DataType) -> pa.DataType:
 def read_payloads(topic: Topic, payloads: list[bytes]) -> pl.DataFrame:
     """One topic's JSON payloads as one frame of its Struct's fields (NDJSON read in bulk:
     pyarrow's JSON reader with the derived schema, several times faster than
-    ``pl.read_ndjson`` on nested messages; polars when pyarrow is missing)."""
+    ``pl.read_ndjson`` on nested messages)."""
     schema = topic_schema(topic)
     if not payloads:
         return pl.DataFrame(schema=schema)
     buffer = b"\n".join(payloads)
-    if pa is None:
-        return pl.read_ndjson(BytesIO(buffer), schema=schema)
     options = pa_json.ParseOptions(
         explicit_schema=pa.schema([(k, _arrow_type(v)) for k, v in schema.items()]),
         unexpected_field_behavior="ignore",

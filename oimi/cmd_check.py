@@ -1,22 +1,23 @@
 """Check scripts (.txt DSL, .json), scenarios (.toml) and rule conditions without running them.
 
 Prints ``FILE: ok`` for each good file and ``FILE:LINE:COL: message`` (to stderr) for each
-problem; checks every file and exits 2 if any failed.
+problem; checks every file and exits 2 if any failed. A rule code that the rule library does
+not know is a warning (the chain will refuse that message at run time), not a failure.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 from pipeline.errors import LocatedError
 from pipeline.script import ParsedScript, ScriptError, condition_errors, parse_script
+from pipeline.think.conditions import compile_condition
+from pipeline.think.library import RULES
+from scenarios.loader import load_scenario
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
-
-ConditionCompiler = Callable[[str], object]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -67,23 +68,32 @@ def check_file(path: Path) -> list[LocatedError]:
         parsed = parse_script(data, source=str(path))
     except ScriptError as error:
         return [error]
-    return check_conditions(parsed)
-
-
-def check_conditions(parsed: ParsedScript) -> list[LocatedError]:
-    """The jump conditions' errors, placed in the script file (none if rules are unavailable)."""
-    compile_condition = condition_compiler()
-    if compile_condition is None:
-        return []
+    for warning in unknown_rule_codes(parsed):
+        report(f"{warning} (warning)")
     return condition_errors(parsed, compile_condition)
 
 
+def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
+    """Alfa/omega messages naming a rule code the rule library does not have."""
+    script = parsed.script
+    return [
+        parsed.sourcemap.place(
+            ScriptError(
+                f"rule code {message.rulecode} ({message.id}) is not in the rule library",
+                path=f"{kind}[{index}].rulecode",
+            )
+        )
+        for kind, messages in (
+            ("alfarulemessages", script.alfarulemessages),
+            ("omegarulemessages", script.omegarulemessages),
+        )
+        for index, message in enumerate(messages)
+        if message.rulecode not in RULES
+    ]
+
+
 def check_scenario(path: Path) -> list[LocatedError]:
-    """Scenario checking, delegated to ``scenarios.loader.load_scenario`` when it exists."""
-    try:
-        from scenarios.loader import load_scenario
-    except ImportError:
-        return [LocatedError("scenario checking not available", source=str(path))]
+    """A scenario's problems (``scenarios.loader.load_scenario`` checks everything)."""
     try:
         load_scenario(path)
     except LocatedError as error:
@@ -95,25 +105,11 @@ def check_scenario(path: Path) -> list[LocatedError]:
 
 def check_condition(text: str, number: int) -> str:
     """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
-    compile_condition = condition_compiler()
-    if compile_condition is None:
-        return f"<condition {number}>: condition checking not available"
     try:
         compile_condition(text)
     except LocatedError as error:
         return f"<condition {number}>:{error.column}: {error.message}"
     return ""
-
-
-def condition_compiler() -> ConditionCompiler | None:
-    """``pipeline.think.conditions.compile_condition``, or None while it does not exist."""
-    try:
-        from pipeline.think.conditions import compile_condition
-    except ImportError as error:
-        if error.name not in (None, "pipeline.think", "pipeline.think.conditions"):
-            raise
-        return None
-    return compile_condition
 
 
 def report(message: str) -> None:

@@ -11,8 +11,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from oimi.cmd_check import check_conditions, report, report_error
-from pipeline.script import ScriptError, dump_script_json, parse_script
+from oimi.cmd_check import report, report_error
+from pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
+from pipeline.think.conditions import compile_condition
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
@@ -36,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     except ScriptError as error:
         report_error(error)
         return EXIT_BAD_INPUT
-    errors = check_conditions(parsed)
+    errors = condition_errors(parsed, compile_condition)
     for error in errors:
         report_error(error)
     if errors:

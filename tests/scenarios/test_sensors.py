@@ -258,7 +258,8 @@ def test_seq_numbers_increase_from_one():
 
 
 def test_every_update_decodes_with_the_map_producers_table():
-    decode_update = pytest.importorskip("pipeline.sense.updates").decode_update
+    from pipeline.sense.updates import decode_update
+
     world, sensors = setup(sensors="noise_rho_m = 0.05\nfov_rad = 6.3", theta=2.0)
     sensors.touch(TouchEvent(at_s=0.0, human="kid", touchtype=TouchType.H), time_ms=0)
     sensors.fault(FaultEvent(at_s=0.0, sensor=SensorKind.SONAR, mode=FaultMode.OFFLINE))
