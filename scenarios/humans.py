@@ -45,6 +45,8 @@ class HumanDriver:
         """True once a ``leave`` segment reached the exit (until another segment starts)."""
         self.heading_rad = 0.0
         self._timeline = list(spec.behaviour)
+        self._starts_ms = [round(segment.at_s * 1000) for segment in self._timeline]
+        """When each timeline segment starts, ms (worked out once, checked every tick)."""
         self._next = 0
         self._target: Point | None = None
         self._waypoint = 0
@@ -64,10 +66,7 @@ class HumanDriver:
         self, *, position: Point, robot: Point, time_ms: int, dt_s: float
     ) -> tuple[float, float]:
         """World-frame velocity (m/s) for the tick starting at ``time_ms``."""
-        while (
-            self._next < len(self._timeline)
-            and round(self._timeline[self._next].at_s * 1000) <= time_ms
-        ):
+        while self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
             self.switch(self._timeline[self._next])
             self._next += 1
         if self.left:
@@ -97,7 +96,7 @@ class HumanDriver:
                 vx, vy, arrived = _towards(position, self.arena.exit_m, speed, dt_s)
                 if arrived:
                     self.left = True
-        if not isinstance(segment, Leave):
+        if (vx or vy) and not isinstance(segment, Leave):  # standing still stays inside
             vx, vy = self._inside(position, vx, vy, dt_s)
         if vx or vy:
             self.heading_rad = math.atan2(vy, vx)

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import math
 import random
-from typing import Final
+from typing import Final, NamedTuple
 
 import msgspec
 import pymunk
+import pymunk.batch
 
 from pipeline.events import BodyState, WorldState
 from pipeline.messages import ActuatorOutputs
@@ -60,6 +61,46 @@ class StepReport(msgspec.Struct, frozen=True, kw_only=True):
     """Humans who left the room during the step."""
 
 
+class _Motion(NamedTuple):
+    """A body's position, angle, velocity and spin, read once a step.
+
+    Each pymunk property read is a C call (and a new ``Vec2d``); the world reads
+    every body at once after ``space.step`` (``pymunk.batch``, whose per-body
+    order of values this follows) and everything else uses this copy.
+    """
+
+    x_m: float
+    y_m: float
+    angle_rad: float
+    vx_mps: float
+    vy_mps: float
+    omega_radps: float
+
+    @classmethod
+    def of(cls, body: pymunk.Body) -> _Motion:
+        """Read one body (when the world is built)."""
+        (x, y), (vx, vy) = body.position, body.velocity
+        return cls(x, y, body.angle, vx, vy, body.angular_velocity)
+
+
+_MOTION_FIELDS: Final = (
+    pymunk.batch.BodyFields.BODY_ID
+    | pymunk.batch.BodyFields.POSITION
+    | pymunk.batch.BodyFields.ANGLE
+    | pymunk.batch.BodyFields.VELOCITY
+    | pymunk.batch.BodyFields.ANGULAR_VELOCITY
+)
+_MOTION_SIZE: Final = len(_Motion._fields)
+
+
+class _Robot:
+    """The robot's body and its motion as last read (like ``_Human`` and ``_Thing``)."""
+
+    def __init__(self, body: pymunk.Body):
+        self.body = body
+        self.motion = _Motion.of(body)
+
+
 class _Human:
     def __init__(
         self, spec: HumanSpec, driver: HumanDriver, body: pymunk.Body, shape: pymunk.Shape
@@ -69,6 +110,7 @@ class _Human:
         self.body = body
         self.shape = shape
         self.present = True
+        self.motion = _Motion.of(body)
 
 
 class _Thing:
@@ -77,6 +119,7 @@ class _Thing:
         self.body = body
         self.keep = spec.damping_per_s**step_s
         """Fraction of speed kept per step."""
+        self.motion = _Motion.of(body)
 
 
 class World:
@@ -108,6 +151,16 @@ class World:
         self.things = [self._add_thing(thing) for thing in spec.objects]
         self.humans = [self._add_human(human) for human in scenario.humans]
         self.robot = self._add_robot()
+        self._robot = _Robot(self.robot)
+        self._movers: dict[int, _Robot | _Human | _Thing] = {
+            mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
+        }
+        self._batch = pymunk.batch.Buffer()
+
+    @property
+    def robot_motion(self) -> _Motion:
+        """The robot's position, angle, velocity and spin after the last step."""
+        return self._robot.motion
 
     # ------------------------------------------------------------ building
 
@@ -169,9 +222,9 @@ class World:
     def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
-        robot_xy = tuple(self.robot.position)
+        robot_xy = (self.robot_motion.x_m, self.robot_motion.y_m)
         for human in self.humans:
-            position = tuple(human.body.position)
+            position = (human.motion.x_m, human.motion.y_m)
             velocity = human.driver.velocity(
                 position=position, robot=robot_xy, time_ms=time_ms, dt_s=self.step_s
             )
@@ -184,6 +237,7 @@ class World:
         self.space.step(self.step_s)
         for thing in self.things:
             self._roll(thing)
+        self._observe()
         left = []
         for human in self.humans:
             if human.driver.left and human.present:  # reached the exit during this step
@@ -196,8 +250,24 @@ class World:
         )
         return self.last_report
 
+    def _observe(self) -> None:
+        """Read every body's motion after a step (nothing else moves them between steps).
+
+        One batch read for the whole space (furniture too, skipped); a human out of
+        the room is not in the space and keeps the motion it left with.
+        """
+        self._batch.clear()
+        pymunk.batch.get_space_bodies(self.space, _MOTION_FIELDS, self._batch)
+        ids = memoryview(self._batch.int_buf()).cast("P").tolist()
+        values = memoryview(self._batch.float_buf()).cast("d").tolist()
+        for index, ident in enumerate(ids):
+            mover = self._movers.get(ident)
+            if mover is not None:
+                start = index * _MOTION_SIZE
+                mover.motion = _Motion(*values[start : start + _MOTION_SIZE])
+
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
-        spec, body = self.scenario.robot, self.robot
+        spec, body, motion = self.scenario.robot, self.robot, self.robot_motion
         vx, vy = outputs.v_x, outputs.v_y
         speed = math.hypot(vx, vy)
         if speed > spec.max_speed_mps:
@@ -205,18 +275,17 @@ class World:
         omega = min(
             max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
         )
-        cos, sin = math.cos(body.angle), math.sin(body.angle)
+        cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
-        current = body.velocity
-        dx, dy = want_x - current.x, want_y - current.y
+        dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
         change = math.hypot(dx, dy)
         limit = spec.max_accel_mps2 * self.step_s
         if change > limit:
             dx, dy = dx * limit / change, dy * limit / change
-        body.velocity = (current.x + dx, current.y + dy)
+        body.velocity = (motion.vx_mps + dx, motion.vy_mps + dy)
         turn_limit = spec.max_angular_accel_radps2 * self.step_s
-        turn = min(max(omega - body.angular_velocity, -turn_limit), turn_limit)
-        body.angular_velocity = body.angular_velocity + turn
+        turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
+        body.angular_velocity = motion.omega_radps + turn
 
     def _roll(self, thing: _Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
@@ -232,13 +301,15 @@ class World:
         body.angular_velocity = spin if abs(spin) > STOP_SPEED_MPS else 0.0
 
     def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
-        robot = self.robot.position
+        robot = self.robot_motion
         radius = self.scenario.robot.radius_m
         touching = []
         ended = []
         for human in self.humans:
             ident = human.spec.id
-            gap = (human.body.position - robot).length - radius - human.spec.radius_m
+            # pymunk's (a - b).length, written out on the cached floats
+            dx, dy = human.motion.x_m - robot.x_m, human.motion.y_m - robot.y_m
+            gap = math.sqrt(dx**2 + dy**2) - radius - human.spec.radius_m
             if human.present and gap <= CONTACT_TOLERANCE_M:
                 touching.append(ident)
                 self._contact_start_ms.setdefault(ident, time_ms)
@@ -268,49 +339,46 @@ class World:
 
     def robot_pose(self) -> tuple[float, float, float]:
         """Robot ``(x_m, y_m, theta_rad)``, theta wrapped to (-pi, pi]."""
-        position = self.robot.position
-        return (position.x, position.y, wrap_angle(self.robot.angle))
+        motion = self.robot_motion
+        return (motion.x_m, motion.y_m, wrap_angle(motion.angle_rad))
 
     def robot_body_velocity(self) -> tuple[float, float, float]:
         """Robot velocity in its own frame: ``(forward_mps, left_mps, omega_radps)``."""
-        velocity = self.robot.velocity
-        cos, sin = math.cos(self.robot.angle), math.sin(self.robot.angle)
+        motion = self.robot_motion
+        cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         return (
-            cos * velocity.x + sin * velocity.y,
-            -sin * velocity.x + cos * velocity.y,
-            self.robot.angular_velocity,
+            cos * motion.vx_mps + sin * motion.vy_mps,
+            -sin * motion.vx_mps + cos * motion.vy_mps,
+            self.robot_motion.omega_radps,
         )
 
     def human_positions(self) -> list[tuple[str, float, float]]:
         """``(id, x_m, y_m)`` of the humans in the room, in the scenario's order."""
         return [
-            (human.spec.id, human.body.position.x, human.body.position.y)
+            (human.spec.id, human.motion.x_m, human.motion.y_m)
             for human in self.humans
             if human.present
         ]
 
     def object_positions(self) -> list[tuple[str, float, float]]:
         """``(id, x_m, y_m)`` of the objects, in the scenario's order."""
-        return [
-            (thing.spec.id, thing.body.position.x, thing.body.position.y) for thing in self.things
-        ]
+        return [(thing.spec.id, thing.motion.x_m, thing.motion.y_m) for thing in self.things]
 
     def state(self, *, tick: int, time_ms: int) -> WorldState:
         """Everything that moves, for ``/world/state``."""
-        robot = self.robot
-        position, velocity = robot.position, robot.velocity
+        motion = self.robot_motion
         return WorldState(
             tick=tick,
             time_ms=time_ms,
             robot=BodyState(
                 id="robot",
                 kind="robot",
-                x_m=position.x,
-                y_m=position.y,
-                theta_rad=wrap_angle(robot.angle),
-                vx_mps=velocity.x,
-                vy_mps=velocity.y,
-                omega_radps=robot.angular_velocity,
+                x_m=motion.x_m,
+                y_m=motion.y_m,
+                theta_rad=wrap_angle(motion.angle_rad),
+                vx_mps=motion.vx_mps,
+                vy_mps=motion.vy_mps,
+                omega_radps=motion.omega_radps,
                 radius_m=self.scenario.robot.radius_m,
             ),
             humans=tuple(self._human_state(human) for human in self.humans if human.present),
@@ -322,31 +390,30 @@ class World:
 
     @staticmethod
     def _human_state(human: _Human) -> BodyState:
-        position, velocity = human.body.position, human.body.velocity
+        motion = human.motion
         return BodyState(
             id=human.spec.id,
             kind=str(human.spec.role),
-            x_m=position.x,
-            y_m=position.y,
+            x_m=motion.x_m,
+            y_m=motion.y_m,
             theta_rad=human.driver.heading_rad,
-            vx_mps=velocity.x,
-            vy_mps=velocity.y,
+            vx_mps=motion.vx_mps,
+            vy_mps=motion.vy_mps,
             radius_m=human.spec.radius_m,
         )
 
     @staticmethod
     def _thing_state(thing: _Thing) -> BodyState:
-        body = thing.body
-        position, velocity = body.position, body.velocity
+        motion = thing.motion
         return BodyState(
             id=thing.spec.id,
             kind=thing.spec.category,
-            x_m=position.x,
-            y_m=position.y,
-            theta_rad=wrap_angle(body.angle),
-            vx_mps=velocity.x,
-            vy_mps=velocity.y,
-            omega_radps=body.angular_velocity,
+            x_m=motion.x_m,
+            y_m=motion.y_m,
+            theta_rad=wrap_angle(motion.angle_rad),
+            vx_mps=motion.vx_mps,
+            vy_mps=motion.vy_mps,
+            omega_radps=motion.omega_radps,
             radius_m=thing.spec.radius_m,
         )
 

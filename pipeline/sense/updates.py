@@ -18,6 +18,7 @@ Payload shapes, as the tables give them:
 from __future__ import annotations
 
 import enum
+import functools
 import posixpath
 import re
 from collections.abc import Callable, Mapping
@@ -224,7 +225,11 @@ def _touch(p: TouchPayload) -> Touch:
 
 def _led(p: LedPayload) -> LedStatus:
     return LedStatus(
-        r=p.r, g=p.g, b=p.b, frequency=p.frequency, duration=p.duration,
+        r=p.r,
+        g=p.g,
+        b=p.b,
+        frequency=p.frequency,
+        duration=p.duration,
         startingtime=p.startingtime,
     )
 
@@ -235,7 +240,10 @@ def _audioout(p: AudioOutPayload) -> AudioStatus:
 
 def _speed(p: SpeedPayload) -> SpeedStatus:
     return SpeedStatus(
-        xspeed=p.xspeed, yspeed=p.yspeed, thetaspeed=p.thetaspeed, duration=p.duration,
+        xspeed=p.xspeed,
+        yspeed=p.yspeed,
+        thetaspeed=p.thetaspeed,
+        duration=p.duration,
         startingtime=p.startingtime,
     )
 
@@ -269,8 +277,7 @@ _RA: Final = (Policy.R, Policy.A)
 _BOOL: Final = '"s_true" or "s_false"'
 _INT: Final = '"int number"'
 _POSE: Final = (
-    '{"positionrho": float number, "positiontheta": float number, '
-    '"positionchangetime": int number}'
+    '{"positionrho": float number, "positiontheta": float number, "positionchangetime": int number}'
 )
 _TRACKING: Final = '{"permanencetime": int number, "appearanceon": int number}'
 _GOAL: Final = '{"goalid": "string", "timestamp": int number}'
@@ -286,17 +293,25 @@ def _appendable(
     name: str, payload: str, decode: Callable[[str], object], mirrors: tuple[str, ...] = ()
 ) -> AttributeSpec:
     return AttributeSpec(
-        name=name, policies=_RA, payload=payload, storage=Storage.APPENDABLE, decode=decode,
+        name=name,
+        policies=_RA,
+        payload=payload,
+        storage=Storage.APPENDABLE,
+        decode=decode,
         mirrors=mirrors,
     )
 
 
 _POSES: Final = _appendable(
-    "poses", _POSE, _json_decoder(PosePayload, _pose),
+    "poses",
+    _POSE,
+    _json_decoder(PosePayload, _pose),
     mirrors=("positionrho", "positiontheta", "positionchangetime"),
 )
 _TRACKINGS: Final = _appendable(
-    "tracking", _TRACKING, _json_decoder(TrackingPayload, _tracking),
+    "tracking",
+    _TRACKING,
+    _json_decoder(TrackingPayload, _tracking),
     mirrors=("permanencetime", "appearanceon"),
 )
 
@@ -374,6 +389,7 @@ UPDATE_TABLE: Final[Mapping[EntityClass, Mapping[str, AttributeSpec]]] = {
 _ID_RE: Final = re.compile(r"[^\s/\\]+")
 
 
+@functools.lru_cache(maxsize=1024)  # sensors name the same few entities every tick
 def parse_objectid(objectid: str) -> Target:
     """``CLASS/ID`` (or the thesis's ``CLASS\\ID``) to a Target; raises ``MapUpdateError``."""
     parts = re.split(r"[/\\]", objectid, maxsplit=1)
@@ -464,9 +480,7 @@ def decode_update(update: MapUpdate, *, script_root: str = "activities") -> Deco
         )
     if update.policy not in spec.policies:
         allowed = ", ".join(spec.policies)
-        raise MapUpdateError(
-            f"{where}: policy {update.policy} not allowed (allowed: {allowed})"
-        )
+        raise MapUpdateError(f"{where}: policy {update.policy} not allowed (allowed: {allowed})")
     try:
         value = spec.decode(update.jsonmsg)
     except ValueError as exc:

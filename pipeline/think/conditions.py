@@ -17,6 +17,7 @@ import difflib
 import enum
 import functools
 import json
+import operator
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -490,14 +491,22 @@ def release_alias(
 class _Run:
     """The state of one evaluation."""
 
-    __slots__ = ("bindings", "ctx", "local", "tick", "world_map")
+    __slots__ = ("_ctx", "bindings", "local", "now_ms", "tick", "world_map")
 
     def __init__(self, world_map: WorldMap, now_ms: int, tick: dict[str, str]):
         self.world_map = world_map
-        self.ctx = FunctionContext(world_map=world_map, now_ms=now_ms)
+        self.now_ms = now_ms
+        self._ctx: FunctionContext | None = None
         self.tick = tick
         self.local: dict[str, str] = {}
         self.bindings: dict[str, str] = {}
+
+    @property
+    def ctx(self) -> FunctionContext:
+        """What rule functions see; made on the first call (many conditions call none)."""
+        if self._ctx is None:
+            self._ctx = FunctionContext(world_map=self.world_map, now_ms=self.now_ms)
+        return self._ctx
 
     def store(self, scope: Scope) -> dict[str, str]:
         if scope is Scope.U:
@@ -613,6 +622,13 @@ def _compare(left: object, op: Op, right: object) -> bool:
     except TypeError:
         return False
 
+
+_NUMBER_OPS: Final[dict[Op, Callable[[float, float], bool]]] = {
+    Op.EQ: operator.eq,
+    Op.LT: operator.lt,
+    Op.GT: operator.gt,
+}
+"""What ``_compare`` does for two numbers."""
 
 # -------------------------------------------------------------------- compiling
 
@@ -772,8 +788,21 @@ class _Compiler:
             raise _error("the left of a comparison must be ?THIS>&field", left.pos)
         self.field_type(left, cls)
         field = left.field
-        right = self.value(node.right, cls)
         op = node.op
+        literal = node.right.value if isinstance(node.right, Literal) else None
+        if isinstance(literal, int | float) and not isinstance(literal, bool):
+            # The common ``?THIS>&positionrho OP< 0.8``: a number field against a number
+            # needs none of _compare's casts, so compare at once (others take _compare).
+            compare = _NUMBER_OPS[op]
+
+            def number_criterion(run: _Run, this: Bound) -> bool:
+                value = getattr(this, field)
+                if type(value) is float or type(value) is int:
+                    return compare(value, literal)
+                return _compare(value, op, literal)
+
+            return number_criterion
+        right = self.value(node.right, cls)
         return lambda run, this: _compare(getattr(this, field), op, right(run, this))
 
     def clause(self, node: Clause, left_side: bool) -> Step:
@@ -797,6 +826,10 @@ class _Compiler:
 def _bind_call(spec: FunctionSpec, getters: tuple[Getter, ...]) -> Getter:
     fn = spec.fn
     with_entity = spec.family is Family.B
+    if not getters:  # ``B: infront ()``, ``E: camera_offline ()``: no arguments to gather
+        if with_entity:
+            return lambda run, this: fn(run.ctx, this)
+        return lambda run, this: fn(run.ctx)
 
     def run_call(run: _Run, this: Bound | None) -> object:
         args = []
@@ -816,7 +849,10 @@ def _class_step(node: ClassClause, criteria: tuple[Callable[[_Run, Bound], bool]
     cls, alias, scope = node.cls, node.alias, node.scope
 
     def meets(run: _Run, entity: Bound) -> bool:
-        return all(criterion(run, entity) for criterion in criteria)
+        for criterion in criteria:  # noqa: SIM110 (a plain loop: all() over a generator costs more)
+            if not criterion(run, entity):
+                return False
+        return True
 
     def step(run: _Run) -> int:
         ref = run.alias_ref(alias)
@@ -831,7 +867,9 @@ def _class_step(node: ClassClause, criteria: tuple[Callable[[_Run, Bound], bool]
         for entity in _entities(run.world_map, cls):
             if best is not None and entity.creationtime >= best.creationtime:
                 continue
-            if entity_ref(cls, entity) in taken or not meets(run, entity):
+            if taken and entity_ref(cls, entity) in taken:  # no ref to build when none is
+                continue
+            if not meets(run, entity):
                 continue
             best = entity
         if best is None:
@@ -905,7 +943,7 @@ class Condition:
                 break
             if outcome == _TRUE:
                 break
-        return Evaluation(result=result, bindings=dict(run.bindings))
+        return Evaluation(result=result, bindings=run.bindings)  # the run ends here: no copy
 
     def __repr__(self) -> str:
         return f"Condition({self.text!r})"

@@ -100,6 +100,8 @@ class RuleRegistry:
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
     """The leaves that differ between two builtin trees, as compact ``MapChange``s."""
+    if old == new:  # one C-level comparison skips an unchanged subtree
+        return
     if isinstance(old, dict) and isinstance(new, dict):
         for key in list(old) + [k for k in new if k not in old]:
             yield from diff(old.get(key), new.get(key), f"{path}.{key}" if path else str(key))
