@@ -10,52 +10,24 @@ their structs unnested with polars, never row by row in Python.
 from __future__ import annotations
 
 import os
-import struct
 import warnings
-import zlib
-from collections.abc import Iterable, Iterator
-from io import BytesIO
-from typing import IO, Final
+from collections.abc import Iterable
+from typing import Final
 
 import msgspec
 import polars as pl
 import pyarrow as pa
 import pyarrow.json as pa_json
-import zstandard
-from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
-from mcap.records import Channel
 
 from pipeline.events import TOPIC_TYPES, Topic
 from recorder.reader import RecoveryReport, open_recording
+from recorder.scan import ChunkScan
 
 TIME: Final = "time"
 """The simulated time as a ``pl.Duration("ms")`` column (beside ``time_ms``)."""
 
 DEFAULT_TOPICS: Final = tuple(t for t in Topic if t is not Topic.MAP)
 """What is loaded unless asked: every topic but ``/map`` (large, and no metric needs it)."""
-
-_MAGIC: Final = b"\x89MCAP0\r\n"
-_FOOTER_OPCODE: Final = 0x02
-_CHANNEL_OPCODE: Final = 0x04
-_MESSAGE_OPCODE: Final = 0x05
-_CHUNK_OPCODE: Final = 0x06
-_DATA_END_OPCODE: Final = 0x0F
-_RECORD_HEADER: Final = struct.Struct("<BQ")
-_U64: Final = struct.Struct("<Q")
-_CHUNK_HEADER: Final = struct.Struct("<QQQII")
-"""Chunk: start and end time, uncompressed size and CRC, compression name length."""
-_CHANNEL_ID: Final = struct.Struct("<H")
-_MESSAGE_HEADER_BYTES: Final = 2 + 4 + 8 + 8
-_READ_ERRORS: Final = (
-    McapError,
-    ValueError,
-    struct.error,
-    zstandard.ZstdError,
-    EOFError,
-    KeyError,
-    UnicodeDecodeError,
-)
 
 
 class AnalysisWarning(UserWarning):
@@ -288,16 +260,16 @@ def load_session(
     wanted = tuple(Topic(t) for t in topics) if topics is not None else DEFAULT_TOPICS
     payloads: dict[Topic, list[bytes]] = {t: [] for t in wanted}
     with open(name, "rb") as stream:
-        scan = _ChunkScan(stream, wanted)
-        for topic, data in scan.messages():
-            payloads[topic].append(data)
+        scan = ChunkScan(stream, frozenset(t.value for t in wanted))
+        for topic, _, _, data in scan.messages():
+            payloads[Topic(topic)].append(data)
     recovery = recording.recovery
     if recovery is None and scan.error is not None:
         recovery = RecoveryReport(
             messages=scan.count,
             stopped_at_byte=scan.good_byte,
             file_size=os.path.getsize(name),
-            reason=f"the record after it is damaged: {scan.error}",
+            reason=f"the record after it is damaged: {scan.error or type(scan.error).__name__}",
         )
     if recovery is not None:
         warnings.warn(
@@ -319,84 +291,3 @@ def load_session(
         recovery=recovery,
         messages=sum(len(p) for p in payloads.values()),
     )
-
-
-class _ChunkScan:
-    """Streams (topic, payload) from the file's chunks, walking the records itself
-    (no per-record objects, message indexes skipped); stops quietly at damage
-    (``error`` says what, ``good_byte`` where)."""
-
-    def __init__(self, stream: IO[bytes], wanted: Iterable[Topic]) -> None:
-        self.stream = stream
-        self.wanted = {t.value: t for t in wanted}
-        self.channels: dict[int, Topic] = {}
-        self.error: str | None = None
-        self.count = 0
-        self.good_byte = 0
-        self._zstd = zstandard.ZstdDecompressor()
-
-    def _channel(self, body: bytes) -> None:
-        record = Channel.read(ReadDataStream(BytesIO(body)))
-        topic = self.wanted.get(record.topic)
-        if topic is not None:
-            self.channels[record.id] = topic
-
-    def messages(self) -> Iterator[tuple[Topic, bytes]]:
-        read = self.stream.read
-        if read(len(_MAGIC)) != _MAGIC:
-            self.error = "not an MCAP file (bad magic bytes)"
-            return
-        self.good_byte = len(_MAGIC)
-        try:
-            while True:
-                head = read(_RECORD_HEADER.size)
-                if not head:
-                    raise EOFError("the file ends without its footer")
-                opcode, length = _RECORD_HEADER.unpack(head)
-                if opcode in (_FOOTER_OPCODE, _DATA_END_OPCODE):
-                    return
-                body = read(length)
-                if len(body) != length:
-                    raise EOFError("the file ends inside a record")
-                if opcode == _CHANNEL_OPCODE:
-                    self._channel(body)
-                elif opcode == _CHUNK_OPCODE:
-                    yield from self._chunk(body)
-                self.good_byte += _RECORD_HEADER.size + length
-        except _READ_ERRORS as error:
-            self.error = str(error) or type(error).__name__
-
-    def _chunk(self, body: bytes) -> list[tuple[Topic, bytes]]:
-        _, _, size, crc, name_length = _CHUNK_HEADER.unpack_from(body)
-        at = _CHUNK_HEADER.size
-        compression = body[at : at + name_length].decode()
-        at += name_length
-        (records_length,) = _U64.unpack_from(body, at)
-        at += _U64.size
-        data = self._decompress(body[at : at + records_length], compression, size, crc)
-        channels, header, unpack_id = self.channels, _RECORD_HEADER, _CHANNEL_ID.unpack_from
-        offset, end = 0, len(data)
-        found = []
-        while offset < end:
-            opcode, length = header.unpack_from(data, offset)
-            start = offset + header.size
-            offset = start + length
-            if opcode == _MESSAGE_OPCODE:
-                topic = channels.get(unpack_id(data, start)[0])
-                if topic is not None:
-                    found.append((topic, data[start + _MESSAGE_HEADER_BYTES : offset]))
-            elif opcode == _CHANNEL_OPCODE:
-                self._channel(data[start:offset])
-        if offset != end:
-            raise ValueError("chunk records overrun the chunk")
-        self.count += len(found)
-        return found
-
-    def _decompress(self, data: bytes, compression: str, size: int, crc: int) -> bytes:
-        if compression == "zstd":
-            data = self._zstd.decompress(data, max_output_size=size)
-        elif compression != "":
-            raise ValueError(f"unsupported chunk compression {compression!r}")
-        if crc and zlib.crc32(data) != crc:
-            raise ValueError("chunk CRC mismatch")
-        return data

@@ -23,6 +23,7 @@ from mcap.stream_reader import StreamReader
 from pipeline.events import TOPIC_TYPES, Event, Topic
 from pipeline.messages import FORMAT_VERSION
 from recorder.errors import RecordingError
+from recorder.scan import ChunkScan
 from recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
 
 _READ_ERRORS: Final = (McapError, ValueError, struct.error, zstandard.ZstdError, EOFError, KeyError)
@@ -117,27 +118,27 @@ class Recording:
         file iteration ends at the damage and :attr:`recovery` says where and why.
         """
         wanted = _wanted_topics(topics, self.path)
-        channels: dict[int, Topic | None] = {}
         with _open(self.path) as stream:
-            scan = _Scan(stream, self.path)
-            for record in scan.records():
-                if isinstance(record, Channel):
-                    topic = Topic(record.topic) if record.topic in _TOPIC_NAMES else None
-                    channels[record.id] = topic if topic in wanted else None
-                elif isinstance(record, Message):
-                    topic = channels.get(record.channel_id)
-                    if topic is None:
-                        continue
-                    stamp = _stamp_decoder.decode(record.data)
+            size = os.fstat(stream.fileno()).st_size
+            scan = ChunkScan(stream, frozenset(t.value for t in wanted))
+            try:
+                for topic, sequence, log_time_ns, data in scan.messages():
                     yield RecordedMessage(
-                        topic=topic,
-                        tick=stamp.tick,
-                        time_ns=record.log_time,
-                        sequence=record.sequence,
-                        payload_bytes=record.data,
+                        topic=Topic(topic),
+                        tick=_stamp_decoder.decode(data).tick,
+                        time_ns=log_time_ns,
+                        sequence=sequence,
+                        payload_bytes=data,
                     )
-            if scan.report is not None:
-                self.recovery = scan.report
+            except ValueError as error:  # bad magic: open_recording has refused such files
+                raise RecordingError(str(error), source=self.path) from None
+            if scan.error is not None:
+                self.recovery = RecoveryReport(
+                    messages=scan.count,
+                    stopped_at_byte=scan.good_byte,
+                    file_size=size,
+                    reason=_reason(scan.error, scan.good_byte, size),
+                )
 
 
 _TOPIC_NAMES: Final = frozenset(t.value for t in Topic)
