@@ -3,7 +3,8 @@
 Each rule's condition is its class attribute ``condition_text``; its body changes
 the map (the current block and its ``changed`` flag, ``overridecmd``, variables,
 attributes). Bodies are idempotent per situation, so a rule that keeps firing
-does not keep restarting the actuators.
+does not keep restarting the actuators; a body that decides to do nothing returns
+``False``, which spares the chain comparing the map.
 """
 
 from __future__ import annotations
@@ -47,12 +48,12 @@ class KickStarter(Rule):
     rulecode = rulecodes.KICK_STARTER
     condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
         child = found.entity(world_map, "?child")
         if child is None or child.attributes.get("welcomed") == "yes":
-            return
+            return False
         if world_map.scriptinfo.currentactivity != IDLE_ACTIVITY:
-            return
+            return False
         child.attributes["welcomed"] = "yes"
         replace_block(
             world_map,
@@ -62,13 +63,13 @@ class KickStarter(Rule):
 
 def soften(
     world_map: WorldMap, found: Evaluation, ctx: RuleContext, alias: str | None = None
-) -> None:
+) -> bool | None:
     """Stop moving and dim the lights, unless the block does not move or is already softened;
     the entity bound to ``alias``, if any, is marked with the time (``$too_close_at``)."""
     block = world_map.scriptinfo.block
     moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
     if not moving or (block is not None and block.flagged == "softened"):
-        return
+        return False
     entity = found.entity(world_map, alias) if alias else None
     if entity is not None:
         entity.attributes["too_close_at"] = str(ctx.now_ms)
@@ -86,8 +87,8 @@ class ChildTooClose(Rule):
     rulecode = rulecodes.CHILD_TOO_CLOSE
     condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        soften(world_map, found, ctx, "?child")
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        return soften(world_map, found, ctx, "?child")
 
 
 @RULES.register
@@ -97,8 +98,8 @@ class ObstacleTooClose(Rule):
     rulecode = rulecodes.OBSTACLE_TOO_CLOSE
     condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        soften(world_map, found, ctx, "?thing")
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        return soften(world_map, found, ctx, "?thing")
 
 
 @RULES.register
@@ -109,8 +110,8 @@ class SensorsBlind(Rule):
     rulecode = rulecodes.SENSORS_BLIND
     condition_text = "! {E: camera_offline ()}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        soften(world_map, found, ctx)
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        return soften(world_map, found, ctx)
 
 
 @RULES.register
@@ -120,22 +121,22 @@ class ChildLeft(Rule):
     rulecode = rulecodes.CHILD_LEFT
     condition_text = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
         current = world_map.scriptinfo.currentactivity
         if current in (WAITING_ACTIVITY, IDLE_ACTIVITY) or world_map.scriptinfo.overridecmd:
-            return
+            return False
         world_map.variables["@left_during"] = current
         force_switch(world_map, WAITING_ACTIVITY)
 
 
-def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> None:
+def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> bool | None:
     """Play ``block`` once for the latest touch of ``touchtype`` (remembered in a variable)."""
     touches = [t for t in world_map.robotstatus.touch if t.touchtype == touchtype]
     if not touches:
-        return
+        return False
     key, stamp = f"@rewarded_{touchtype}", str(touches[-1].startingtime)
     if world_map.variables.get(key) == stamp:
-        return
+        return False
     world_map.variables[key] = stamp
     replace_block(world_map, block)
 
@@ -157,8 +158,8 @@ class TouchReward(Rule):
         flagged="reward",
     )
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        reward_touch(world_map, "C", self.reward)
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        return reward_touch(world_map, "C", self.reward)
 
 
 @RULES.register
@@ -173,8 +174,8 @@ class HugReward(Rule):
         flagged="reward",
     )
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        reward_touch(world_map, "H", self.reward)
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        return reward_touch(world_map, "H", self.reward)
 
 
 @RULES.register
@@ -185,10 +186,10 @@ class AttentionLost(Rule):
     condition_text = "{CLASS #Human L ?child} ! {E: attention_low (?child, 5000)}"
     repeat_ms: Final = 10_000
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
         last = int(world_map.variables.get("@called_back_at", str(-self.repeat_ms)))
         if ctx.now_ms - last < self.repeat_ms:
-            return
+            return False
         world_map.variables["@called_back_at"] = str(ctx.now_ms)
         wiggle = (
             Move(v_x=0.0, v_y=0.0, v_theta=0.6, wait_t=0, duration=400),
@@ -212,10 +213,10 @@ class BatteryLow(Rule):
     rulecode = rulecodes.BATTERY_LOW
     condition_text = "! {E: battery_below (120000)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
         info = world_map.scriptinfo
         if info.currentactivity == IDLE_ACTIVITY and not info.script_vect:
-            return
+            return False
         info.script_vect = []
         force_switch(world_map, IDLE_ACTIVITY)
 
@@ -227,11 +228,13 @@ class JoystickNote(Rule):
     rulecode = rulecodes.JOYSTICK_NOTE
     condition_text = "! {E: joystick_engaged ()}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        if "@joystick_engaged_since" not in world_map.variables:
-            world_map.variables["@joystick_engaged_since"] = str(ctx.now_ms)
-            count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
-            world_map.variables["@joystick_takeovers"] = str(count)
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        if "@joystick_engaged_since" in world_map.variables:
+            return False
+        world_map.variables["@joystick_engaged_since"] = str(ctx.now_ms)
+        count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
+        world_map.variables["@joystick_takeovers"] = str(count)
+        return True
 
 
 @RULES.register
@@ -241,7 +244,9 @@ class ToyNearby(Rule):
     rulecode = rulecodes.TOY_NEARBY
     condition_text = "{CLASS #Object L ?toy ?THIS>&istarget OP= 1} ! {E: near (?toy, 1.0)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
         toy = found.entity(world_map, "?toy")
-        if toy is not None and "nearby_since" not in toy.attributes:
-            toy.attributes["nearby_since"] = str(ctx.now_ms)
+        if toy is None or "nearby_since" in toy.attributes:
+            return False
+        toy.attributes["nearby_since"] = str(ctx.now_ms)
+        return True

@@ -28,7 +28,8 @@ class RuleContext:
     now_ms: int
     tick_scope: dict[str, str] = field(default_factory=dict)
     snapshot: bytes | None = None
-    """The map's JSON as the last fired rule left it (saves encoding it again)."""
+    """The map's JSON as the last fired rule left it (saves encoding it again); reset when
+    a condition binds scope-U aliases or variables, so a body's diff is its own."""
 
 
 class Rule:
@@ -48,19 +49,27 @@ class Rule:
         """Change the condition at run time (the thesis lets a rule do this itself)."""
         self.condition = compile_condition(text)
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> None:
-        """The body, run when the condition holds; it may change the map freely."""
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+        """The body, run when the condition holds; it may change the map freely.
+
+        Return ``False`` when it left the map as it was (the usual early return): the
+        chain then skips encoding the map to find what changed. Anything else means
+        "look": the map is compared before and after and the changes are reported.
+        """
 
     def decide(self, world_map: WorldMap, ctx: RuleContext) -> RuleDecision:
         """Evaluate the condition, run the body if it holds, and report what changed."""
+        bound = (dict(world_map.aliases), dict(world_map.variables))
         found = self.condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
+        if (world_map.aliases, world_map.variables) != bound:
+            ctx.snapshot = None  # the condition bound U-scope aliases: not the body's doing
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            before = ctx.snapshot or msgspec.json.encode(world_map)
-            self.act(world_map, found, ctx)
-            after = ctx.snapshot = msgspec.json.encode(world_map)
-            if after != before:
-                changes = tuple(diff(msgspec.json.decode(before), msgspec.json.decode(after)))
+            before = ctx.snapshot = ctx.snapshot or msgspec.json.encode(world_map)
+            if self.act(world_map, found, ctx) is not False:
+                after = ctx.snapshot = msgspec.json.encode(world_map)
+                if after != before:
+                    changes = tuple(diff(msgspec.json.decode(before), msgspec.json.decode(after)))
         return RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,
