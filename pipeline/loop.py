@@ -80,6 +80,8 @@ class Pipeline:
         self._last_map = b""
         self._last_place: tuple[str, str, str, str] = ("", "", "", "")
         self._last_operator = b""
+        self._operator_moved = False
+        """The handler was called this tick in a way that may have changed its state."""
 
     def tick(
         self,
@@ -100,7 +102,9 @@ class Pipeline:
             outcome.items += start.items
 
         # Inputs: sensor updates queue in the producer; operator and joystick act at once.
-        self.handler.tick(now_ms)  # before this tick's commands: "loading" lasts one tick
+        # Before this tick's commands, so that "loading" lasts one tick.
+        moved = self.handler.tick(now_ms)
+        self._operator_moved = moved or bool(commands) or not self._last_operator
         if updates:
             emitter.emit(Topic.SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
             for update in updates:
@@ -220,9 +224,9 @@ class Pipeline:
 
     def _notify_handler(self, outcome: ReadOutcome) -> None:
         for name, completed in outcome.finished:
-            self.handler.activity_finished(name, completed=completed)
+            self._operator_moved |= self.handler.activity_finished(name, completed=completed)
         for name in outcome.started:
-            self.handler.activity_started(name)
+            self._operator_moved |= self.handler.activity_started(name)
 
     def _note_joystick(self) -> None:
         engaged = self.actuator.engaged
@@ -253,6 +257,8 @@ class Pipeline:
             emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.json.decode(encoded, type=WorldMap))
 
     def _publish_operator(self, emitter: _Emitter) -> None:
+        if not self._operator_moved:
+            return
         state = self.handler.state(
             tick=emitter.tick, time_ms=emitter.time_ms, replies=tuple(emitter.replies)
         )

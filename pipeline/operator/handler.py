@@ -183,11 +183,13 @@ class GeneratorHandler:
             reply=OperatorReply(id=cmd.id, ok=True, reason=reason), effects=effects
         )
 
-    def tick(self, now_ms: int) -> None:
-        """Advance the clock: ``loading`` becomes ``start``."""
+    def tick(self, now_ms: int) -> bool:
+        """Advance the clock: ``loading`` becomes ``start``; True when the state changed."""
         del now_ms
-        if self._button is Button.LOADING:
-            self._button = Button.START
+        if self._button is not Button.LOADING:
+            return False
+        self._button = Button.START
+        return True
 
     # ---------------------------------------------------------- loop callbacks
 
