@@ -8,7 +8,7 @@ recorder writes at most one message per topic per tick.
 from __future__ import annotations
 
 import enum
-from typing import Final
+from typing import ClassVar, Final
 
 import msgspec
 
@@ -100,9 +100,20 @@ class JoystickInput(Event):
 
 
 class MapSnapshot(Event):
-    """The world map after this tick's producer update and rule chain."""
+    """The world map after this tick's producer update and rule chain.
 
-    map: WorldMap
+    ``map`` is the ``WorldMap``'s JSON exactly as the loop encoded it to see whether it
+    changed: an immutable snapshot that sinks write as it is, with no second encoding.
+    ``world_map()`` decodes it; the recorded schema describes it as a ``WorldMap``.
+    """
+
+    map: msgspec.Raw
+    RAW_TYPES: ClassVar[dict[str, type]] = {"map": WorldMap}
+    """The type each raw field holds, for schemas."""
+
+    def world_map(self) -> WorldMap:
+        """The map as a Struct."""
+        return msgspec.json.decode(self.map, type=WorldMap)
 
 
 class MapChange(Message):

@@ -254,7 +254,7 @@ class Pipeline:
         encoded = msgspec.json.encode(self.map)
         if encoded != self._last_map:
             self._last_map = encoded
-            emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.json.decode(encoded, type=WorldMap))
+            emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.Raw(encoded))
 
     def _publish_operator(self, emitter: _Emitter) -> None:
         if not self._operator_moved:

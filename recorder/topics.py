@@ -48,8 +48,15 @@ def schema_data(topic: Topic) -> bytes:
     inlined (like Foxglove's own schemas) so that viewers without ``$ref`` support
     can read it. Sorted keys keep the bytes stable from run to run.
     """
-    schema = msgspec.json.schema(TOPIC_TYPES[topic])
-    return msgspec.json.encode(_inline_refs(schema, schema.get("$defs", {}), ()), order="sorted")
+    kind = TOPIC_TYPES[topic]
+    schema = msgspec.json.schema(kind)
+    defs = schema.get("$defs", {})
+    for field, held in getattr(kind, "RAW_TYPES", {}).items():
+        # A pre-encoded field (msgspec.Raw) is described by the type it holds.
+        held_schema = msgspec.json.schema(held)
+        defs.update(held_schema.get("$defs", {}))
+        defs[kind.__name__]["properties"][field] = {"$ref": held_schema["$ref"]}
+    return msgspec.json.encode(_inline_refs(schema, defs, ()), order="sorted")
 
 
 def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -> object:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import msgspec
+
 from pipeline.events import (
     ActivityEntry,
     ActuatorCommand,
@@ -118,7 +120,12 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
         ),
         Topic.JOYSTICK: JoystickInput(**t, left_x=0.5, left_y=-0.25, buttons=("LB", "A")),
         Topic.MAP: MapSnapshot(
-            **t, map=WorldMap(lastupdatetime=tick * 20, humans=[Human(id="child1", creationtime=0)])
+            **t,
+            map=msgspec.Raw(
+                msgspec.json.encode(
+                    WorldMap(lastupdatetime=tick * 20, humans=[Human(id="child1", creationtime=0)])
+                )
+            ),
         ),
         Topic.RULE_DECISIONS: RuleDecisions(
             **t,

@@ -209,7 +209,7 @@ def test_the_loop_stalls_until_an_update_or_the_block_moves_on() -> None:
         ],
     )
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
-    assert sink.on(Topic.MAP)[-1].map.humans[0].positionrho == 1.5
+    assert sink.on(Topic.MAP)[-1].world_map().humans[0].positionrho == 1.5
     p.tick(tick=11)
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
 
