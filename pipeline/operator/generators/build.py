@@ -24,44 +24,41 @@ from pipeline.messages import (
 from pipeline.operator.generator import Colour, GeneratorError
 from pipeline.think.rulecodes import RuleCode
 
+RuleSpec = tuple[int, str, RuleAction]
+"""``(rulecode, id, action)`` of one alfa/omega message."""
 
-def alfa_messages(*rules: tuple[int, str, RuleAction]) -> tuple[RuleMessage, ...]:
-    """Alfa messages for ``(rulecode, id, action)``: ``M`` for all but the last, ``U``."""
-    last = len(rules) - 1
+
+def _rule_messages(rules: tuple[RuleSpec, ...], mutex: list[MutexCmd]) -> tuple[RuleMessage, ...]:
     return tuple(
         RuleMessage(
-            rulecode=int(code),
-            id=rid,
-            intopic="",
-            outtopic="",
-            action=action,
-            mutexcmd=MutexCmd.U if i == last else MutexCmd.M,
+            rulecode=int(code), id=rid, intopic="", outtopic="", action=action, mutexcmd=cmd
         )
-        for i, (code, rid, action) in enumerate(rules)
+        for (code, rid, action), cmd in zip(rules, mutex, strict=True)
     )
 
 
-def safety_rules(action: RuleAction) -> tuple[tuple[int, str, RuleAction], ...]:
+def alfa_messages(*rules: RuleSpec) -> tuple[RuleMessage, ...]:
+    """Alfa messages: ``M`` for all but the last, which is ``U``."""
+    mutex = [MutexCmd.M] * len(rules)
+    if rules:
+        mutex[-1] = MutexCmd.U
+    return _rule_messages(rules, mutex)
+
+
+def omega_messages(*rules: RuleSpec) -> tuple[RuleMessage, ...]:
+    """Omega messages: ``L`` for the first, then ``M``."""
+    mutex = [MutexCmd.M] * len(rules)
+    if rules:
+        mutex[0] = MutexCmd.L
+    return _rule_messages(rules, mutex)
+
+
+def safety_rules(action: RuleAction) -> tuple[RuleSpec, ...]:
     """The safety rules every moving activity loads (``A``) and removes (``R``): a child
     too close, and the camera offline."""
     return (
         (RuleCode.CHILD_TOO_CLOSE, "child_too_close", action),
         (RuleCode.SENSORS_BLIND, "sensors_blind", action),
-    )
-
-
-def omega_messages(*rules: tuple[int, str, RuleAction]) -> tuple[RuleMessage, ...]:
-    """Omega messages for ``(rulecode, id, action)``: ``L`` for the first, then ``M``."""
-    return tuple(
-        RuleMessage(
-            rulecode=int(code),
-            id=rid,
-            intopic="",
-            outtopic="",
-            action=action,
-            mutexcmd=MutexCmd.L if i == 0 else MutexCmd.M,
-        )
-        for i, (code, rid, action) in enumerate(rules)
     )
 
 
