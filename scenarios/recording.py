@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import signal
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -45,7 +47,8 @@ def recorded(session: Session, *, mcap: Path | None, rrd: Path | None) -> Iterat
     """Attach the MCAP (and Rerun) sinks to a session, and close them whatever happens.
 
     The sinks open before the first tick, with the session's metadata and
-    attachments at the start of the file; Ctrl-C or an error still closes them.
+    attachments at the start of the file; Ctrl-C or an error still closes them, and
+    a second Ctrl-C while they close is ignored.
     """
     closers: list[McapSink | RerunSink] = []
     try:
@@ -70,5 +73,20 @@ def recorded(session: Session, *, mcap: Path | None, rrd: Path | None) -> Iterat
             session.sink.add(rerun)
         yield session
     finally:
-        for closer in closers:
-            closer.close()
+        with interrupts_held():
+            for closer in closers:
+                closer.close()
+
+
+@contextlib.contextmanager
+def interrupts_held() -> Iterator[None]:
+    """Ignore Ctrl-C (SIGINT) for the duration, so that a second Ctrl-C cannot cut a file
+    short while it is being finished; a no-op outside the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
