@@ -128,7 +128,7 @@ class Pipeline:
         progress = self.actuator.progress
         moved_on = progress != (info.submove, info.subled, info.subaout)
         info.submove, info.subled, info.subaout = progress
-        self._note_joystick()
+        self._note_joystick(now_ms)
         if step.commands:
             emitter.emit(
                 Topic.ACTUATOR_COMMANDS,
@@ -228,11 +228,12 @@ class Pipeline:
         for name in outcome.started:
             self._operator_moved |= self.handler.activity_started(name)
 
-    def _note_joystick(self) -> None:
+    def _note_joystick(self, now_ms: int) -> None:
+        status = self.map.robotstatus
         engaged = self.actuator.engaged
-        self.map.robotstatus.joystick_engaged = engaged
-        if not engaged:
-            self.map.variables.pop("@joystick_engaged_since", None)
+        if engaged and not status.joystick_engaged:
+            status.joystick_engagedtime = now_ms
+        status.joystick_engaged = engaged
 
     def _publish_progress(self, outcome: ReadOutcome, emitter: _Emitter) -> None:
         info = self.map.scriptinfo

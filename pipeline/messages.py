@@ -343,7 +343,9 @@ class RobotStatus(State):
     goalinterrupted: list[GoalEvent] = []
     activities: list[ActivityTracking] = []
     joystick_engaged: bool = False
-    """Set by the joystick rule while the operator holds the safety lock."""
+    """True while the operator holds the joystick's safety lock (set by the loop)."""
+    joystick_engagedtime: int = 0
+    """When the operator last engaged the joystick's safety lock, ms."""
 
 
 class ScriptInfo(State):

@@ -229,9 +229,10 @@ class JoystickNote(Rule):
     condition_text = "! {E: joystick_engaged ()}"
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
-        if "@joystick_engaged_since" in world_map.variables:
+        since = str(world_map.robotstatus.joystick_engagedtime)
+        if world_map.variables.get("@joystick_engaged_since") == since:
             return False
-        world_map.variables["@joystick_engaged_since"] = str(ctx.now_ms)
+        world_map.variables["@joystick_engaged_since"] = since
         count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
         world_map.variables["@joystick_takeovers"] = str(count)
         return True

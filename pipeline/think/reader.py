@@ -144,7 +144,7 @@ class BlockReader:
 
     @property
     def is_idle(self) -> bool:
-        return self.current.activity == self.idle.activity
+        return self._is_idle_entry(self.current)
 
     def push(self, entries: Iterable[ScriptEntry]) -> None:
         """Put scripts on the LIFO; the last one given ends on top and runs first."""
@@ -196,13 +196,17 @@ class BlockReader:
             outcome.logs.append(_warn(f"compulsory switch refused: {reason}", target))
             return outcome
         interrupted = self.current
+        # Suspended, not finished: it waits in the LIFO and resumes at the goal it was in.
+        suspend = not self.is_idle and entry is not self.idle
         outcome.items.append(
             self._item(ProgressKind.SWITCH, detail=f"to {target} {path_of(start)}")
         )
-        outcome.extend(self._end_current(ProgressKind.SWITCH, completed=False, now_ms=now_ms))
-        if not self._is_idle_entry(interrupted) and entry is not self.idle:
-            # Suspended, not finished: it waits in the LIFO and resumes at the goal it was in.
-            outcome.finished.remove((interrupted.activity, False))
+        outcome.extend(
+            self._end_current(
+                ProgressKind.SWITCH, completed=False, now_ms=now_ms, finished=not suspend
+            )
+        )
+        if suspend:
             self.lifo.append(msgspec.structs.replace(interrupted, start=(self.position[0], 0, 0)))
             self._mirror()
         outcome.extend(
@@ -350,8 +354,17 @@ class BlockReader:
         return outcome
 
     def _end_current(
-        self, kind: ProgressKind, *, completed: bool, now_ms: int, quiet: bool = False
+        self,
+        kind: ProgressKind,
+        *,
+        completed: bool,
+        now_ms: int,
+        quiet: bool = False,
+        finished: bool = True,
     ) -> ReadOutcome:
+        """Unload the current script: goals, tracking, omega messages, scope-U bindings.
+        ``quiet`` adds no progress item; ``finished=False`` (a suspension) does not tell the
+        handler the activity finished."""
         outcome = ReadOutcome()
         entry = self.current
         tracking = self._tracking(entry, now_ms)
@@ -377,7 +390,8 @@ class BlockReader:
             outcome.items.append(
                 self._item(kind, detail="completed" if completed else "interrupted")
             )
-        outcome.finished.append((entry.activity, completed))
+        if finished:
+            outcome.finished.append((entry.activity, completed))
         self.map.aliases.clear()
         self.map.variables.clear()
         self.map.scriptinfo.block = None

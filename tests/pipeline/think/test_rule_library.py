@@ -141,10 +141,14 @@ def test_attention_lost_calls_back_at_most_every_ten_seconds() -> None:
 def test_joystick_note_counts_takeovers_once_per_engagement() -> None:
     s = Session()
     s.map.robotstatus.joystick_engaged = True
+    s.map.robotstatus.joystick_engagedtime = 100
     s.tick(100)
     s.tick(120)
     assert s.map.variables["@joystick_takeovers"] == "1"
     assert s.map.variables["@joystick_engaged_since"] == "100"
+    s.map.robotstatus.joystick_engagedtime = 500  # released, then engaged again
+    s.tick(500)
+    assert s.map.variables["@joystick_takeovers"] == "2"
 
 
 def test_kick_starter_welcomes_a_child_once_and_only_while_idle() -> None:
