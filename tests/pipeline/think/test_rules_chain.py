@@ -120,7 +120,9 @@ STATES = ("absent", "active", "held", "removed")
 
 def state_of(chain: RuleChain, name: str) -> str:
     active, held, removed = chain.names()
-    found = [s for s, names in zip(STATES[1:], (active, held, removed), strict=True) if name in names]
+    found = [
+        s for s, names in zip(STATES[1:], (active, held, removed), strict=True) if name in names
+    ]
     assert len(found) <= 1, f"{name!r} is {found} at once"
     return found[0] if found else "absent"
 
@@ -213,7 +215,9 @@ def test_the_chain_follows_the_state_model_and_never_makes_two_instances(sequenc
         model[name] = expected
         for each in NAMES:
             assert state_of(chain, each) == model[each]
-        assert [rule.name for rule in chain.active] == order, "the chain stays ordered by activation"
+        assert [rule.name for rule in chain.active] == order, (
+            "the chain stays ordered by activation"
+        )
         assert len({id(rule) for rule in chain.active}) == len(chain.active)
     chain.unlock()
     fired = [d.rule for d in chain.propagate(WorldMap(), now_ms=0)]
