@@ -73,7 +73,8 @@ class Storage(enum.StrEnum):
     UPDATEABLE = "updateable"
     """A new value replaces the old one."""
     APPENDABLE = "appendable"
-    """Values go into a bounded circular register: ``R`` restarts it, ``A`` appends."""
+    """Values go into a bounded circular register: every update is appended (``R`` only
+    drops the pending updates issued before it)."""
 
 
 class Target(msgspec.Struct, frozen=True, kw_only=True):

@@ -458,6 +458,7 @@ class BlockReader:
             GoalStatus.INTERRUPTED: self.map.robotstatus.goalinterrupted,
         }[status]
         register.append(GoalEvent(goalid=record.goalid, timestamp=now_ms))
+        self.map.robotstatus.mark_set(f"goal{status.value}")
         del register[: max(0, len(register) - self.capacity)]
         outcome.items.append(
             ProgressItem(

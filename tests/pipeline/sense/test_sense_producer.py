@@ -157,17 +157,36 @@ def test_default_register_capacity_is_sixteen():
     assert world.robotstatus.audioin == [f"word{i}" for i in range(4, 20)]
 
 
-def test_r_restarts_a_register_with_its_own_value():
+def test_r_drops_pending_updates_and_is_appended_without_erasing_history():
+    """Thesis 4.5: "R deletes all non-already-processed updates that were issued before it";
+    4.1: append-able: "all incoming updates will be stored in a circular register"."""
     world, producer = fresh()
     producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
     producer.consume(10)
+    producer.submit(upd("Human/1", "poses", pose(9), Policy.A))
     producer.submit(upd("Human/1", "poses", pose(2), Policy.R))
     producer.submit(upd("Human/1", "poses", pose(3), Policy.A))
     producer.consume(20)
-    assert world.humans[0].poses == [
-        Pose(positionrho=2.0, positiontheta=0.5, positionchangetime=0),
-        Pose(positionrho=3.0, positiontheta=0.5, positionchangetime=0),
-    ]
+    assert [p.positionrho for p in world.humans[0].poses] == [1.0, 2.0, 3.0]
+    assert world.humans[0].positionrho == 3.0
+
+
+def test_the_map_records_which_robot_status_fields_were_ever_set():
+    """Issue 16 ruling on thesis 4.1/4.5: an attribute never updated is unknown; the map
+    records whether each RobotStatus field was ever set (RobotStatus "commits to memory ...
+    the inputs received by the sensors")."""
+    world, producer = fresh()
+    assert world.robotstatus.setfields == []
+    producer.submit(upd("RobotStatus", "touch",
+                        '{"touchtype": "C", "duration": 200, "startingtime": 50}', Policy.A))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "0"))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "5"))
+    producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
+    producer.consume(10)
+    assert world.robotstatus.setfields == ["touch", "batterytimeleft"]
+    assert producer.submit(upd("RobotStatus", "elapsedtime", "-1")) is not None
+    producer.consume(20)
+    assert world.robotstatus.setfields == ["touch", "batterytimeleft"]
 
 
 def test_robot_status_registers_and_scalars():
