@@ -116,8 +116,9 @@ class TrackingPayload(Payload):
 
 
 class TouchPayload(Payload):
-    touchtype: Literal["C", "H", "P", "S", "T"]
-    """``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
+    touchtype: Literal["C", "H", "P", "S", "T", "c", "h", "p", "s", "t"]
+    """``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap (table 4.1 says ``char``:
+    a lower-case letter is its upper-case type, stored upper-case)."""
     duration: NonNegInt
     startingtime: NonNegInt
 
@@ -221,7 +222,7 @@ def _tracking(p: TrackingPayload) -> Tracking:
 
 
 def _touch(p: TouchPayload) -> Touch:
-    return Touch(touchtype=p.touchtype, duration=p.duration, startingtime=p.startingtime)
+    return Touch(touchtype=p.touchtype.upper(), duration=p.duration, startingtime=p.startingtime)
 
 
 def _led(p: LedPayload) -> LedStatus:

@@ -227,13 +227,15 @@ def attention_low(
 
 @evaluation("touched")
 def touched(ctx: FunctionContext, touchtype: str, window_ms: float = TOUCH_WINDOW_MS) -> bool:
-    """A touch of type ``touchtype`` (C, H, P, S, T) started in the last ``window_ms``.
+    """A touch of type ``touchtype`` (C, H, P, S, T; either case) started in the last
+    ``window_ms``.
 
     Example: ! {E: touched ("C", 2000)}
     """
     since_ms = ctx.now_ms - window_ms
+    wanted = touchtype.upper()
     return any(
-        t.touchtype == touchtype and t.startingtime >= since_ms
+        t.touchtype == wanted and t.startingtime >= since_ms
         for t in ctx.world_map.robotstatus.touch
     )
 

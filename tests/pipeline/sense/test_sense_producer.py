@@ -11,7 +11,6 @@ from pipeline.messages import (
     Human,
     MapUpdate,
     Policy,
-    Pose,
     Touch,
     Tracking,
     WorldMap,

@@ -194,7 +194,8 @@ def test_registers_keep_history_and_r_drops_only_the_pending_updates(sequence):
         assert producer.consume(now) == []
         for update in pending_model:
             klass, _, ident = update.objectid.replace("\\", "/").partition("/")
-            key = (EntityClass(klass), "" if klass == "RobotStatus" else ident, update.attributename)
+            ident = "" if klass == "RobotStatus" else ident
+            key = (EntityClass(klass), ident, update.attributename)
             stored[key] = [*stored.get(key, []), update.jsonmsg][-CAPACITY:]
         pending_model = []
         for (klass, ident, attr), expected in stored.items():

@@ -312,3 +312,11 @@ def test_value_comparisons():
     assert _true("! {E: less_than (@v, 3)}", world) is True
     assert _true("! {E: greater_than (@v, 3)}", world) is False
     assert _true("! {E: less_than (@w, 3)}", world) is False
+
+
+def test_touched_names_a_touch_type_in_either_case():
+    """Thesis table 4.1: touch is {"touchtype": char, ...}; c and C are one type."""
+    world = WorldMap(robotstatus=RobotStatus(touch=[Touch(touchtype="C", duration=1,
+                                                          startingtime=9_900)]))
+    assert _true('! {E: touched ("c")}', world) is True
+    assert _true('! {E: touched ("h")}', world) is False
