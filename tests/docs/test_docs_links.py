@@ -100,3 +100,14 @@ def test_every_module_a_doc_names_exists(doc: str) -> None:
         if n.rpartition(".")[2] not in FILE_EXTENSIONS  # replay.csv is a file, not a module
     ]
     assert [n for n in names if not resolves(n)] == [], f"{doc} names what does not exist"
+
+
+def test_scenario_library_md_has_one_row_per_scenario_in_the_scenarios_table() -> None:
+    """Each library scenario is a row of the scenarios table, and only there."""
+    text = (ROOT / "docs" / "scenario-library.md").read_text(encoding="utf-8")
+    scenarios_part, _, activities_part = text.partition("## Activities written for the library")
+    rows = re.findall(r"^\| `(\w+)` \|", scenarios_part, flags=re.M)
+    library = sorted(p.stem for p in (ROOT / "scenarios" / "library").glob("*.toml"))
+    assert sorted(rows) == library
+    listed = re.findall(r"^\| `([\w.]+)` \|", activities_part, flags=re.M)
+    assert all(name.endswith(".txt") for name in listed), listed
