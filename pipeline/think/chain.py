@@ -6,7 +6,8 @@ one but holds it for later; R removes an active or held rule (kept aside so that
 can recover it); B brings a held rule back; C recovers a removed rule (creating it
 when it was never loaded, as the thesis's idle activity does with ``kick_starter``).
 A message that does not fit the rule's state changes nothing and is reported with
-the reason (``/log``).
+the reason on ``/log``: at INFO when the rule is already where the message would put it
+(R on a removed rule, C on an active one), else at WARNING.
 
 Mutex commands (``MutexCmd``): L locks the map's propagation before the message,
 U unlocks it after; while locked, the map does not pass through the rules.
@@ -40,9 +41,8 @@ class RuleChain:
                 self.locked = True
             problem = self._apply_one(message)
             if problem:
-                problems.append(
-                    LogEntry(level=Level.WARNING, source="rules", message=problem, ref=message.id)
-                )
+                level, text = problem if isinstance(problem, tuple) else (Level.WARNING, problem)
+                problems.append(LogEntry(level=level, source="rules", message=text, ref=message.id))
             if message.mutexcmd == MutexCmd.U:
                 self.locked = False
         return problems
@@ -85,13 +85,16 @@ class RuleChain:
         except RuleSyntaxError as error:
             return f"rule {message.id!r} has a bad condition: {error}"
 
-    def _apply_one(self, message: RuleMessage) -> str | None:
-        """Move one rule between states; why not, when the action does not apply to its state."""
+    def _apply_one(self, message: RuleMessage) -> str | tuple[Level, str] | None:
+        """Move one rule between states; why not, when the action does not apply to its state.
+
+        R on a removed rule and C on an active one are harmless (the thesis's example_act
+        removes kick_starter after the idle activity's omega did): reported at INFO."""
         name, action = message.id, message.action
         state = self.state(name)
         if action in (RuleAction.A, RuleAction.D):
             if state in ("active", "held"):
-                return f"{action.name}: rule {name!r} is already loaded ({state})"
+                return f"{action.name}: rule {name!r} is loaded already ({state})"
             rule = self._create(message)
             if isinstance(rule, str):
                 return rule
@@ -108,8 +111,10 @@ class RuleChain:
                 self.removed[name] = rule  # type: ignore[assignment]
             elif state == "held":
                 self.removed[name] = self.held.pop(name)
+            elif state == "removed":
+                return Level.INFO, f"R: rule {name!r} is already removed"
             else:
-                return f"R: rule {name!r} is not loaded (it is {state})"
+                return f"R: rule {name!r} is not loaded"
             return None
         if action == RuleAction.B:
             if state != "held":
@@ -120,6 +125,8 @@ class RuleChain:
         if state == "removed":
             self.active.append(self.removed.pop(name))
             return None
+        if state == "active":
+            return Level.INFO, f"C: rule {name!r} is already active, not removed"
         if state != "absent":
             return f"C: rule {name!r} is {state}, not removed"
         rule = self._create(message)

@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pipeline.events import Level
 from pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
 from pipeline.think.chain import RuleChain
 from pipeline.think.library import RULES
@@ -53,7 +54,7 @@ def test_c_creates_a_rule_never_loaded_as_the_idle_activity_does() -> None:
     ("messages", "expected"),
     [
         ([msg(99, "ghost", "A", "U")], "unknown rule code 99"),
-        ([msg(1, "x", "A"), msg(1, "x", "A", "U")], "already loaded"),
+        ([msg(1, "x", "A"), msg(1, "x", "A", "U")], "is loaded already (active)"),
         ([msg(1, "x", "B", "U")], "is absent, not held"),
         ([msg(1, "never", "R", "U")], "is not loaded"),
     ],
@@ -132,7 +133,8 @@ def test_c_on_a_held_rule_is_refused_and_b_then_makes_one_instance() -> None:
     chain = RuleChain(RULES)
     chain.apply([msg(1, "tr", "D", "U")])
     (problem,) = chain.apply([msg(1, "tr", "C", "U")])
-    assert "C: rule 'tr' is held, not removed" in problem.message and problem.ref == "tr"
+    assert problem.message == "C: rule 'tr' is held, not removed" and problem.ref == "tr"
+    assert problem.level == Level.WARNING
     assert chain.names() == ((), ("tr",), ())
     assert chain.apply([msg(1, "tr", "B", "U")]) == []
     assert len(chain.propagate(WorldMap(), now_ms=0)) == 1, "one instance fires once per pass"
@@ -143,7 +145,8 @@ def test_c_on_an_active_rule_is_refused_with_a_reason() -> None:
     chain = RuleChain(RULES)
     chain.apply([msg(1, "tr", "A", "U")])
     (problem,) = chain.apply([msg(1, "tr", "C", "U")])
-    assert "C: rule 'tr' is active, not removed" in problem.message
+    assert problem.message == "C: rule 'tr' is already active, not removed"
+    assert problem.level == Level.INFO, "harmless: the rule is where C would put it"
     assert chain.names() == (("tr",), (), ())
 
 
@@ -155,8 +158,10 @@ def test_b_on_an_active_rule_and_r_on_a_removed_rule_are_refused() -> None:
     assert "B: rule 'tr' is active, not held" in problem.message
     chain.apply([msg(1, "tr", "R", "U")])
     (problem,) = chain.apply([msg(1, "tr", "R", "U")])
-    assert "R: rule 'tr' is not loaded (it is removed)" in problem.message
+    assert problem.message == "R: rule 'tr' is already removed" and problem.level == Level.INFO
     assert chain.names() == ((), (), ("tr",))
+    (problem,) = chain.apply([msg(1, "never", "R", "U")])
+    assert problem.message == "R: rule 'never' is not loaded" and problem.level == Level.WARNING
 
 
 def test_r_on_a_held_rule_removes_it_and_c_recovers_it_as_active() -> None:
