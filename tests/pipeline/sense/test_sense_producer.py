@@ -285,3 +285,20 @@ def test_map_invariants_name_violations():
     assert any("creationtime 200 is after the map's lastupdatetime 100" in p for p in problems)
     assert "robotstatus.audioin: 3 entries, capacity 2" in problems
     assert map_invariants(WorldMap()) == []
+
+
+def test_a_map_recorded_before_setfields_decodes_with_every_field_unknown():
+    """Schemas evolve by appending fields with defaults: an older /map still decodes."""
+    old = msgspec.json.encode(WorldMap())
+    old = old.replace(b',"setfields":[]', b"")
+    assert b"setfields" not in old
+    world = msgspec.json.decode(old, type=WorldMap)
+    assert world.robotstatus.setfields == [] and not world.robotstatus.known("batterytimeleft")
+
+
+def test_map_invariants_name_a_bad_setfields_list():
+    world = WorldMap()
+    world.robotstatus.setfields = ["touch", "touch", "wings"]
+    problems = map_invariants(world)
+    assert any("duplicate names" in p for p in problems)
+    assert any("'wings' is not a RobotStatus field" in p for p in problems)
