@@ -15,9 +15,9 @@ script then completes without reaching it, it is *failed*. A goal cut short by a
 rule-forced switch or the operator is *interrupted*; a switched-out script waits in
 the LIFO and resumes from the start of the goal it was in.
 
-A rule-forced switch (``overridecmd``) names an activity: the idle activity, a script the
-reader was given (a generator's last script, by its activity name) or a script file found
-by the resolver. Naming the running activity only moves the reader to goal/action/block,
+A rule-forced switch (``overridecmd``) names an activity: the idle activity, what the
+resolver finds (a selected generator's last script, a script file) or a script the reader
+was given before under that name. Naming the running activity only moves the reader to goal/action/block,
 like a jump: no suspended copy, no omega or alfa messages.
 """
 
@@ -309,10 +309,11 @@ class BlockReader:
         return entry.activity == self.idle.activity
 
     def _find(self, activity: str) -> ScriptEntry | None:
-        """The script a switch to ``activity`` loads: idle, one given before, or a file."""
+        """The script a switch to ``activity`` loads: idle, the resolver's (a generator's last
+        script or a file), else the last one given to the reader under that name."""
         if activity == self.idle.activity:
             return self.idle
-        return self.known.get(activity) or self.resolve(activity)
+        return self.resolve(activity) or self.known.get(activity)
 
     def _pop(self) -> ScriptEntry:
         entry = self.lifo.pop() if self.lifo else self.idle
