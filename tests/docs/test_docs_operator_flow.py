@@ -7,36 +7,15 @@ from pathlib import Path
 
 from pipeline.events import OperatorCommand, OperatorVerb, Topic
 from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.messages import Action, Goal, InstructionBlock, JumpBlock, Led, Script
 from pipeline.operator.generators import default_catalogue
 from pipeline.operator.handler import GeneratorHandler
 from pipeline.sink import MemorySink
-from pipeline.think.reader import ScriptEntry
 from pipeline.think.rulecodes import RuleCode
+from scenarios.activities import ACTIVITIES, ActivityLibrary
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
-IDLE = ScriptEntry(
-    activity="idle_activity",
-    source="idle_activity",
-    script=Script(
-        activityname="idle_activity",
-        goals=(
-            Goal(
-                goalid="rest",
-                actions=(
-                    Action(
-                        blocks=(
-                            InstructionBlock(
-                                led=(Led(r=0, g=0, b=1, turnas=1, wait_t=0, duration=100),)
-                            ),
-                            JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
-                        )
-                    ),
-                ),
-            ),
-        ),
-    ),
-)
+IDLE = ActivityLibrary([ACTIVITIES]).idle()
+"""The shipped idle activity."""
 
 
 def replies(p: Pipeline, tick: int, *verbs: OperatorVerb) -> list[tuple[bool, str]]:

@@ -4,35 +4,14 @@ from __future__ import annotations
 
 from pipeline.events import OperatorCommand, OperatorVerb, Topic
 from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.messages import Action, Goal, InstructionBlock, JumpBlock, Led, Script
 from pipeline.operator.generators import default_catalogue
 from pipeline.operator.handler import GeneratorHandler
 from pipeline.sink import MemorySink
 from pipeline.think.library import force_switch
-from pipeline.think.reader import ScriptEntry
+from scenarios.activities import ACTIVITIES, ActivityLibrary
 
-IDLE = ScriptEntry(
-    activity="idle_activity",
-    source="idle_activity",
-    script=Script(
-        activityname="idle_activity",
-        goals=(
-            Goal(
-                goalid="rest",
-                actions=(
-                    Action(
-                        blocks=(
-                            InstructionBlock(
-                                led=(Led(r=0, g=0, b=1, turnas=1, wait_t=0, duration=100),)
-                            ),
-                            JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
-                        )
-                    ),
-                ),
-            ),
-        ),
-    ),
-)
+IDLE = ActivityLibrary([ACTIVITIES]).idle()
+"""The shipped idle activity."""
 
 
 def test_a_rule_switch_reaches_a_generated_script_before_it_was_started() -> None:
