@@ -17,8 +17,8 @@ the LIFO and resumes from the start of the goal it was in.
 
 A rule-forced switch (``overridecmd``) names an activity: the idle activity, what the
 resolver finds (a selected generator's last script, a script file) or a script the reader
-was given before under that name. Naming the running activity only moves the reader to goal/action/block,
-like a jump: no suspended copy, no omega or alfa messages.
+was given before under that name. Naming the running activity only moves the reader to
+goal/action/block, like a jump: no suspended copy, no omega or alfa messages.
 """
 
 from __future__ import annotations
