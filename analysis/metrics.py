@@ -109,8 +109,20 @@ def goals(data: SessionData) -> pl.DataFrame:
 
 
 def fired_rules(data: SessionData) -> pl.DataFrame:
-    """The fired decisions, each with the activity running when it fired."""
-    place = data["/reader/progress"].select("tick", "activity").sort("tick")
+    """The fired decisions, each with the activity running when it fired.
+
+    The rules run after the Block Reader in a tick, so the activity running is the one of
+    the reader's last progress item at or before that tick (a progress message's own
+    ``activity`` is the map's ``currentactivity``, which a rule forcing a switch has
+    already set to the activity it switches *to*).
+    """
+    place = (
+        data["/reader/progress/items"]
+        .select("tick", "activity")
+        .group_by("tick", maintain_order=True)
+        .last()
+        .sort("tick")
+    )
     fired = data["/rules/decisions"].filter("fired").select("tick", "time_ms", TIME, "rule")
     return fired.sort("tick").join_asof(place, on="tick", strategy="backward")
 

@@ -30,7 +30,14 @@ from pipeline.events import (
     SensorUpdates,
     Topic,
 )
-from pipeline.messages import REGISTER_CAPACITY, ActuatorOutputs, MapUpdate, Message, WorldMap
+from pipeline.messages import (
+    REGISTER_CAPACITY,
+    ActuatorOutputs,
+    MapUpdate,
+    Message,
+    Script,
+    WorldMap,
+)
 from pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
 from pipeline.sense.producer import MapProducer
 from pipeline.sink import Sink
@@ -70,8 +77,9 @@ class Pipeline:
             self.map, register_capacity=config.register_capacity, script_root=config.script_root
         )
         self.chain = RuleChain(rules)
+        self._resolve_file = resolve
         self.reader = BlockReader(
-            self.map, idle=idle, resolve=resolve, register_capacity=config.register_capacity
+            self.map, idle=idle, resolve=self._resolve, register_capacity=config.register_capacity
         )
         self.actuator = Actuator(config.limits, tick_ms=config.tick_ms)
         self.handler = handler
@@ -191,18 +199,15 @@ class Pipeline:
         for effect in result.effects:
             match effect:
                 case PushScripts():
-                    self.reader.push(
-                        ScriptEntry(
-                            activity=e.activity,
-                            script=e.script,
-                            source=f"generator:{e.activity}",
-                            operator=True,
-                        )
-                        for e in effect.lifo_order()
-                    )
+                    self.reader.push(_generated(e.activity, e.script) for e in effect.lifo_order())
                 case StopActivities():
                     outcome.extend(self.reader.stop_operator_activities(now_ms=now_ms))
         return outcome
+
+    def _resolve(self, name: str) -> ScriptEntry | None:
+        """A switch's target: a selected activity's generated script, else a script file."""
+        script = self.handler.generated(name)
+        return _generated(name, script) if script is not None else self._resolve_file(name)
 
     def _apply_chain(self, outcome: ReadOutcome, emitter: _Emitter) -> None:
         emitter.logs.extend(outcome.logs)
@@ -267,6 +272,13 @@ class Pipeline:
         if key != self._last_operator:
             self._last_operator = key
             self.sink.record(Topic.OPERATOR_STATE, emitter.time_ns, state)
+
+
+def _generated(activity: str, script: Script) -> ScriptEntry:
+    """The reader's entry for an operator-selected activity's generated script."""
+    return ScriptEntry(
+        activity=activity, script=script, source=f"generator:{activity}", operator=True
+    )
 
 
 class _Emitter:

@@ -346,6 +346,19 @@ class RobotStatus(State):
     """True while the operator holds the joystick's safety lock (set by the loop)."""
     joystick_engagedtime: int = 0
     """When the operator last engaged the joystick's safety lock, ms."""
+    setfields: list[str] = []
+    """The fields of tables 4.1/4.2 ever given a value (by an update, or the Block Reader for
+    the goal registers), in the order first set. A field not listed is *unknown*: its value
+    above is only a default, and a condition on it is false."""
+
+    def mark_set(self, name: str) -> None:
+        """Record that the field ``name`` has been given a value."""
+        if name not in self.setfields:
+            self.setfields.append(name)
+
+    def known(self, name: str) -> bool:
+        """Whether the field ``name`` was ever given a value."""
+        return name in self.setfields
 
 
 class ScriptInfo(State):

@@ -147,6 +147,11 @@ class GeneratorHandler:
             for s in self._selected
         )
 
+    def generated(self, name: str) -> Script | None:
+        """The last script generated for the selected activity ``name``, if any."""
+        s = self._find(name)
+        return s.script if s is not None else None
+
     def state(
         self, tick: int, time_ms: int, *, replies: tuple[OperatorReply, ...] = ()
     ) -> OperatorState:

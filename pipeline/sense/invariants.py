@@ -20,7 +20,8 @@ def map_invariants(
 
     Checked: IDs unique and non-empty within each class; every register at most
     ``register_capacity`` long; creation times non-negative, not after the map's
-    ``lastupdatetime`` and non-decreasing along each list (lists keep creation order).
+    ``lastupdatetime`` and non-decreasing along each list (lists keep creation order);
+    ``robotstatus.setfields`` names RobotStatus fields, each once.
     """
     problems: list[str] = []
     for field in (*_DEVICE_LISTS, *_ENTITY_LISTS):
@@ -51,6 +52,13 @@ def map_invariants(
                     problems.append(
                         f"{where}.{register}: {size} entries, capacity {register_capacity}"
                     )
+    status = world_map.robotstatus
+    fields = set(status.__struct_fields__)
+    if len(set(status.setfields)) != len(status.setfields):
+        problems.append(f"robotstatus.setfields: duplicate names in {status.setfields}")
+    for name in status.setfields:
+        if name not in fields:
+            problems.append(f"robotstatus.setfields: {name!r} is not a RobotStatus field")
     for register in _ROBOT_REGISTERS:
         size = len(getattr(world_map.robotstatus, register))
         if size > register_capacity:

@@ -1,7 +1,9 @@
 """The Map Producer (section 4.5): queues sensors' MapUpdates and applies them to the map.
 
 ``submit`` judges an update at once against tables 4.1/4.2 and queues it: ``R`` drops
-the earlier pending updates of the same target and attribute, ``A`` appends.
+the earlier pending updates of the same target and attribute, ``A`` appends. Applied, an
+appendable value joins its register whatever its policy (stored history is never erased),
+and a RobotStatus field is marked as set (``RobotStatus.setfields``).
 ``consume`` applies the pending updates, in order, at the simulated time ``now_ms``.
 A rejected update leaves the map exactly as it was and yields a ``Rejection``.
 """
@@ -20,6 +22,7 @@ from pipeline.messages import (
     Object,
     Obstacle,
     Policy,
+    RobotStatus,
     Sonar,
     State,
     WorldMap,
@@ -156,13 +159,13 @@ class MapProducer:
         elif spec.storage is Storage.UPDATEABLE:
             setattr(owner, spec.name, value)
         else:
-            if decoded.update.policy is Policy.R:
-                register = [value]
-            else:
-                register = [*getattr(owner, spec.name), value]
+            # R and A alike are appended: R only dropped the pending updates (``submit``).
+            register = [*getattr(owner, spec.name), value]
             setattr(owner, spec.name, register[-self.register_capacity :])
             for name in spec.mirrors:
                 setattr(owner, name, getattr(value, name))
+        if isinstance(owner, RobotStatus):
+            owner.mark_set(spec.name)
 
 
 class _Index:

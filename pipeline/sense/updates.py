@@ -73,7 +73,8 @@ class Storage(enum.StrEnum):
     UPDATEABLE = "updateable"
     """A new value replaces the old one."""
     APPENDABLE = "appendable"
-    """Values go into a bounded circular register: ``R`` restarts it, ``A`` appends."""
+    """Values go into a bounded circular register: every update is appended (``R`` only
+    drops the pending updates issued before it)."""
 
 
 class Target(msgspec.Struct, frozen=True, kw_only=True):
@@ -115,8 +116,9 @@ class TrackingPayload(Payload):
 
 
 class TouchPayload(Payload):
-    touchtype: Literal["C", "H", "P", "S", "T"]
-    """``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
+    touchtype: Literal["C", "H", "P", "S", "T", "c", "h", "p", "s", "t"]
+    """``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap (table 4.1 says ``char``:
+    a lower-case letter is its upper-case type, stored upper-case)."""
     duration: NonNegInt
     startingtime: NonNegInt
 
@@ -220,7 +222,7 @@ def _tracking(p: TrackingPayload) -> Tracking:
 
 
 def _touch(p: TouchPayload) -> Touch:
-    return Touch(touchtype=p.touchtype, duration=p.duration, startingtime=p.startingtime)
+    return Touch(touchtype=p.touchtype.upper(), duration=p.duration, startingtime=p.startingtime)
 
 
 def _led(p: LedPayload) -> LedStatus:

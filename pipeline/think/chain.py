@@ -1,9 +1,13 @@
 """The daisy chain of rules the map passes through each tick, changed by alfa/omega messages.
 
-Actions (``RuleAction``): A activates and adds a rule; R removes it (kept aside so
-that C can recover it); D creates it but holds it for later; B brings a held rule
-back; C recovers a removed rule (creating it when it was never loaded, as the
-thesis's idle activity does with ``kick_starter``).
+A rule is in exactly one state: active, held or removed (or absent: never loaded).
+Actions (``RuleAction``): A activates and adds an absent or removed rule; D creates
+one but holds it for later; R removes an active or held rule (kept aside so that C
+can recover it); B brings a held rule back; C recovers a removed rule (creating it
+when it was never loaded, as the thesis's idle activity does with ``kick_starter``).
+A message that does not fit the rule's state changes nothing and is reported with
+the reason on ``/log``: at INFO when the rule is already where the message would put it
+(R on a removed rule, C on an active one), else at WARNING.
 
 Mutex commands (``MutexCmd``): L locks the map's propagation before the message,
 U unlocks it after; while locked, the map does not pass through the rules.
@@ -37,9 +41,8 @@ class RuleChain:
                 self.locked = True
             problem = self._apply_one(message)
             if problem:
-                problems.append(
-                    LogEntry(level=Level.WARNING, source="rules", message=problem, ref=message.id)
-                )
+                level, text = problem if isinstance(problem, tuple) else (Level.WARNING, problem)
+                problems.append(LogEntry(level=level, source="rules", message=text, ref=message.id))
             if message.mutexcmd == MutexCmd.U:
                 self.locked = False
         return problems
@@ -63,6 +66,14 @@ class RuleChain:
             tuple(self.removed),
         )
 
+    def state(self, name: str) -> str:
+        """``active``, ``held``, ``removed`` or ``absent`` (never loaded): one at a time."""
+        if self._find_active(name):
+            return "active"
+        if name in self.held:
+            return "held"
+        return "removed" if name in self.removed else "absent"
+
     def _find_active(self, name: str) -> Rule | None:
         return next((rule for rule in self.active if rule.name == name), None)
 
@@ -74,11 +85,16 @@ class RuleChain:
         except RuleSyntaxError as error:
             return f"rule {message.id!r} has a bad condition: {error}"
 
-    def _apply_one(self, message: RuleMessage) -> str | None:
+    def _apply_one(self, message: RuleMessage) -> str | tuple[Level, str] | None:
+        """Move one rule between states; why not, when the action does not apply to its state.
+
+        R on a removed rule and C on an active one are harmless (the thesis's example_act
+        removes kick_starter after the idle activity's omega did): reported at INFO."""
         name, action = message.id, message.action
+        state = self.state(name)
         if action in (RuleAction.A, RuleAction.D):
-            if self._find_active(name) or name in self.held:
-                return f"{action.name}: rule {name!r} is already loaded"
+            if state in ("active", "held"):
+                return f"{action.name}: rule {name!r} is loaded already ({state})"
             rule = self._create(message)
             if isinstance(rule, str):
                 return rule
@@ -89,24 +105,30 @@ class RuleChain:
                 self.held[name] = rule
             return None
         if action == RuleAction.R:
-            rule = self._find_active(name) or self.held.pop(name, None)
-            if rule is None:
-                return None if name in self.removed else f"R: rule {name!r} is not loaded"
-            if rule in self.active:
-                self.active.remove(rule)
-            self.removed[name] = rule
+            if state == "active":
+                rule = self._find_active(name)
+                self.active.remove(rule)  # type: ignore[arg-type]
+                self.removed[name] = rule  # type: ignore[assignment]
+            elif state == "held":
+                self.removed[name] = self.held.pop(name)
+            elif state == "removed":
+                return Level.INFO, f"R: rule {name!r} is already removed"
+            else:
+                return f"R: rule {name!r} is not loaded"
             return None
         if action == RuleAction.B:
-            if name not in self.held:
-                return f"B: rule {name!r} is not held"
+            if state != "held":
+                return f"B: rule {name!r} is {state}, not held"
             self.active.append(self.held.pop(name))
             return None
-        # RuleAction.C: recover a removed rule, or create it if it never existed.
-        if self._find_active(name):
-            return None
-        if name in self.removed:
+        # RuleAction.C: recover a removed rule, or create one never loaded (listing 4.1).
+        if state == "removed":
             self.active.append(self.removed.pop(name))
             return None
+        if state == "active":
+            return Level.INFO, f"C: rule {name!r} is already active, not removed"
+        if state != "absent":
+            return f"C: rule {name!r} is {state}, not removed"
         rule = self._create(message)
         if isinstance(rule, str):
             return rule

@@ -333,6 +333,10 @@ class _ToAst(Transformer):
             raise _error(f"bad string literal {token!s}", _pos(token)) from None
         return Literal(value, value, _pos(token))
 
+    def word(self, meta, children):
+        (token,) = children
+        return Literal(str(token), str(token), _pos(token))
+
     def alias(self, meta, children):
         (token,) = children
         return AliasRef(_alias(token), _pos(token))
@@ -371,7 +375,7 @@ _TERMINALS: Final = {
     "FAMILY": "a family (B:, F: or E:)",
     "OPERATOR": "an operator (OP=, OP< or OP>)",
     "SCOPE": "a scope (U, T or L)",
-    "NAME": "a function name",
+    "NAME": "a name",
     "CLASSNAME": "a class (#Human, #Obstacle, #Object or #Activity)",
     "ALIAS": "an alias (?name)",
     "VARNAME": "a variable (@name)",

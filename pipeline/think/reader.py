@@ -14,6 +14,11 @@ inside it. A goal left by any other jump into another goal is not reached; if th
 script then completes without reaching it, it is *failed*. A goal cut short by a
 rule-forced switch or the operator is *interrupted*; a switched-out script waits in
 the LIFO and resumes from the start of the goal it was in.
+
+A rule-forced switch (``overridecmd``) names an activity: the idle activity, what the
+resolver finds (a selected generator's last script, a script file) or a script the reader
+was given before under that name. Naming the running activity only moves the reader to
+goal/action/block, like a jump: no suspended copy, no omega or alfa messages.
 """
 
 from __future__ import annotations
@@ -135,6 +140,9 @@ class BlockReader:
         self._conditions: dict[str, Condition] = {}
         self._abandoned: set[int] = set()
         """Goals of the current script left by a jump (membership only, never iterated)."""
+        self.known: dict[str, ScriptEntry] = {}
+        """Every script given to the reader (pushed or loaded), by activity name, the latest
+        kept: what a rule-forced switch can reach besides the resolver's files."""
 
     # ----------------------------------------------------------------- public steps
 
@@ -148,7 +156,9 @@ class BlockReader:
 
     def push(self, entries: Iterable[ScriptEntry]) -> None:
         """Put scripts on the LIFO; the last one given ends on top and runs first."""
+        entries = list(entries)
         self.lifo.extend(entries)
+        self.known.update((e.activity, e) for e in entries)
         self._mirror()
 
     def sync_lifo(self, *, now_ms: int) -> ReadOutcome:
@@ -184,23 +194,30 @@ class BlockReader:
             return outcome
         info.overridecmd = False
         target = info.currentactivity
-        entry = self.idle if target == self.idle.activity else self.resolve(target)
+        entry = self._find(target)
         try:
             start = parse_path(f"{info.goalid}/{info.actionid}/{info.blockid}")
         except ValueError as error:
             entry, reason = None, str(error)
         else:
             reason = f"no script {target!r}"
+            if entry is not None and block_at(entry.script, start) is None:
+                entry, reason = None, f"{target!r} has no block {path_of(start)}"
         if entry is None:
             info.currentactivity = self.current.activity
             outcome.logs.append(_warn(f"compulsory switch refused: {reason}", target))
             return outcome
-        interrupted = self.current
-        # Suspended, not finished: it waits in the LIFO and resumes at the goal it was in.
-        suspend = not self.is_idle and entry is not self.idle
         outcome.items.append(
             self._item(ProgressKind.SWITCH, detail=f"to {target} {path_of(start)}")
         )
+        if target == self.current.activity:
+            # Inside the running script: a move like a jump; it is not loaded again.
+            self._leave_goal(start, outcome, now_ms)
+            self.position, self.fresh = start, True
+            return outcome
+        interrupted = self.current
+        # Suspended, not finished: it waits in the LIFO and resumes at the goal it was in.
+        suspend = not self.is_idle and entry is not self.idle
         outcome.extend(
             self._end_current(
                 ProgressKind.SWITCH, completed=False, now_ms=now_ms, finished=not suspend
@@ -291,6 +308,13 @@ class BlockReader:
     def _is_idle_entry(self, entry: ScriptEntry) -> bool:
         return entry.activity == self.idle.activity
 
+    def _find(self, activity: str) -> ScriptEntry | None:
+        """The script a switch to ``activity`` loads: idle, the resolver's (a generator's last
+        script or a file), else the last one given to the reader under that name."""
+        if activity == self.idle.activity:
+            return self.idle
+        return self.resolve(activity) or self.known.get(activity)
+
     def _pop(self) -> ScriptEntry:
         entry = self.lifo.pop() if self.lifo else self.idle
         self._mirror()
@@ -332,6 +356,8 @@ class BlockReader:
             outcome.extend(self._load(self._pop(), now_ms=now_ms))
             return outcome
         self.current = entry
+        if not self._is_idle_entry(entry):
+            self.known[entry.activity] = entry
         self.position = entry.start
         self.fresh = True
         self._abandoned = set()
@@ -433,6 +459,7 @@ class BlockReader:
             GoalStatus.INTERRUPTED: self.map.robotstatus.goalinterrupted,
         }[status]
         register.append(GoalEvent(goalid=record.goalid, timestamp=now_ms))
+        self.map.robotstatus.mark_set(f"goal{status.value}")
         del register[: max(0, len(register) - self.capacity)]
         outcome.items.append(
             ProgressItem(
@@ -465,6 +492,11 @@ class BlockReader:
         if not target:
             return self._after(self.position, outcome, now_ms)
         position = parse_path(target)
+        self._leave_goal(position, outcome, now_ms)
+        return position
+
+    def _leave_goal(self, position: Position, outcome: ReadOutcome, now_ms: int) -> None:
+        """Going to ``position`` in the same script: the goal left is reached or abandoned."""
         goal = self.position[0]
         if position == (goal + 1, 0, 0):
             # Straight on to the next goal: the same as finishing this one.
@@ -473,7 +505,6 @@ class BlockReader:
             # Left elsewhere: not reached; failed if the script ends without reaching it.
             self._set_goal(goal, GoalStatus.PENDING, None, None, None)
             self._abandoned.add(goal)
-        return position
 
     def _check_conditions(self, script: Script) -> str:
         """Compile every jump condition and check every target once, when a script loads."""

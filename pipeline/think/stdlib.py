@@ -227,13 +227,15 @@ def attention_low(
 
 @evaluation("touched")
 def touched(ctx: FunctionContext, touchtype: str, window_ms: float = TOUCH_WINDOW_MS) -> bool:
-    """A touch of type ``touchtype`` (C, H, P, S, T) started in the last ``window_ms``.
+    """A touch of type ``touchtype`` (C, H, P, S, T; either case) started in the last
+    ``window_ms``.
 
     Example: ! {E: touched ("C", 2000)}
     """
     since_ms = ctx.now_ms - window_ms
+    wanted = touchtype.upper()
     return any(
-        t.touchtype == touchtype and t.startingtime >= since_ms
+        t.touchtype == wanted and t.startingtime >= since_ms
         for t in ctx.world_map.robotstatus.touch
     )
 
@@ -249,11 +251,12 @@ def no_human_in_front(ctx: FunctionContext, max_angle_rad: float = FRONT_ANGLE_R
 
 @evaluation("battery_below")
 def battery_below(ctx: FunctionContext, time_left_ms: float) -> bool:
-    """The battery has less than ``time_left_ms`` left.
+    """The battery has less than ``time_left_ms`` left (false before any battery reading).
 
     Example: ! {E: battery_below (600000)}
     """
-    return ctx.world_map.robotstatus.batterytimeleft < time_left_ms
+    status = ctx.world_map.robotstatus
+    return status.known("batterytimeleft") and status.batterytimeleft < time_left_ms
 
 
 def _goal(ctx: FunctionContext, goalid: str) -> GoalTracking | None:
@@ -280,11 +283,13 @@ def goal_is(ctx: FunctionContext, goalid: str, status: str) -> bool:
 
 @evaluation("elapsed_over")
 def elapsed_over(ctx: FunctionContext, elapsed_ms: float) -> bool:
-    """More than ``elapsed_ms`` have passed since the session started.
+    """More than ``elapsed_ms`` have passed since the session started (false while no
+    ``elapsedtime`` was reported).
 
     Example: ! {E: elapsed_over (60000)}
     """
-    return ctx.world_map.robotstatus.elapsedtime > elapsed_ms
+    status = ctx.world_map.robotstatus
+    return status.known("elapsedtime") and status.elapsedtime > elapsed_ms
 
 
 @evaluation("var_is")

@@ -99,3 +99,58 @@ def test_distances_are_centre_to_centre(walk_mcap: Path) -> None:
     frame = distances(load_session(walk_mcap))
     first = frame.row(0, named=True)
     assert first["distance_m"] == pytest.approx(4.0, abs=0.01)
+
+
+def test_a_rule_firing_is_credited_to_the_activity_running_when_it_fired() -> None:
+    """Thesis 4.2: the rules propagate (step 8) after the Block Reader (steps 5-7); a rule
+    that raises overridecmd names the target in currentactivity, but the switch is applied
+    only at the next loop's step 5: the firing belongs to the activity that was running."""
+    from analysis.load import TIME, SessionData
+    from analysis.metrics import fired_rules
+
+    def frame(rows: list[dict]) -> pl.DataFrame:
+        return pl.DataFrame(rows).with_columns(
+            pl.col("time_ms").cast(pl.Duration("ms")).alias(TIME)
+        )
+
+    progress = frame(
+        [
+            {"tick": 0, "time_ms": 0, "activity": "idle_activity"},
+            {"tick": 10, "time_ms": 200, "activity": "game"},
+            {"tick": 50, "time_ms": 1000, "activity": "wait_for_child"},  # set by the rule
+            {"tick": 51, "time_ms": 1020, "activity": "wait_for_child"},
+        ]
+    )
+    items = frame(
+        [
+            {"tick": 0, "time_ms": 0, "kind": "idle", "activity": "idle_activity"},
+            {"tick": 10, "time_ms": 200, "kind": "end", "activity": "idle_activity"},
+            {"tick": 10, "time_ms": 200, "kind": "load", "activity": "game"},
+            {"tick": 51, "time_ms": 1020, "kind": "switch", "activity": "game"},
+            {"tick": 51, "time_ms": 1020, "kind": "load", "activity": "wait_for_child"},
+        ]
+    )
+    decisions = frame(
+        [
+            {"tick": 10, "time_ms": 200, "rule": "close", "fired": True},
+            {"tick": 50, "time_ms": 1000, "rule": "child_left", "fired": True},
+            {"tick": 51, "time_ms": 1020, "rule": "close", "fired": True},
+        ]
+    )
+    data = SessionData(
+        path="",
+        session_id="",
+        metadata={},
+        attachments={},
+        tables={
+            "/reader/progress": progress,
+            "/reader/progress/items": items,
+            "/rules/decisions": decisions,
+        },
+    )
+    credited = fired_rules(data).select("tick", "rule", "activity").rows()
+    assert credited == [
+        (10, "close", "game"),
+        (50, "child_left", "game"),
+        (51, "close", "wait_for_child"),
+    ]

@@ -11,7 +11,6 @@ from pipeline.messages import (
     Human,
     MapUpdate,
     Policy,
-    Pose,
     Touch,
     Tracking,
     WorldMap,
@@ -157,17 +156,36 @@ def test_default_register_capacity_is_sixteen():
     assert world.robotstatus.audioin == [f"word{i}" for i in range(4, 20)]
 
 
-def test_r_restarts_a_register_with_its_own_value():
+def test_r_drops_pending_updates_and_is_appended_without_erasing_history():
+    """Thesis 4.5: "R deletes all non-already-processed updates that were issued before it";
+    4.1: append-able: "all incoming updates will be stored in a circular register"."""
     world, producer = fresh()
     producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
     producer.consume(10)
+    producer.submit(upd("Human/1", "poses", pose(9), Policy.A))
     producer.submit(upd("Human/1", "poses", pose(2), Policy.R))
     producer.submit(upd("Human/1", "poses", pose(3), Policy.A))
     producer.consume(20)
-    assert world.humans[0].poses == [
-        Pose(positionrho=2.0, positiontheta=0.5, positionchangetime=0),
-        Pose(positionrho=3.0, positiontheta=0.5, positionchangetime=0),
-    ]
+    assert [p.positionrho for p in world.humans[0].poses] == [1.0, 2.0, 3.0]
+    assert world.humans[0].positionrho == 3.0
+
+
+def test_the_map_records_which_robot_status_fields_were_ever_set():
+    """Issue 16 ruling on thesis 4.1/4.5: an attribute never updated is unknown; the map
+    records whether each RobotStatus field was ever set (RobotStatus "commits to memory ...
+    the inputs received by the sensors")."""
+    world, producer = fresh()
+    assert world.robotstatus.setfields == []
+    producer.submit(upd("RobotStatus", "touch",
+                        '{"touchtype": "C", "duration": 200, "startingtime": 50}', Policy.A))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "0"))
+    producer.submit(upd("RobotStatus", "batterytimeleft", "5"))
+    producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
+    producer.consume(10)
+    assert world.robotstatus.setfields == ["touch", "batterytimeleft"]
+    assert producer.submit(upd("RobotStatus", "elapsedtime", "-1")) is not None
+    producer.consume(20)
+    assert world.robotstatus.setfields == ["touch", "batterytimeleft"]
 
 
 def test_robot_status_registers_and_scalars():
@@ -267,3 +285,20 @@ def test_map_invariants_name_violations():
     assert any("creationtime 200 is after the map's lastupdatetime 100" in p for p in problems)
     assert "robotstatus.audioin: 3 entries, capacity 2" in problems
     assert map_invariants(WorldMap()) == []
+
+
+def test_a_map_recorded_before_setfields_decodes_with_every_field_unknown():
+    """Schemas evolve by appending fields with defaults: an older /map still decodes."""
+    old = msgspec.json.encode(WorldMap())
+    old = old.replace(b',"setfields":[]', b"")
+    assert b"setfields" not in old
+    world = msgspec.json.decode(old, type=WorldMap)
+    assert world.robotstatus.setfields == [] and not world.robotstatus.known("batterytimeleft")
+
+
+def test_map_invariants_name_a_bad_setfields_list():
+    world = WorldMap()
+    world.robotstatus.setfields = ["touch", "touch", "wings"]
+    problems = map_invariants(world)
+    assert any("duplicate names" in p for p in problems)
+    assert any("'wings' is not a RobotStatus field" in p for p in problems)

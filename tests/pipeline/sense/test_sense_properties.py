@@ -174,31 +174,33 @@ def register_of(world: WorldMap, klass: EntityClass, ident: str, attr: str) -> l
     ),
     max_size=40,
 ))
-def test_registers_hold_the_a_updates_since_the_last_r_capped(sequence):
+def test_registers_keep_history_and_r_drops_only_the_pending_updates(sequence):
+    """Thesis 4.1: append-able fields: "all incoming updates will be stored in a circular
+    register"; 4.5: "R deletes all non-already-processed updates that were issued before it"."""
     world = WorldMap()
     producer = MapProducer(world, register_capacity=CAPACITY)
-    model: dict[tuple[EntityClass, str, str], list[str]] = {}
+    stored: dict[tuple[EntityClass, str, str], list[str]] = {}
     pending_model: list[MapUpdate] = []
     now = 0
     for step in [*numbered(sequence), None]:
         if step is not None:
             assert producer.submit(step) is None
-            klass, _, ident = step.objectid.replace("\\", "/").partition("/")
-            key = (EntityClass(klass), "" if klass == "RobotStatus" else ident, step.attributename)
             if step.policy is Policy.R:
-                model[key] = [step.jsonmsg]
                 pending_model = [u for u in pending_model if not same_key(u, step)]
-            else:
-                model[key] = [*model.get(key, []), step.jsonmsg][-CAPACITY:]
             pending_model.append(step)
             assert producer.pending_updates == tuple(pending_model)
             continue
         now += 10
         assert producer.consume(now) == []
+        for update in pending_model:
+            klass, _, ident = update.objectid.replace("\\", "/").partition("/")
+            ident = "" if klass == "RobotStatus" else ident
+            key = (EntityClass(klass), ident, update.attributename)
+            stored[key] = [*stored.get(key, []), update.jsonmsg][-CAPACITY:]
         pending_model = []
-        for (klass, ident, attr), expected in model.items():
-            stored = register_of(world, klass, ident, attr)
-            assert [encode_item(attr, item) for item in stored] == [
+        for (klass, ident, attr), expected in stored.items():
+            stored_items = register_of(world, klass, ident, attr)
+            assert [encode_item(attr, item) for item in stored_items] == [
                 canonical(attr, text) for text in expected
             ]
 

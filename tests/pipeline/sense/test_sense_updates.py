@@ -251,3 +251,18 @@ def test_script_vect_with_a_custom_root():
             upd("Script", "script_vect", '{"restart": "s_false", "update": ["activities/a"]}'),
             script_root="lib",
         )
+
+
+@pytest.mark.parametrize("letter", "chpst")
+def test_a_lower_case_touch_type_is_its_upper_case_type(letter):
+    """Thesis table 4.1: touch is {"touchtype": char, ...}: a char, whatever its case."""
+    jsonmsg = f'{{"touchtype": "{letter}", "duration": 5, "startingtime": 1}}'
+    decoded = decode_update(upd("RobotStatus", "touch", jsonmsg))
+    assert decoded.value == Touch(touchtype=letter.upper(), duration=5, startingtime=1)
+
+
+def test_a_touch_type_outside_the_five_letters_is_refused_in_either_case():
+    """Thesis table 4.1: touch is {"touchtype": char, ...}; only C, H, P, S, T are known."""
+    with pytest.raises(MapUpdateError, match="touchtype"):
+        decode_update(upd("RobotStatus", "touch", '{"touchtype": "x", "duration": 5, '
+                          '"startingtime": 1}'))

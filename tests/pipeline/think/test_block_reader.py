@@ -261,3 +261,97 @@ def test_stop_drops_the_operators_scripts_and_returns_to_idle() -> None:
 
 def test_parse_path() -> None:
     assert parse_path("goal1/act2/blk3") == (1, 2, 3)
+
+
+def force(r: BlockReader, activity: str, path: str = "goal0/act0/blk0") -> None:
+    info = r.map.scriptinfo
+    info.currentactivity = activity
+    info.goalid, info.actionid, info.blockid = path.split("/")
+    info.overridecmd = True
+
+
+def test_an_override_naming_the_running_script_only_repositions_it() -> None:
+    """Thesis 4.2 step 5: "the Block Reader loads the (Rule-setted) Script reported in field
+    currentactivity at Goal, Action, Block reported in Script Info sub-fields goalid, actionid,
+    blockid" -- for the running script that is a move, not a second copy."""
+    alfa = (
+        RuleMessage(
+            rulecode=1, id="x", intopic="", outtopic="", action=RuleAction.A, mutexcmd=MutexCmd.U
+        ),
+    )
+    omega = (
+        RuleMessage(
+            rulecode=1, id="x", intopic="", outtopic="", action=RuleAction.R, mutexcmd=MutexCmd.L
+        ),
+    )
+    game = script(
+        "game", [[inst("play1")]], [[inst("play2")]], [[inst("play3")]], alfa=alfa, omega=omega
+    )
+    r = reader()
+    r.push([entry(game)])
+    r.escape_idle(now_ms=0)
+    r.read(actuator_done=True, now_ms=0)
+    assert shown(r) == "play1"
+    force(r, "game", "goal2/act0/blk0")
+    out = r.compulsory_switch(now_ms=100)
+    assert out.rule_messages == [], "no omega, no alfa"
+    assert out.finished == [] and out.started == []
+    assert r.lifo == [] and r.map.scriptinfo.script_vect == [], "no suspended copy"
+    assert [i.kind for i in out.items] == [ProgressKind.SWITCH]
+    r.read(actuator_done=False, now_ms=100)
+    assert shown(r) == "play3" and r.map.scriptinfo.currentactivity == "game"
+    out = r.read(actuator_done=True, now_ms=200)
+    assert out.rule_messages == list(omega) and ("game", True) in out.finished
+    assert shown(r) == "idle", "the script ran once: nothing waits in the LIFO"
+
+
+def test_an_override_naming_the_idle_activity_while_idle_does_not_reload_it() -> None:
+    """Thesis 4.2 step 5: the reader loads the Script "at Goal, Action, Block reported in
+    Script Info"; the idle activity's alfa messages are not sent a second time."""
+    r = reader()
+    r.read(actuator_done=True, now_ms=0)
+    force(r, "idle_activity")
+    out = r.compulsory_switch(now_ms=20)
+    assert out.rule_messages == [] and out.started == [] and out.finished == []
+
+
+def test_a_rule_switch_reaches_a_generators_last_script() -> None:
+    """Thesis 4.2 step 5: "the Block Reader loads the (Rule-setted) Script reported in field
+    currentactivity" -- an activity, however its script was made (3.2: generators produce
+    Scripts on demand)."""
+    dance = script("test_dance", [[inst("dance")]])
+    r = reader()  # no script file named test_dance
+    r.push(
+        [
+            ScriptEntry(
+                activity="test_dance", script=dance, source="generator:test_dance", operator=True
+            )
+        ]
+    )
+    r.escape_idle(now_ms=0)
+    r.read(actuator_done=True, now_ms=0)
+    r.read(actuator_done=True, now_ms=100)
+    assert shown(r) == "idle", "the generated script ran and ended"
+    force(r, "test_dance")
+    out = r.compulsory_switch(now_ms=200)
+    assert out.logs == [] and out.started == ["test_dance"]
+    r.read(actuator_done=False, now_ms=200)
+    assert shown(r) == "dance" and r.map.scriptinfo.scriptpath == "generator:test_dance"
+
+
+def test_a_rule_switch_reaches_a_file_script_and_the_idle_activity() -> None:
+    """Thesis 4.2 step 5 and 3.2: a switch names a Script file or the "idle_activity"."""
+    wait = script("wait_for_child", [[inst("wait")]])
+    game = script("game", [[inst("play1")]])
+    r = reader({"wait_for_child": wait})
+    r.push([entry(game)])
+    r.escape_idle(now_ms=0)
+    force(r, "wait_for_child")
+    r.compulsory_switch(now_ms=10)
+    r.read(actuator_done=False, now_ms=10)
+    assert shown(r) == "wait"
+    force(r, "idle_activity")
+    out = r.compulsory_switch(now_ms=20)
+    assert out.logs == []
+    r.read(actuator_done=False, now_ms=20)
+    assert shown(r) == "idle"

@@ -15,7 +15,14 @@ from pipeline.messages import (
 )
 from pipeline.think import conditions
 from pipeline.think.conditions import Evaluation, compile_condition, release_alias
-from pipeline.think.functions import FunctionContext, FunctionRegistry, evaluation, string
+from pipeline.think.errors import RuleSyntaxError
+from pipeline.think.functions import (
+    FunctionContext,
+    FunctionRegistry,
+    default_registry,
+    evaluation,
+    string,
+)
 
 
 def _map(*humans: Human, **fields) -> WorldMap:
@@ -371,3 +378,35 @@ def test_number_argument_from_a_variable_is_cast_and_a_failed_cast_is_false():
 def test_entity_argument_of_the_wrong_class_makes_the_call_false():
     world = WorldMap(robotstatus=RobotStatus(activities=[ActivityTracking(activityname="a")]))
     assert _eval("{CLASS #Activity L ?a} ! {E: near (?a, 5)}", world).result is False
+
+
+# ---------------------------------------------------------------- bare-word literals
+
+
+def test_a_bare_word_argument_is_a_string_literal():
+    """Thesis 4.3: "The function FUNCT (a user-defined string associated to an implemented
+    function in the parser of the grammar) ... with the possibly needed arguments VAL";
+    the thesis writes literal arguments bare (``countOf (Human)``, ``konst (x)``)."""
+
+    @string("konst")
+    def konst(ctx: FunctionContext, value: str) -> str:
+        return value
+
+    @evaluation("countOf")
+    def count_of(ctx: FunctionContext, cls: str, at_least: float = 1) -> bool:
+        return len(getattr(ctx.world_map, cls.lower() + "s", [])) >= at_least
+
+    registry = FunctionRegistry([konst, count_of, *default_registry().functions()])
+    world = _map(_human("c1"))
+    found = _eval("{VAR @v L F: konst (x)} ! {E: var_is (@v, \"x\")}", world, registry=registry)
+    assert found.result
+    assert _eval("! {E: countOf (Human)}", world, registry=registry).result
+    assert not _eval("! {E: countOf (Object)}", world, registry=registry).result
+    assert _eval('! {E: countOf (Human, 2)}', world, registry=registry).result is False
+    assert _eval("! {E: equals (calm, \"calm\")}", world).result
+
+
+def test_a_bare_word_where_a_number_is_expected_is_refused_at_load():
+    """Thesis 4.3: a bare word is a string literal, so it is not a number."""
+    with pytest.raises(RuleSyntaxError, match="expected a number here, got 'far'"):
+        compile_condition("{CLASS #Human U ?c} ! {E: near (?c, far)}")

@@ -262,7 +262,12 @@ def test_no_human_in_front():
 
 def test_robot_status_evaluations():
     world = WorldMap(
-        robotstatus=RobotStatus(batterytimeleft=1000, elapsedtime=5000, joystick_engaged=True)
+        robotstatus=RobotStatus(
+            batterytimeleft=1000,
+            elapsedtime=5000,
+            joystick_engaged=True,
+            setfields=["batterytimeleft", "elapsedtime"],
+        )
     )
     assert _true("! {E: battery_below (1001)}", world) is True
     assert _true("! {E: battery_below (1000)}", world) is False
@@ -270,6 +275,16 @@ def test_robot_status_evaluations():
     assert _true("! {E: elapsed_over (5000)}", world) is False
     assert _true("! {E: joystick_engaged ()}", world) is True
     assert _true("! {E: joystick_engaged ()}", WorldMap()) is False
+
+
+def test_a_condition_on_an_unknown_robot_status_value_is_false():
+    """Issue 16 ruling on thesis 4.3: an attribute never updated is unknown, and a condition
+    on an unknown value is false (a map whose battery was never read is not "below")."""
+    unknown = WorldMap(robotstatus=RobotStatus(batterytimeleft=0, elapsedtime=0))
+    assert _true("! {E: battery_below (120000)}", unknown) is False
+    assert _true("! {E: elapsed_over (-1)}", unknown) is False
+    known = WorldMap(robotstatus=RobotStatus(setfields=["batterytimeleft"]))
+    assert _true("! {E: battery_below (120000)}", known) is True
 
 
 def test_goal_is_prefers_the_running_activity():
@@ -297,3 +312,11 @@ def test_value_comparisons():
     assert _true("! {E: less_than (@v, 3)}", world) is True
     assert _true("! {E: greater_than (@v, 3)}", world) is False
     assert _true("! {E: less_than (@w, 3)}", world) is False
+
+
+def test_touched_names_a_touch_type_in_either_case():
+    """Thesis table 4.1: touch is {"touchtype": char, ...}; c and C are one type."""
+    world = WorldMap(robotstatus=RobotStatus(touch=[Touch(touchtype="C", duration=1,
+                                                          startingtime=9_900)]))
+    assert _true('! {E: touched ("c")}', world) is True
+    assert _true('! {E: touched ("h")}', world) is False

@@ -67,6 +67,7 @@ class Session:
         self.map = WorldMap()
         self.map.scriptinfo.currentactivity = "game"
         self.map.robotstatus.batterytimeleft = 3_600_000
+        self.map.robotstatus.setfields = ["batterytimeleft"]
         self.producer = MapProducer(self.map)
         self.chain = RuleChain(RULES)
         self.chain.apply(
@@ -213,3 +214,17 @@ def test_a_camera_offline_stops_a_moving_block_until_it_is_back() -> None:
     assert s.map.scriptinfo.block.move
     s.tick(200, msgspec.structs.replace(online, jsonmsg="s_false", seq=2))
     assert s.map.scriptinfo.block.flagged == "softened" and s.map.scriptinfo.block.move == ()
+
+
+def test_battery_low_does_not_fire_before_any_battery_reading() -> None:
+    """Issue 16 ruling on thesis 4.3/4.5: an attribute never updated is unknown, and a
+    condition on an unknown value is false (battery_below, rule code 5)."""
+    s = Session()
+    s.map = WorldMap()  # no battery sensor: batterytimeleft was never set
+    s.map.scriptinfo.currentactivity = "game"
+    s.map.scriptinfo.script_vect = ["activities/next.json"]
+    s.producer = MapProducer(s.map)
+    assert "battery_low" not in s.tick(100)
+    assert s.map.scriptinfo.currentactivity == "game" and not s.map.scriptinfo.overridecmd
+    assert "battery_low" in s.tick(200, battery(1, 60_000))
+    assert s.map.scriptinfo.currentactivity == "idle_activity"

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from pipeline.events import Level
 from pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
 from pipeline.think.chain import RuleChain
 from pipeline.think.library import RULES
@@ -51,8 +54,8 @@ def test_c_creates_a_rule_never_loaded_as_the_idle_activity_does() -> None:
     ("messages", "expected"),
     [
         ([msg(99, "ghost", "A", "U")], "unknown rule code 99"),
-        ([msg(1, "x", "A"), msg(1, "x", "A", "U")], "already loaded"),
-        ([msg(1, "x", "B", "U")], "is not held"),
+        ([msg(1, "x", "A"), msg(1, "x", "A", "U")], "is loaded already (active)"),
+        ([msg(1, "x", "B", "U")], "is absent, not held"),
         ([msg(1, "never", "R", "U")], "is not loaded"),
     ],
 )
@@ -109,3 +112,118 @@ def test_registering_a_rule_with_a_bad_condition_fails_at_load_time() -> None:
 def test_diff_reports_leaves_only() -> None:
     changes = list(diff({"a": 1, "b": {"c": [1, 2]}}, {"a": 1, "b": {"c": [1, 3]}, "d": "x"}))
     assert [(c.path, c.old, c.new) for c in changes] == [("b.c[1]", "2", "3"), ("d", "null", '"x"')]
+
+
+# ------------------------------------------------------------ one state per rule (issue 16)
+
+STATES = ("absent", "active", "held", "removed")
+
+
+def state_of(chain: RuleChain, name: str) -> str:
+    active, held, removed = chain.names()
+    found = [
+        s for s, names in zip(STATES[1:], (active, held, removed), strict=True) if name in names
+    ]
+    assert len(found) <= 1, f"{name!r} is {found} at once"
+    return found[0] if found else "absent"
+
+
+def test_c_on_a_held_rule_is_refused_and_b_then_makes_one_instance() -> None:
+    """Thesis 4.4: "C -> recover a removed rule and put it among the active ones"."""
+    chain = RuleChain(RULES)
+    chain.apply([msg(1, "tr", "D", "U")])
+    (problem,) = chain.apply([msg(1, "tr", "C", "U")])
+    assert problem.message == "C: rule 'tr' is held, not removed" and problem.ref == "tr"
+    assert problem.level == Level.WARNING
+    assert chain.names() == ((), ("tr",), ())
+    assert chain.apply([msg(1, "tr", "B", "U")]) == []
+    assert len(chain.propagate(WorldMap(), now_ms=0)) == 1, "one instance fires once per pass"
+
+
+def test_c_on_an_active_rule_is_refused_with_a_reason() -> None:
+    """Thesis 4.4: "C -> recover a removed rule and put it among the active ones"."""
+    chain = RuleChain(RULES)
+    chain.apply([msg(1, "tr", "A", "U")])
+    (problem,) = chain.apply([msg(1, "tr", "C", "U")])
+    assert problem.message == "C: rule 'tr' is already active, not removed"
+    assert problem.level == Level.INFO, "harmless: the rule is where C would put it"
+    assert chain.names() == (("tr",), (), ())
+
+
+def test_b_on_an_active_rule_and_r_on_a_removed_rule_are_refused() -> None:
+    """Thesis 4.4: "B -> bring back to the active ones the delayed rule"; "R -> remove the rule"."""
+    chain = RuleChain(RULES)
+    chain.apply([msg(1, "tr", "A", "U")])
+    (problem,) = chain.apply([msg(1, "tr", "B", "U")])
+    assert "B: rule 'tr' is active, not held" in problem.message
+    chain.apply([msg(1, "tr", "R", "U")])
+    (problem,) = chain.apply([msg(1, "tr", "R", "U")])
+    assert problem.message == "R: rule 'tr' is already removed" and problem.level == Level.INFO
+    assert chain.names() == ((), (), ("tr",))
+    (problem,) = chain.apply([msg(1, "never", "R", "U")])
+    assert problem.message == "R: rule 'never' is not loaded" and problem.level == Level.WARNING
+
+
+def test_r_on_a_held_rule_removes_it_and_c_recovers_it_as_active() -> None:
+    """Thesis 4.4: "R -> remove the rule"; "C -> recover a removed rule and put it among the
+    active ones"."""
+    chain = RuleChain(RULES)
+    chain.apply([msg(5, "battery", "D", "U")])
+    chain.apply([msg(5, "battery", "R", "U")])
+    assert chain.names() == ((), (), ("battery",))
+    chain.apply([msg(5, "battery", "C", "U")])
+    assert chain.names() == (("battery",), (), ())
+
+
+def model_step(state: str, action: str) -> tuple[str, bool]:
+    """The tiny model: a rule's next state and whether the message was accepted.
+
+    A/D load a rule that is absent or removed (a fresh instance); R removes an active or
+    held one; B brings a held one back; C recovers a removed one (and, as the thesis's
+    idle activity needs, creates one never loaded)."""
+    table = {
+        "A": {"absent": "active", "removed": "active"},
+        "D": {"absent": "held", "removed": "held"},
+        "R": {"active": "removed", "held": "removed"},
+        "B": {"held": "active"},
+        "C": {"removed": "active", "absent": "active"},
+    }
+    after = table[action].get(state)
+    return (after, True) if after else (state, False)
+
+
+NAMES = ("r1", "r2")
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(NAMES), st.sampled_from("ARDBC"), st.sampled_from("LMU")),
+        max_size=25,
+    )
+)
+def test_the_chain_follows_the_state_model_and_never_makes_two_instances(sequence) -> None:
+    """Thesis 4.4: "A -> activate and add the rule to the active ones / R -> remove the rule /
+    D -> activate and delay rule for a future usage / B -> bring back to the active ones the
+    delayed rule / C -> recover a removed rule and put it among the active ones"."""
+    chain = RuleChain(RULES)
+    model = dict.fromkeys(NAMES, "absent")
+    order: list[str] = []
+    for name, action, mutex in sequence:
+        expected, accepted = model_step(model[name], action)
+        problems = chain.apply([msg(1, name, action, mutex)])
+        assert (problems == []) == accepted, (name, action, model[name], problems)
+        if accepted and expected == "active":
+            order.append(name)
+        if model[name] == "active" and expected != "active":
+            order.remove(name)
+        model[name] = expected
+        for each in NAMES:
+            assert state_of(chain, each) == model[each]
+        assert [rule.name for rule in chain.active] == order, (
+            "the chain stays ordered by activation"
+        )
+        assert len({id(rule) for rule in chain.active}) == len(chain.active)
+    chain.unlock()
+    fired = [d.rule for d in chain.propagate(WorldMap(), now_ms=0)]
+    assert fired == order, "each active rule decides exactly once per pass"

@@ -1,0 +1,57 @@
+"""What docs/live-sessions.md and docs/operator.md say about the operator holds."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from pipeline.events import OperatorCommand, OperatorVerb, Topic
+from pipeline.loop import Pipeline, PipelineConfig
+from pipeline.operator.generators import default_catalogue
+from pipeline.operator.handler import GeneratorHandler
+from pipeline.sink import MemorySink
+from pipeline.think.rulecodes import RuleCode
+from scenarios.activities import ACTIVITIES, ActivityLibrary
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+IDLE = ActivityLibrary([ACTIVITIES]).idle()
+"""The shipped idle activity."""
+
+
+def replies(p: Pipeline, tick: int, *verbs: OperatorVerb) -> list[tuple[bool, str]]:
+    sink = MemorySink()
+    p.sink = sink
+    commands = [
+        OperatorCommand(
+            id=tick * 10 + i, verb=v, activity="test_dance" if v is OperatorVerb.ADD else ""
+        )
+        for i, v in enumerate(verbs)
+    ]
+    p.tick(tick=tick, commands=commands)
+    states = sink.on(Topic.OPERATOR_STATE)
+    return [(r.ok, r.reason) for r in states[-1].replies] if states else []
+
+
+def test_get_ready_and_start_in_one_tick_start_is_refused_then_accepted_next_tick() -> None:
+    """Thesis 5.1: the Loading button "is an inert button displayed doing transition"; Start
+    shows "When all Script Generators are ready and have generated their Script"."""
+    text = (DOCS / "live-sessions.md").read_text(encoding="utf-8")
+    assert "cannot start while the button shows loading" in text
+    p = Pipeline(
+        PipelineConfig(),
+        idle=IDLE,
+        resolve=lambda name: None,
+        handler=GeneratorHandler(default_catalogue()),
+        sink=MemorySink(),
+    )
+    replies(p, 0, OperatorVerb.ADD)
+    both = replies(p, 1, OperatorVerb.GET_READY, OperatorVerb.START)
+    assert both[0][0] and both[1] == (False, "cannot start while the button shows loading")
+    assert replies(p, 2, OperatorVerb.START) == [(True, "started 1 activities")]
+
+
+def test_operator_md_lists_every_rule_code() -> None:
+    """Thesis 4.4: rulecode is "the corresponding code of the rule as defined in the World
+    Model parser": every code the library defines is documented."""
+    rows = re.findall(r"^\| (\d+) \| `(\w+)` \|", (DOCS / "operator.md").read_text(), flags=re.M)
+    assert [(int(code), name) for code, name in rows] == [(c.value, c.name) for c in RuleCode]

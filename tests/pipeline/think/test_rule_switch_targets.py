@@ -1,0 +1,37 @@
+"""A rule-forced switch names an activity, however its script was made (thesis 4.2 step 5)."""
+
+from __future__ import annotations
+
+from pipeline.events import OperatorCommand, OperatorVerb, Topic
+from pipeline.loop import Pipeline, PipelineConfig
+from pipeline.operator.generators import default_catalogue
+from pipeline.operator.handler import GeneratorHandler
+from pipeline.sink import MemorySink
+from pipeline.think.library import force_switch
+from scenarios.activities import ACTIVITIES, ActivityLibrary
+
+IDLE = ActivityLibrary([ACTIVITIES]).idle()
+"""The shipped idle activity."""
+
+
+def test_a_rule_switch_reaches_a_generated_script_before_it_was_started() -> None:
+    """Thesis 4.2 step 5: "the Block Reader loads the (Rule-setted) Script reported in field
+    currentactivity"; 3.2: a Script Generator's role "is to produce Scripts on demand"."""
+    sink = MemorySink()
+    p = Pipeline(
+        PipelineConfig(),
+        idle=IDLE,
+        resolve=lambda name: None,  # no script files at all
+        handler=GeneratorHandler(default_catalogue()),
+        sink=sink,
+    )
+    add = OperatorCommand(id=1, verb=OperatorVerb.ADD, activity="test_dance")
+    p.tick(tick=0, commands=[add])
+    p.tick(tick=1, commands=[OperatorCommand(id=2, verb=OperatorVerb.GET_READY)])
+    p.tick(tick=2)
+    force_switch(p.map, "test_dance")
+    p.tick(tick=3)
+    logs = [e.message for batch in sink.on(Topic.LOG) for e in batch.entries]
+    assert not any("compulsory switch refused" in m for m in logs), logs
+    assert p.map.scriptinfo.currentactivity == "test_dance"
+    assert p.map.scriptinfo.scriptpath == "generator:test_dance"
