@@ -217,6 +217,8 @@ class SafetySupervisor:
         return None
 
     def _limit(self, requested: Velocity, world_map: WorldMap, now_ms: int) -> Verdict:
+        if requested.v_x == 0.0 and requested.v_y == 0.0:
+            return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
         blind = not any(camera.isonline for camera in world_map.cameras)
         stale = False
@@ -319,8 +321,8 @@ def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
             return v_x, v_y
         cut = along - c.cap_mps
         return v_x - cut * c.u_x, v_y - cut * c.u_y
-    if c.sin_cone >= 1.0:
-        return (0.0, 0.0) if (v_x, v_y) != (0.0, 0.0) else (v_x, v_y)
+    if c.sin_cone >= 1.0:  # the robot is inside the human's uncertainty disc
+        return 0.0, 0.0
     p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
     across = math.hypot(p_x, p_y)
     cos_cone = math.sqrt(1.0 - c.sin_cone**2)
