@@ -21,9 +21,9 @@ than ``max_data_age_ms``, all linear motion is capped at ``slow_speed_mps``.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
-is zero however the human moved. Outside it, the closing component is cut so that
-the robot, braking at ``max_accel_mps2``, stays out of the stop zone
-(``c * dt + c**2 / (2 a) <= s - stop``).
+is zero however the human moved (at up to ``human_speed_mps``). Outside it, the
+closing component is cut so that the robot, braking at ``max_accel_mps2``, stays
+out of the stop zone (``c * dt + c**2 / (2 a) <= s - stop``).
 
 It is not a rule: the loop calls it after the actuator every tick, and no
 alfa/omega message, script or joystick input reaches it. No clock, no IO.
