@@ -168,6 +168,9 @@ class SafetySupervisor:
         the robot is then taken to drive it for one tick (dead reckoning)."""
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self._pose))
+        for human in world_map.humans:
+            if human.poses:
+                self._anchor(human)
         verdict = self._limit(requested, world_map, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
@@ -228,7 +231,7 @@ class SafetySupervisor:
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
-                constraints.append(self._constraint(human, age_ms, now_ms))
+                constraints.append(self._constraint(human, age_ms))
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None
         if blind or stale:
@@ -254,9 +257,9 @@ class SafetySupervisor:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
         return Verdict(allowed, zone)
 
-    def _constraint(self, human: Human, age_ms: int, now_ms: int) -> _Constraint:
+    def _constraint(self, human: Human, age_ms: int) -> _Constraint:
         config = self.config
-        x, y = self._estimate(human, now_ms)
+        x, y = self._estimate(human)
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
@@ -275,19 +278,23 @@ class SafetySupervisor:
             cap = min(cap, config.slow_speed_mps)
         return _Constraint(human.id, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
 
-    def _estimate(self, human: Human, now_ms: int) -> tuple[float, float]:
-        """The human's last reported position in the robot's current body frame."""
+    def _anchor(self, human: Human) -> None:
+        """Place a new reading in the odometry frame, with the pose the robot had when it
+        was taken (every tick, so that a reading is placed while that pose is kept)."""
         at_ms = human.positionchangetime
         anchor = self._anchors.get(human.id)
         if anchor is None or anchor[0] != at_ms:
             px, py, ptheta = self._pose_at(at_ms)
             bearing = ptheta + human.positiontheta
-            anchor = (
+            self._anchors[human.id] = (
                 at_ms,
                 px + human.positionrho * math.cos(bearing),
                 py + human.positionrho * math.sin(bearing),
             )
-            self._anchors[human.id] = anchor
+
+    def _estimate(self, human: Human) -> tuple[float, float]:
+        """The human's last reported position in the robot's current body frame."""
+        anchor = self._anchors[human.id]
         x, y, theta = self._pose
         dx, dy = anchor[1] - x, anchor[2] - y
         cos, sin = math.cos(theta), math.sin(theta)
