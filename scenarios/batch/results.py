@@ -6,8 +6,9 @@ no wall-clock values, so the same batch gives the same table on any executor:
 ``run, scenario, file, seed, params, param:KEY..., ok, passed, failed,
 expect:NAME..., ticks, duration_s, max_speed_mps, min_distance_m,
 min_distance_m:HUMAN..., contacts, rejected_inputs, safety_interventions,
-protective_stops, rules_fired, goals_reached, recording, error``. ``param:`` values are the override texts; ``expect:`` and
-per-human columns are null for runs whose scenario has no such expectation or human.
+protective_stops, rules_fired, goals_reached, recording, error``. ``param:`` values
+are the override texts; ``expect:`` and per-human columns are null for runs whose
+scenario has no such expectation or human.
 """
 
 from __future__ import annotations
