@@ -10,6 +10,10 @@ In the spirit of ISO 13482 and ISO/TS 15066, it limits the robot's velocity
 | ``stop_distance_m <= s < slow``    | at most ``slow_speed_mps``, and braking room    |
 | ``s < stop_distance_m``            | none: a protective stop of the closing component |
 
+A protective stop holds until ``s`` is back to halfway between the stop and slow
+distances (hysteresis): the margin shrinks with each fresh camera frame, and
+without it the robot would creep in, frame by frame.
+
 Moving away and sideways stays allowed. ``s`` is conservative: the map's
 centre distance, less both radii, less an *uncertainty margin*
 ``sensing_error_m + human_speed_mps * (age + one tick)`` that covers how far the
@@ -150,6 +154,10 @@ class SafetySupervisor:
         )
         self._anchors: dict[str, tuple[int, float, float]] = {}
         """Human id -> (positionchangetime, x, y) of its last reading in the odometry frame."""
+        self._held: dict[str, None] = {}
+        """Humans under a protective stop: it holds until they are halfway out of the slow
+        zone, so that the margin's saw-tooth between camera frames does not let the robot
+        creep in, frame by frame (membership only, never iterated)."""
         self._episode: tuple[SafetyZone, str, MotionSource] | None = None
         """The intervention episode under way: its worst zone, that zone's human, the source."""
         self._limited_ms = 0
@@ -268,7 +276,12 @@ class SafetySupervisor:
             u_x, u_y = x / distance, y / distance
         else:
             u_x, u_y = 1.0, 0.0
+        release = (config.stop_distance_m + config.slow_distance_m) / 2
         if surface <= config.stop_distance_m:
+            self._held[human.id] = None
+        elif human.id in self._held and surface >= release:
+            del self._held[human.id]
+        if human.id in self._held:
             sin_cone = 1.0 if margin >= distance else margin / distance
             return _Constraint(human.id, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
         gap = surface - config.stop_distance_m

@@ -257,3 +257,26 @@ def test_bad_configurations_are_refused(fields: dict[str, float], message: str) 
     assert any(message in text for _, text in safety_problems(config))
     with pytest.raises(ValueError, match=message):
         SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+
+
+def test_a_protective_stop_holds_while_fresh_frames_shrink_the_margin() -> None:
+    # A child standing 1.2 m ahead, seen every 100 ms; the robot asks 0.5 m/s all along.
+    # Once stopped, it must not creep in as each fresh frame makes the margin smaller.
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    x = 0.0
+    stopped_at = None
+    world_map = room(seen(1.2))
+    for tick in range(150):
+        now = tick * TICK_MS
+        if tick % 5 == 0:
+            world_map = room(seen(round(1.2 - x, 4), at_ms=now))
+        verdict, _ = supervisor.supervise(
+            Velocity(0.5, 0.0, 0.0), world_map, tick=tick, now_ms=now, source=MotionSource.SCRIPT
+        )
+        if stopped_at is None and verdict.zone is SafetyZone.STOP:
+            stopped_at = tick
+        if stopped_at is not None:
+            assert verdict.velocity.v_x <= 0.0, f"crept in at tick {tick}"
+        x += verdict.velocity.v_x * TICK_MS / 1000
+    assert stopped_at is not None
+    assert 1.2 - x - RADII_M >= 0.1
