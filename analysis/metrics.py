@@ -203,6 +203,26 @@ def interventions(data: SessionData) -> pl.DataFrame:
     )
 
 
+def safety(data: SessionData) -> pl.DataFrame:
+    """The safety supervisor's intervention episodes (``/safety``, one row each): when it
+    started and ended (null: still on at the end), the source it first limited, the
+    human, whether it reached the stop zone and the closest surface distance it estimated."""
+    return (
+        data["/safety"]
+        .with_columns(episode=(pl.col("phase") == "start").cum_sum())
+        .group_by("episode", maintain_order=True)
+        .agg(
+            started_ms=pl.col("time_ms").first(),
+            ended_ms=pl.col("time_ms").filter(pl.col("phase") == "end").first(),
+            source=pl.col("source").first(),
+            human=pl.col("human").filter(pl.col("human") != "").first(),
+            stop=(pl.col("zone") == "stop").any(),
+            min_surface_distance_m=pl.col("surface_distance_m").min(),
+        )
+        .drop("episode")
+    )
+
+
 def operator_commands(data: SessionData) -> pl.DataFrame:
     """Every operator command with its reply (ok, reason) when one was recorded."""
     replies = (
@@ -321,6 +341,7 @@ def session_metrics(data: SessionData) -> SessionMetrics:
         "rules_by_activity": rules_by_activity(data),
         "commands": commands(data),
         "interventions": interventions(data),
+        "safety": safety(data),
         "operator": operator_commands(data),
         "proximity": proximity(data),
         "robot": robot(data),
@@ -355,6 +376,8 @@ def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
         if t["interventions"].height
         else 0.0,
         "operator_commands": t["operator"].height,
+        "safety_interventions": t["safety"].height,
+        "protective_stops": int(t["safety"]["stop"].sum()),
         "closest_human": closest["human"].item() if closest.height else None,
         "min_distance_m": closest["min_distance_m"].item() if closest.height else None,
         **nearest.select(*_zone_seconds(data.tick_ms)).row(0, named=True),

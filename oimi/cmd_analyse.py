@@ -26,6 +26,7 @@ SESSION_TABLES = (
     "rules_by_activity",
     "commands",
     "interventions",
+    "safety",
     "operator",
     "proximity",
     "rejections",

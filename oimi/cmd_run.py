@@ -84,6 +84,10 @@ def print_result(result: RunResult) -> None:
         f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest {closest or '-'}, "
         f"{s.contacts} contact ticks, {s.rejected_inputs} rejected inputs"
     )
+    print(
+        f"  safety supervisor: {s.safety_interventions} interventions, "
+        f"{s.protective_stops} protective stops"
+    )
     for verdict in result.verdicts:
         mark = "PASS" if verdict.ok else "FAIL"
         print(f"  {mark} {verdict.name}: {verdict.detail}")

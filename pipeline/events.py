@@ -29,6 +29,7 @@ class Topic(enum.StrEnum):
     ACTUATOR_COMMANDS = "/actuator/commands"
     WORLD_STATE = "/world/state"
     LOG = "/log"
+    SAFETY = "/safety"
 
 
 INPUT_TOPICS: Final = (Topic.SENSOR_UPDATES, Topic.OPERATOR_COMMANDS, Topic.JOYSTICK)
@@ -215,6 +216,60 @@ class ActuatorCommands(Event):
     """The block being executed, when it started this tick."""
 
 
+class MotionSource(enum.StrEnum):
+    """Where the motion the safety supervisor limits came from."""
+
+    SCRIPT = "script"
+    """A block of the running script."""
+    RULE = "rule"
+    """A block a rule forced into the map (``scriptinfo.block`` replaced)."""
+    JOYSTICK = "joystick"
+    """The operator's pad, with the safety lock held."""
+
+
+class SafetyZone(enum.StrEnum):
+    """Why the safety supervisor limited the velocity (``pipeline.act.safety``)."""
+
+    STOP = "stop"
+    """A human inside the stop zone: no motion towards them (protective stop)."""
+    SLOW = "slow"
+    """A human inside the slow zone (or within braking distance of the stop zone)."""
+    STALE = "stale"
+    """A human's data is older than ``max_data_age_ms``: speed capped at the slow speed."""
+    BLIND = "blind"
+    """No camera online: speed capped at the slow speed."""
+
+
+class SafetyPhase(enum.StrEnum):
+    """Where an intervention episode is: it starts, changes zone/human/source, or ends."""
+
+    START = "start"
+    CHANGE = "change"
+    END = "end"
+
+
+class SafetyIntervention(Event):
+    """The safety supervisor changed the commanded velocity (or stopped changing it).
+
+    Written only when an episode starts, changes (zone, human or source) or ends,
+    never every tick: ``requested`` and ``allowed`` are that tick's velocities.
+    """
+
+    phase: SafetyPhase
+    source: MotionSource
+    zone: SafetyZone
+    """The episode's zone (at ``end``: the zone it ended in)."""
+    human: str = ""
+    """The human whose separation bound the velocity (empty for ``blind``/``stale`` caps)."""
+    surface_distance_m: float | None = None
+    """That human's surface-to-surface distance as the supervisor estimated it: the map's
+    centre distance, dead-reckoned, less both radii and the uncertainty margin, m."""
+    requested: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """``(v_x, v_y, v_theta)`` the source asked for (after the robot's limits and ramp)."""
+    allowed: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """``(v_x, v_y, v_theta)`` the supervisor let through."""
+
+
 class BodyState(Message):
     id: str
     kind: str
@@ -296,6 +351,7 @@ TOPIC_TYPES: Final[dict[Topic, type[Event]]] = {
     Topic.ACTUATOR_COMMANDS: ActuatorCommands,
     Topic.WORLD_STATE: WorldState,
     Topic.LOG: LogEntries,
+    Topic.SAFETY: SafetyIntervention,
 }
 """The payload type of every topic."""
 

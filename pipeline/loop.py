@@ -11,8 +11,9 @@ from collections.abc import Sequence
 
 import msgspec
 
-from pipeline.act.actuator import Actuator
-from pipeline.act.limits import RobotLimits
+from pipeline.act.actuator import Actuator, ActuatorStep
+from pipeline.act.limits import RobotLimits, Velocity
+from pipeline.act.safety import SafetyConfig, SafetySupervisor
 from pipeline.events import (
     ActuatorCommands,
     Event,
@@ -56,6 +57,8 @@ class PipelineConfig(Message):
     register_capacity: int = REGISTER_CAPACITY
     script_root: str = "activities"
     """Folder (relative) inside which ``script_vect`` paths must resolve."""
+    safety: SafetyConfig = msgspec.field(default_factory=SafetyConfig)
+    """The safety supervisor's zones (always on; see ``pipeline.act.safety``)."""
 
 
 class Pipeline:
@@ -82,6 +85,7 @@ class Pipeline:
             self.map, idle=idle, resolve=self._resolve, register_capacity=config.register_capacity
         )
         self.actuator = Actuator(config.limits, tick_ms=config.tick_ms)
+        self.safety = SafetySupervisor(config.safety, config.limits, tick_ms=config.tick_ms)
         self.handler = handler
         self.sink = sink
         self._started = False
@@ -130,7 +134,12 @@ class Pipeline:
         # 1. Issue the block to the actuator (from the beginning when it changed).
         info = self.map.scriptinfo
         fresh = self.reader.take_new_block()
-        self.actuator.issue(info.block, changed=info.changed or fresh, now_ms=now_ms)
+        self.actuator.issue(
+            info.block,
+            changed=info.changed or fresh,
+            now_ms=now_ms,
+            forced=info.changed and not fresh,
+        )
         info.changed = False
         step = self.actuator.step(now_ms=now_ms)
         progress = self.actuator.progress
@@ -162,7 +171,7 @@ class Pipeline:
         ):
             self._publish_operator(emitter)
             emitter.flush_logs()
-            return step.outputs
+            return self._supervise(step, emitter)
 
         # 4. Consume the pending updates into the map.
         for rejection in self.producer.consume(now_ms):
@@ -186,7 +195,7 @@ class Pipeline:
         self._publish_map(emitter)
         self._publish_operator(emitter)
         emitter.flush_logs()
-        return step.outputs
+        return self._supervise(step, emitter)
 
     # ---------------------------------------------------------------- the steps' parts
 
@@ -232,6 +241,26 @@ class Pipeline:
             self._operator_moved |= self.handler.activity_finished(name, completed=completed)
         for name in outcome.started:
             self._operator_moved |= self.handler.activity_started(name)
+
+    def _supervise(self, step: ActuatorStep, emitter: _Emitter) -> ActuatorOutputs:
+        """The safety supervisor's pass over the body's velocity, on the tick's final map
+        (below every source of motion; no rule or script reaches it)."""
+        outputs = step.outputs
+        requested = Velocity(outputs.v_x, outputs.v_y, outputs.v_theta)
+        verdict, event = self.safety.supervise(
+            requested,
+            self.map,
+            tick=emitter.tick,
+            now_ms=emitter.time_ms,
+            source=self.actuator.motion_source,
+        )
+        if event is not None:
+            self.sink.record(Topic.SAFETY, emitter.time_ns, event)
+        if verdict.velocity == requested:
+            return outputs
+        self.actuator.hold(verdict.velocity)
+        v_x, v_y, _ = verdict.velocity
+        return msgspec.structs.replace(outputs, v_x=v_x, v_y=v_y, brake=True)
 
     def _note_joystick(self, now_ms: int) -> None:
         status = self.map.robotstatus

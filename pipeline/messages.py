@@ -428,3 +428,7 @@ class ActuatorOutputs(Message):
     """LED colour, each 0 to 1; all 0 is off."""
     audio: str = ""
     """Track being played; empty is silence."""
+    brake: bool = False
+    """Take this velocity at once, beyond the ramp's acceleration: a protective stop (the
+    safety lock released, or the safety supervisor cut the velocity). Never faster than
+    the velocity it replaces."""

@@ -38,6 +38,7 @@ from pipeline.events import (
     RuleChainState,
     RuleDecision,
     RuleDecisions,
+    SafetyIntervention,
     Topic,
     WorldState,
     encode,
@@ -187,6 +188,17 @@ class Projection:
                 for e in message.entries:
                     ref = f" [{e.ref}]" if e.ref else ""
                     self._add(t, tick, f"log {e.level.name} {e.source} {e.message}{ref}")
+            case SafetyIntervention():
+                human = f" {message.human}" if message.human else ""
+                distance = message.surface_distance_m
+                at = f" at={_num(distance)}" if distance is not None else ""
+                self._add(
+                    t,
+                    tick,
+                    f"safety {message.phase} {message.source} {message.zone}{human}{at}"
+                    f" requested=({','.join(_num(v) for v in message.requested)})"
+                    f" allowed=({','.join(_num(v) for v in message.allowed)})",
+                )
             case WorldState():
                 if t % WORLD_SAMPLE_MS == 0:
                     bodies = [message.robot, *message.humans, *message.objects]

@@ -12,9 +12,13 @@ from pipeline.events import (
     Event,
     Level,
     LogEntries,
+    MotionSource,
     ProgressKind,
     ReaderProgress,
     RuleDecisions,
+    SafetyIntervention,
+    SafetyPhase,
+    SafetyZone,
     Topic,
     WorldState,
 )
@@ -28,6 +32,7 @@ from scenarios.schema import (
     NoRejectedInputs,
     RobotInArena,
     RuleFired,
+    SafetyIntervened,
     Scenario,
 )
 
@@ -38,6 +43,16 @@ class Verdict(msgspec.Struct, frozen=True, kw_only=True):
     name: str
     ok: bool
     detail: str
+
+
+class SafetyEpisode(msgspec.Struct, kw_only=True):
+    """One intervention episode of the safety supervisor, as ``/safety`` told it."""
+
+    started_ms: int
+    zones: list[SafetyZone]
+    """Every zone it was in (start, then each change)."""
+    sources: list[MotionSource]
+    """Every source of motion it limited."""
 
 
 class Tracker:
@@ -53,6 +68,7 @@ class Tracker:
         self.activity_states: dict[str, list[tuple[int, str]]] = {}
         self.rejections: list[str] = []
         self.contacts = 0
+        self.safety_episodes: list[SafetyEpisode] = []
         self.last_ms = 0
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
@@ -64,6 +80,8 @@ class Tracker:
                 self.fired.update(d.rule for d in message.decisions if d.fired)
             case ReaderProgress():
                 self._progress(message)
+            case SafetyIntervention():
+                self._safety(message)
             case LogEntries():
                 self.rejections += [
                     f"{message.time_ms} ms {e.source}: {e.message}"
@@ -83,6 +101,15 @@ class Tracker:
         inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
         if not inside and self.left_arena_ms is None:
             self.left_arena_ms = state.time_ms
+
+    def _safety(self, event: SafetyIntervention) -> None:
+        if event.phase is SafetyPhase.START or not self.safety_episodes:
+            self.safety_episodes.append(
+                SafetyEpisode(started_ms=event.time_ms, zones=[], sources=[])
+            )
+        if event.phase is not SafetyPhase.END:
+            self.safety_episodes[-1].zones.append(event.zone)
+            self.safety_episodes[-1].sources.append(event.source)
 
     def _progress(self, progress: ReaderProgress) -> None:
         for item in progress.items:
@@ -129,11 +156,22 @@ class Tracker:
                 return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
             case RuleFired():
                 count = self.fired[e.rule]
-                ok = count >= e.at_least and (e.at_most is None or count <= e.at_most)
-                bound = f">= {e.at_least}" + (
-                    f" and <= {e.at_most}" if e.at_most is not None else ""
-                )
+                ok, bound = _within(count, e.at_least, e.at_most)
                 return self._verdict(e, f"rule {e.rule} fired {bound} times", ok, f"fired {count}")
+            case SafetyIntervened():
+                count = sum(
+                    (e.zone is None or e.zone in episode.zones)
+                    and (e.source is None or e.source in episode.sources)
+                    for episode in self.safety_episodes
+                )
+                ok, bound = _within(count, e.at_least, e.at_most)
+                what = " ".join(str(x) for x in (e.source, e.zone) if x is not None)
+                return self._verdict(
+                    e,
+                    f"safety supervisor intervened ({what or 'any'}) {bound} times",
+                    ok,
+                    f"{count} episodes",
+                )
             case MinDistance():
                 humans = [e.human] if e.human else list(self.min_distance_m)
                 closest = min(
@@ -179,6 +217,13 @@ class Tracker:
     @staticmethod
     def _verdict(e: Expectation, default_name: str, ok: bool, detail: str) -> Verdict:
         return Verdict(name=e.name or default_name, ok=ok, detail=detail)
+
+
+def _within(count: int, at_least: int, at_most: int | None) -> tuple[bool, str]:
+    """Whether ``count`` is within the bounds, and the bounds as text (``>= 1 and <= 3``)."""
+    ok = count >= at_least and (at_most is None or count <= at_most)
+    bound = f">= {at_least}" + (f" and <= {at_most}" if at_most is not None else "")
+    return ok, bound
 
 
 def _ms(seconds: float | None, default_ms: int) -> int:

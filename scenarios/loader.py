@@ -17,6 +17,7 @@ from typing import Any, Final
 
 import msgspec
 
+from pipeline.act.safety import safety_problems
 from scenarios.errors import ScenarioError
 from scenarios.schema import (
     Approach,
@@ -329,6 +330,8 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     ):
         if value <= 0:
             yield ("robot", name), f"robot {name} must be positive, got {value}"
+    for name, message in safety_problems(robot.safety):
+        yield ("robot", "safety", name), message
     rx = robot.x_m if robot.x_m is not None else world.width_m / 2
     ry = robot.y_m if robot.y_m is not None else world.height_m / 2
     if outside(rx, ry, robot.radius_m):

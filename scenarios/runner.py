@@ -16,7 +16,7 @@ from pathlib import Path
 import msgspec
 
 from pipeline.act.limits import RobotLimits
-from pipeline.events import JoystickInput, OperatorCommand, OperatorVerb, Topic
+from pipeline.events import JoystickInput, OperatorCommand, OperatorVerb, SafetyZone, Topic
 from pipeline.loop import Pipeline, PipelineConfig
 from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
 from pipeline.operator.generators import default_catalogue
@@ -57,6 +57,10 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     max_speed_mps: float
     contacts: int
     rejected_inputs: int
+    safety_interventions: int = 0
+    """Episodes in which the safety supervisor limited the robot's velocity."""
+    protective_stops: int = 0
+    """Those of them that reached the stop zone."""
 
 
 class RunResult(msgspec.Struct, frozen=True, kw_only=True):
@@ -69,8 +73,11 @@ class RunResult(msgspec.Struct, frozen=True, kw_only=True):
 
 
 def pipeline_config(scenario: Scenario) -> PipelineConfig:
-    """The pipeline's configuration for a scenario (tick length and robot limits)."""
+    """The pipeline's configuration for a scenario (tick length, robot limits and safety)."""
     robot = scenario.robot
+    safety = robot.safety
+    if safety.robot_radius_m is None:
+        safety = msgspec.structs.replace(safety, robot_radius_m=robot.radius_m)
     return PipelineConfig(
         tick_ms=scenario.tick_ms,
         limits=RobotLimits(
@@ -79,6 +86,7 @@ def pipeline_config(scenario: Scenario) -> PipelineConfig:
             max_accel_mps2=robot.max_accel_mps2,
             max_angular_accel_radps2=robot.max_angular_accel_radps2,
         ),
+        safety=safety,
     )
 
 
@@ -255,6 +263,8 @@ class Session:
             max_speed_mps=round(t.max_speed_mps, 4),
             contacts=t.contacts,
             rejected_inputs=len(t.rejections),
+            safety_interventions=len(t.safety_episodes),
+            protective_stops=sum(SafetyZone.STOP in e.zones for e in t.safety_episodes),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
 

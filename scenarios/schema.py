@@ -15,7 +15,8 @@ from typing import Final
 
 import msgspec
 
-from pipeline.events import OperatorVerb
+from pipeline.act.safety import SafetyConfig
+from pipeline.events import MotionSource, OperatorVerb, SafetyZone
 
 DEFAULT_TICK_HZ: Final = 50
 """Simulated clock rate when a scenario gives none (a tick of 20 ms)."""
@@ -143,6 +144,9 @@ class RobotSpec(Spec, kw_only=True):
     max_angular_accel_radps2: float = 3.0
     battery_s: float = 3600.0
     """Battery time at the start, s (reported as ``batterytimeleft`` in ms)."""
+    safety: SafetyConfig = msgspec.field(default_factory=SafetyConfig)
+    """The safety supervisor's zones (``[robot.safety]``; always on, see
+    ``pipeline.act.safety``); its ``robot_radius_m`` defaults to ``radius_m``."""
 
 
 class SensorSpec(Spec, kw_only=True):
@@ -370,6 +374,17 @@ class ActivityState(ExpectSpec, tag="activity_state", kw_only=True):
     """When to check; None: at the end."""
 
 
+class SafetyIntervened(ExpectSpec, tag="safety_intervened", kw_only=True):
+    """The safety supervisor limited the robot's velocity (episodes on ``/safety``)."""
+
+    zone: SafetyZone | None = None
+    """Count only episodes that reached this zone (``stop``, ``slow``...); None: any."""
+    source: MotionSource | None = None
+    """Count only episodes of this source (``script``, ``rule``, ``joystick``); None: any."""
+    at_least: int = 1
+    at_most: int | None = None
+
+
 Expectation = (
     GoalReached
     | ActivityCompleted
@@ -379,6 +394,7 @@ Expectation = (
     | NoRejectedInputs
     | RobotInArena
     | ActivityState
+    | SafetyIntervened
 )
 
 

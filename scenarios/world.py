@@ -6,7 +6,9 @@ moved by their behaviours (they push the ball and the robot, nothing pushes them
 the robot is a dynamic disc whose velocity is set every step from the actuator's
 body-frame command, within its speed and acceleration limits, like the thesis's
 zero-friction omni-directional base (section 5.2): no drift, no sliding after a stop.
-Walls and furniture stop it physically.
+A braking command (``ActuatorOutputs.brake``: a protective stop) is taken at once.
+Walls and furniture stop it physically; a push never leaves it faster than its
+speed limits (the drive re-clamps after every step).
 
 Determinism: single-threaded space, fixed step, bodies created in the file's
 order, randomness only from the ``random.Random`` handed in.
@@ -235,6 +237,7 @@ class World:
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
         self.space.step(self.step_s)
+        self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
         self._observe()
@@ -268,24 +271,32 @@ class World:
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         spec, body, motion = self.scenario.robot, self.robot, self.robot_motion
-        vx, vy = outputs.v_x, outputs.v_y
-        speed = math.hypot(vx, vy)
-        if speed > spec.max_speed_mps:
-            vx, vy = vx * spec.max_speed_mps / speed, vy * spec.max_speed_mps / speed
+        vx, vy = _within(outputs.v_x, outputs.v_y, spec.max_speed_mps)
         omega = min(
             max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
         )
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
-        dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
-        change = math.hypot(dx, dy)
-        limit = spec.max_accel_mps2 * self.step_s
-        if change > limit:
-            dx, dy = dx * limit / change, dy * limit / change
-        body.velocity = (motion.vx_mps + dx, motion.vy_mps + dy)
+        if outputs.brake:
+            body.velocity = (want_x, want_y)
+        else:
+            dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
+            change = math.hypot(dx, dy)
+            limit = spec.max_accel_mps2 * self.step_s
+            if change > limit:
+                dx, dy = dx * limit / change, dy * limit / change
+            body.velocity = _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
         turn_limit = spec.max_angular_accel_radps2 * self.step_s
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
         body.angular_velocity = motion.omega_radps + turn
+
+    def _reclamp_robot(self) -> None:
+        """A push during the step (a human walking into the robot) leaves it at most at its
+        speed limits: the drive brakes it back at once."""
+        spec, body = self.scenario.robot, self.robot
+        vx, vy = body.velocity
+        if math.hypot(vx, vy) > spec.max_speed_mps:  # (its infinite moment keeps its spin)
+            body.velocity = _within(vx, vy, spec.max_speed_mps)
 
     def _roll(self, thing: _Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
@@ -416,6 +427,14 @@ class World:
             omega_radps=motion.omega_radps,
             radius_m=thing.spec.radius_m,
         )
+
+
+def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
+    """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
+    speed = math.hypot(vx, vy)
+    if speed <= top_mps:
+        return (vx, vy)
+    return (vx * top_mps / speed, vy * top_mps / speed)
 
 
 def wrap_angle(angle_rad: float) -> float:

@@ -1,14 +1,18 @@
-"""Act: the Actuator that runs instruction blocks, the robot's limits and the joystick."""
+"""Act: the Actuator that runs instruction blocks, the robot's limits, the joystick and the
+safety supervisor below them."""
 
 from pipeline.act.actuator import Actuator, ActuatorStep
 from pipeline.act.joystick import Button, read_pad
 from pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
+from pipeline.act.safety import SafetyConfig, SafetySupervisor
 
 __all__ = [
     "Actuator",
     "ActuatorStep",
     "Button",
     "RobotLimits",
+    "SafetyConfig",
+    "SafetySupervisor",
     "Velocity",
     "clamp_velocity",
     "ramp_velocity",

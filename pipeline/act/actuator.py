@@ -18,7 +18,7 @@ import math
 from pipeline.act.channels import CHANNEL_ORDER, Channel, ChannelCursor, Due, Phase
 from pipeline.act.joystick import read_pad
 from pipeline.act.limits import STILL, RobotLimits, Velocity, clamp_velocity, fmt, ramp_velocity
-from pipeline.events import ActuatorCommand, JoystickInput, Source
+from pipeline.events import ActuatorCommand, JoystickInput, MotionSource, Source
 from pipeline.messages import ActuatorOutputs, AudioOut, InstructionBlock, Led, Message, Move
 
 LIGHTS_OFF: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -60,11 +60,14 @@ class Actuator:
         self._frozen_ms = 0
         self._frozen_since: int | None = None
         self._started: InstructionBlock | None = None
+        self._block_source = MotionSource.SCRIPT
         # the body
         self._target = STILL
         self._velocity = STILL
         self._led = LIGHTS_OFF
         self._audio = ""
+        self._brake = False
+        """The body must take this tick's velocity at once (a protective stop)."""
         # the pad
         self._lock = False
         self._blocking = False
@@ -104,17 +107,29 @@ class Actuator:
         return self._lock
 
     @property
+    def motion_source(self) -> MotionSource:
+        """Who drives the body now: the joystick (lock held), a rule's block or the script."""
+        return MotionSource.JOYSTICK if self._driving is not None else self._block_source
+
+    @property
     def frozen(self) -> bool:
         """The block's clock stands still (blocking mode or interrupted)."""
         return self._interrupted or (self._lock and self._blocking)
 
-    def issue(self, block: InstructionBlock | None, *, changed: bool, now_ms: int) -> None:
+    def issue(
+        self,
+        block: InstructionBlock | None,
+        *,
+        changed: bool,
+        now_ms: int,
+        forced: bool = False,
+    ) -> None:
         """Loop step 1: hand the actuator the map's block.
 
         A block that differs from the current one starts from its beginning, and so
         does the same block when ``changed`` is set; the same block again is a no-op.
         ``None`` drops the current block. Whatever the old block left on (moving,
-        lights, track) is stopped.
+        lights, track) is stopped. ``forced``: a rule put the block in the map.
         """
         self._advance(now_ms)
         if block is None:
@@ -129,6 +144,7 @@ class Actuator:
             self._stop_what_is_on()
         self._block = block
         self._started = block
+        self._block_source = MotionSource.RULE if forced else MotionSource.SCRIPT
         channels = {
             Channel.MOVE: block.move,
             Channel.LED: block.led,
@@ -157,7 +173,8 @@ class Actuator:
                 self._blocking = False
                 self._x_held = False
                 self._driving = None
-                self._target = STILL
+                self._target = self._velocity = STILL  # at once, not ramped down
+                self._brake = True
                 self._commands.append(
                     ActuatorCommand(channel=Channel.MOVE.value, source=Source.SAFETY, stop=True)
                 )
@@ -217,6 +234,7 @@ class Actuator:
                 v_theta=self._velocity.v_theta,
                 led=self._led,
                 audio=self._audio,
+                brake=self._brake,
             ),
             clamps=tuple(self._clamps),
             notes=tuple(self._notes),
@@ -227,7 +245,13 @@ class Actuator:
         self._clamps.clear()
         self._notes.clear()
         self._started = None
+        self._brake = False
         return result
+
+    def hold(self, velocity: Velocity) -> None:
+        """The safety supervisor let only ``velocity`` through this tick: it is the body's
+        velocity now, and the next ramp starts from it."""
+        self._velocity = velocity
 
     # ---------------------------------------------------------------- internal
 

@@ -5,9 +5,10 @@ no wall-clock values, so the same batch gives the same table on any executor:
 
 ``run, scenario, file, seed, params, param:KEY..., ok, passed, failed,
 expect:NAME..., ticks, duration_s, max_speed_mps, min_distance_m,
-min_distance_m:HUMAN..., contacts, rejected_inputs, rules_fired, goals_reached,
-recording, error``. ``param:`` values are the override texts; ``expect:`` and
-per-human columns are null for runs whose scenario has no such expectation or human.
+min_distance_m:HUMAN..., contacts, rejected_inputs, safety_interventions,
+protective_stops, rules_fired, goals_reached, recording, error``. ``param:`` values
+are the override texts; ``expect:`` and per-human columns are null for runs whose
+scenario has no such expectation or human.
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ def row_columns(row: ResultRow) -> dict[str, Any]:
         **{f"min_distance_m:{h}": d for h, d in s.min_distance_m.items()},
         "contacts": s.contacts,
         "rejected_inputs": s.rejected_inputs,
+        "safety_interventions": s.safety_interventions,
+        "protective_stops": s.protective_stops,
         "rules_fired": sum(s.rules_fired.values()),
         "goals_reached": len(s.goals_reached),
         "recording": row.recording,

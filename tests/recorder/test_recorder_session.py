@@ -27,6 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 SCENARIO = b"""\
 name = "busy"
 description = "Four busy seconds: two humans, a generator, a script, a touch, a rejected command."
+# the joystick drives at the child: the safety supervisor slows it (a /safety event)
 seed = 3
 duration_s = 4.0
 
@@ -37,6 +38,9 @@ objects = [{ id = "ball", x_m = 2.0, y_m = 1.5 }]
 [robot]
 x_m = 3.0
 y_m = 2.5
+
+[robot.safety]
+slow_distance_m = 1.0
 
 [sensors]
 noise_rho_m = 0.02
@@ -76,7 +80,8 @@ touchtype = "C"
 [[events]]
 kind = "joystick"
 at_s = 2.0
-left_y = 0.5
+left_y = 1.0
+buttons = ["LB"]
 hold_s = 0.5
 """
 

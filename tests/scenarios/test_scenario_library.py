@@ -60,12 +60,15 @@ def test_library_covers_every_part_of_the_thesis() -> None:
         "three_activity_session",
         "caress_reward",
         "script_speed_clamped",
+        "safety_script_without_rule",
+        "safety_joystick_at_child",
     }
     assert wanted <= set(LIBRARY)
 
 
-def test_without_child_too_close_the_robot_drives_into_the_child(tmp_path: Path) -> None:
-    # The same crossing with the rule's alfa/omega messages taken out of the activity.
+def test_without_child_too_close_the_safety_supervisor_still_stops_short(tmp_path: Path) -> None:
+    # The same crossing with the rule's alfa/omega messages taken out of the activity: the
+    # behavioural layer is gone, the supervisor below it is not (contact at 0.55 m).
     library = LIBRARY["child_too_close"].parent
     script = (library / "activities" / "cross_the_room.txt").read_text()
     (tmp_path / "activities").mkdir()
@@ -75,10 +78,51 @@ def test_without_child_too_close_the_robot_drives_into_the_child(tmp_path: Path)
     (tmp_path / "no_rule.toml").write_text(LIBRARY["child_too_close"].read_text())
     result = run(tmp_path / "no_rule.toml")
     assert "child_too_close" not in result.summary.rules_fired
-    assert result.summary.min_distance_m["child"] < 0.6
-    assert result.summary.contacts > 0
+    assert result.summary.min_distance_m["child"] > 0.55 + 0.1 - 1e-3
+    assert result.summary.contacts == 0
+    assert result.summary.protective_stops >= 1
     failed = failures(result)
-    assert any(f.startswith("the robot stops short of the child") for f in failed)
+    assert any(f.startswith("child_too_close fires") for f in failed)
+
+
+def test_a_script_removing_child_too_close_is_still_stopped_by_the_supervisor(
+    tmp_path: Path,
+) -> None:
+    # The sibling without the alfa R: the behavioural rule acts first (and the supervisor
+    # has nothing to stop); with it, only the supervisor is left, and it stops the robot.
+    result = run(LIBRARY["safety_script_without_rule"])
+    assert result.summary.protective_stops >= 1
+    assert "child_too_close" not in result.summary.rules_fired
+    library = LIBRARY["safety_script_without_rule"].parent
+    (tmp_path / "activities").mkdir()
+    for name in ("keep_watch.txt", "charge_ahead.txt"):
+        text = (library / "activities" / name).read_text()
+        if name == "charge_ahead.txt":
+            text = "\n".join(line for line in text.splitlines() if "child_too_close" not in line)
+        (tmp_path / "activities" / name).write_text(text)
+    (tmp_path / "kept.toml").write_text(LIBRARY["safety_script_without_rule"].read_text())
+    kept = run(tmp_path / "kept.toml")
+    assert kept.summary.rules_fired["child_too_close"] > 0
+    assert any(f.startswith("child_too_close was removed") for f in failures(kept))
+
+
+def test_the_joystick_at_a_child_is_slowed_stopped_and_drives_away_at_full_speed() -> None:
+    memory = MemorySink()
+    run(LIBRARY["safety_joystick_at_child"], memory)
+    states = {s.tick: s for s in memory.on(Topic.WORLD_STATE)}
+
+    def gap(tick: int) -> float:
+        robot, child = states[tick].robot, states[tick].humans[0]
+        return math.hypot(child.x_m - robot.x_m, child.y_m - robot.y_m) - 0.55
+
+    slowed = [t for t in range(50, 350) if gap(t) < 0.5]
+    assert slowed and max(states[t].robot.vx_mps for t in slowed) <= 0.2 + 1e-9
+    pushed_still = range(320, 350)  # the stick is still fully forward: 6.4 s to 7.0 s
+    assert all(states[t].robot.vx_mps == 0.0 for t in pushed_still)
+    assert 0.1 <= gap(340) < 0.25
+    away = [states[t].robot.vx_mps for t in range(375, 475)]
+    assert min(away) == pytest.approx(-0.5)
+    assert gap(474) > gap(375) + 0.5
 
 
 def test_joystick_moves_the_robot_only_with_the_safety_lock() -> None:

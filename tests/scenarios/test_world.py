@@ -128,8 +128,12 @@ behaviour = [{ kind = "approach", distance_m = 0.5 }]
 """
 
 
+PUSHING_CHILD = APPROACHING_CHILD.replace('"approach"', '"follow"')
+"""A child who keeps walking into the robot (follow closer than the sum of the radii)."""
+
+
 def test_contacts_with_humans_are_reported_and_their_span_when_they_end():
-    w = world(APPROACHING_CHILD)
+    w = world(PUSHING_CHILD)
     reports = [w.step(STOP, tick=tick) for tick in range(150)]
     touching = [r.tick for r in reports if r.contacts == ("kid",)]
     assert touching
@@ -142,6 +146,20 @@ def test_contacts_with_humans_are_reported_and_their_span_when_they_end():
     assert ended[0].touchtype == "H"
     assert ended[0].startingtime_ms == touching[0] * 20
     assert ended[0].duration_ms > 0
+
+
+def test_a_pushed_robot_never_exceeds_its_speed_limit():
+    # the child (1 m/s) keeps walking into the robot (0.5 m/s at most): pushed, the robot
+    # goes no faster than its limit, during the contact and after it
+    w = world(PUSHING_CHILD)
+    speeds = []
+    for tick in range(150):
+        w.step(STOP, tick=tick)
+        robot = w.state(tick=tick, time_ms=tick * 20).robot
+        speeds.append(math.hypot(robot.vx_mps, robot.vy_mps))
+    assert w.last_report.contacts == ("kid",)
+    assert max(speeds) == pytest.approx(0.5)
+    assert max(speeds) <= 0.5 + 1e-12
 
 
 def test_approach_stops_at_the_distance_from_the_robot():

@@ -125,10 +125,13 @@ def test_releasing_the_lock_issues_a_safety_stop_at_once():
     stop = session.steps[200].commands
     assert [(c.source, c.stop, c.v_x) for c in stop] == [(Source.SAFETY, True, 0.0)]
     assert session.steps[200].notes == ("joystick: safety lock released, robot stopped",)
-    # the body brakes at the largest deceleration, then stays still
+    # the body stops in the same tick (a protective stop, not ramped down), then stays still
     assert session.steps[180].outputs.v_x == pytest.approx(0.18)
-    assert session.steps[200].outputs.v_x == pytest.approx(0.16)
-    assert session.steps[400].outputs.v_x == 0.0
+    assert session.steps[180].outputs.brake is False
+    assert session.steps[200].outputs.v_x == 0.0
+    assert session.steps[200].outputs.brake is True
+    assert session.steps[220].outputs.v_x == 0.0
+    assert session.steps[220].outputs.brake is False
 
 
 # ------------------------------------------------------------ non-blocking

@@ -1,0 +1,366 @@
+"""The safety supervisor: speed and separation monitoring below every source of motion.
+
+In the spirit of ISO 13482 and ISO/TS 15066, it limits the robot's velocity
+*towards* each human by their surface-to-surface distance, taken from the map
+(what the sensors said, never the simulator's ground truth):
+
+| zone (surface distance ``s``)      | velocity towards the human                      |
+|------------------------------------|-------------------------------------------------|
+| ``s >= slow_distance_m``           | free (up to what the robot can brake before the stop zone) |
+| ``stop_distance_m <= s < slow``    | at most ``slow_speed_mps``, and braking room    |
+| ``s < stop_distance_m``            | none: a protective stop of the closing component |
+
+A protective stop holds until ``s`` is back to halfway between the stop and slow
+distances (hysteresis): the margin shrinks with each fresh camera frame, and
+without it the robot would creep in, frame by frame.
+
+Moving away and sideways stays allowed. ``s`` is conservative: the map's
+centre distance, less both radii, less an *uncertainty margin*
+``sensing_error_m + human_speed_mps * (age + one tick)`` that covers how far the
+human may have walked since the reading (age capped at ``max_data_age_ms``).
+Between readings the robot's own motion since the reading is dead-reckoned from
+the velocities the supervisor let through, so a 10 Hz camera does not let it
+close in. With the camera offline (or none reported) or a human's data older
+than ``max_data_age_ms``, all linear motion is capped at ``slow_speed_mps``.
+
+Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
+any point of the uncertainty disc, so the closing speed towards the true centre
+is zero however the human moved (at up to ``human_speed_mps``). Outside it, the
+closing component is cut so that the robot, braking at ``max_accel_mps2``, stays
+out of the stop zone (``c * dt + c**2 / (2 a) <= s - stop``).
+
+It is not a rule: the loop calls it after the actuator every tick, and no
+alfa/omega message, script or joystick input reaches it. No clock, no IO.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterator
+from typing import Final, NamedTuple
+
+from pipeline.act.limits import RobotLimits, Velocity
+from pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
+from pipeline.messages import Human, Message, WorldMap
+
+DEFAULT_ROBOT_RADIUS_M: Final = 0.3
+"""The robot's radius when the configuration gives none (a pipeline without a scenario)."""
+
+
+class SafetyConfig(Message):
+    """The supervisor's zones and assumptions (the scenario's ``[robot.safety]``)."""
+
+    robot_radius_m: float | None = None
+    """The robot's radius, m; None: the robot's own ``radius_m`` (0.3 without a scenario)."""
+    human_radius_m: float = 0.25
+    """Radius assumed for every human, m (set it to the largest human's)."""
+    stop_distance_m: float = 0.1
+    """Surface distance below which nothing moves towards the human (protective stop), m."""
+    slow_distance_m: float = 0.5
+    """Surface distance below which the closing speed is capped at ``slow_speed_mps``, m."""
+    slow_speed_mps: float = 0.2
+    """Largest closing speed in the slow zone, and largest speed when sensing is stale, m/s."""
+    max_data_age_ms: int = 500
+    """A human's position older than this (or a camera offline) is stale: slow-zone speed."""
+    human_speed_mps: float = 1.0
+    """Fastest a human is assumed to walk between readings (grows the uncertainty margin), m/s."""
+    sensing_error_m: float = 0.02
+    """Largest error of a reported distance (noise, rounding), added to the margin, m."""
+
+
+def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
+    """Every invalid value of ``config``, as (field, message)."""
+    for name in config.__struct_fields__:
+        value = getattr(config, name)
+        if value is None:
+            continue
+        if not math.isfinite(value) or value < 0:
+            yield name, f"safety {name} must be a non-negative number, got {value!r}"
+    if config.slow_distance_m < config.stop_distance_m:
+        yield (
+            "slow_distance_m",
+            f"safety slow_distance_m {config.slow_distance_m} is below stop_distance_m "
+            f"{config.stop_distance_m}: the slow zone must contain the stop zone",
+        )
+
+
+class Verdict(NamedTuple):
+    """The supervisor's answer for one tick."""
+
+    velocity: Velocity
+    """What may be driven (equal to the request when nothing was limited)."""
+    zone: SafetyZone | None = None
+    """Why it was limited; None: not limited."""
+    human: str = ""
+    """The human whose separation bound it (empty for blind/stale caps)."""
+    surface_distance_m: float | None = None
+    """That human's conservative surface distance, m."""
+
+    @property
+    def limited(self) -> bool:
+        return self.zone is not None
+
+
+class Supervised(NamedTuple):
+    """A tick's verdict and, when an episode started, changed or ended, its event."""
+
+    verdict: Verdict
+    event: SafetyIntervention | None = None
+
+
+class _Constraint(NamedTuple):
+    human: str
+    surface_m: float
+    u_x: float
+    u_y: float
+    """Unit vector from the robot to the human, body frame."""
+    cap_mps: float
+    """Largest velocity component along u (outside the stop zone)."""
+    sin_cone: float | None
+    """Inside the stop zone: v must satisfy v.u <= -sin_cone * |v|."""
+    zone: SafetyZone
+
+
+_TOLERANCE: Final = 1e-12
+EPISODE_GAP_MS: Final = 500
+"""An intervention episode ends after this long without a limited tick."""
+_SEVERITY: Final = {
+    SafetyZone.BLIND: 1,
+    SafetyZone.STALE: 1,
+    SafetyZone.SLOW: 2,
+    SafetyZone.STOP: 3,
+}
+
+
+class SafetySupervisor:
+    """Limits each tick's velocity by the map's humans; dead-reckons between readings."""
+
+    def __init__(self, config: SafetyConfig, limits: RobotLimits, *, tick_ms: int) -> None:
+        problems = list(safety_problems(config))
+        if problems:
+            raise ValueError(problems[0][1])
+        self.config = config
+        self._robot_radius_m = (
+            config.robot_radius_m if config.robot_radius_m is not None else DEFAULT_ROBOT_RADIUS_M
+        )
+        self._limits = limits
+        self._tick_ms = tick_ms
+        self._dt_s = tick_ms / 1000
+        # odometry: the robot's pose in its own start frame, at each recent tick
+        self._pose = (0.0, 0.0, 0.0)
+        self._history: deque[tuple[int, tuple[float, float, float]]] = deque(
+            maxlen=config.max_data_age_ms // tick_ms + 3
+        )
+        self._anchors: dict[str, tuple[int, float, float]] = {}
+        """Human id -> (positionchangetime, x, y) of its last reading in the odometry frame."""
+        self._held: dict[str, None] = {}
+        """Humans under a protective stop: it holds until they are halfway out of the slow
+        zone, so that the margin's saw-tooth between camera frames does not let the robot
+        creep in, frame by frame (membership only, never iterated)."""
+        self._episode: tuple[SafetyZone, str, MotionSource] | None = None
+        """The intervention episode under way: its worst zone, that zone's human, the source."""
+        self._limited_ms = 0
+        """When the supervisor last changed a velocity."""
+
+    def supervise(
+        self,
+        requested: Velocity,
+        world_map: WorldMap,
+        *,
+        tick: int,
+        now_ms: int,
+        source: MotionSource,
+    ) -> Supervised:
+        """The velocity allowed at ``now_ms`` for ``requested`` (body frame, from ``source``);
+        the robot is then taken to drive it for one tick (dead reckoning)."""
+        if not self._history or self._history[-1][0] != now_ms:
+            self._history.append((now_ms, self._pose))
+        for human in world_map.humans:
+            if human.poses:
+                self._anchor(human)
+        verdict = self._limit(requested, world_map, now_ms)
+        self._advance(verdict.velocity)
+        phase = self._phase(verdict, source, now_ms)
+        if phase is None:
+            return Supervised(verdict)
+        assert self._episode is not None
+        zone, human, source = self._episode
+        if phase is SafetyPhase.END:
+            self._episode = None
+        event = SafetyIntervention(
+            tick=tick,
+            time_ms=now_ms,
+            phase=phase,
+            source=source,
+            zone=zone,
+            human=human,
+            surface_distance_m=verdict.surface_distance_m,
+            requested=tuple(requested),
+            allowed=tuple(verdict.velocity),
+        )
+        return Supervised(verdict, event)
+
+    # ---------------------------------------------------------------- internal
+
+    def _phase(self, verdict: Verdict, source: MotionSource, now_ms: int) -> SafetyPhase | None:
+        """Whether this tick starts, changes or ends an episode (None: none of these).
+
+        An episode changes when its zone gets worse, its human or its source changes; it
+        ends ``EPISODE_GAP_MS`` after the last limited tick, so a velocity that touches a
+        limit on and off makes one episode, not one per touch."""
+        episode = self._episode
+        if verdict.zone is None:
+            if episode is not None and now_ms - self._limited_ms >= EPISODE_GAP_MS:
+                return SafetyPhase.END
+            return None
+        self._limited_ms = now_ms
+        new = (verdict.zone, verdict.human, source)
+        if episode is None:
+            self._episode = new
+            return SafetyPhase.START
+        zone, human, was = episode
+        worse = _SEVERITY[verdict.zone] > _SEVERITY[zone]
+        other = verdict.zone is zone and verdict.human != human
+        if worse or other or source is not was:
+            self._episode = new
+            return SafetyPhase.CHANGE
+        return None
+
+    def _limit(self, requested: Velocity, world_map: WorldMap, now_ms: int) -> Verdict:
+        if requested.v_x == 0.0 and requested.v_y == 0.0:
+            return Verdict(requested)  # standing or turning on the spot: nothing to limit
+        config = self.config
+        blind = not any(camera.isonline for camera in world_map.cameras)
+        stale = False
+        constraints: list[_Constraint] = []
+        for human in world_map.humans:
+            age_ms = now_ms - human.positionchangetime
+            if not human.poses or age_ms > config.max_data_age_ms:
+                stale = True
+            if human.poses:
+                constraints.append(self._constraint(human, age_ms))
+        v_x, v_y = requested.v_x, requested.v_y
+        zone: SafetyZone | None = None
+        if blind or stale:
+            speed = math.hypot(v_x, v_y)
+            if speed > config.slow_speed_mps:
+                scale = config.slow_speed_mps / speed
+                v_x, v_y = v_x * scale, v_y * scale
+                zone = SafetyZone.BLIND if blind else SafetyZone.STALE
+        binding: _Constraint | None = None
+        for _ in range(3):  # a few passes settle several humans; otherwise stop
+            for constraint in constraints:
+                limited = _apply(constraint, v_x, v_y)
+                if limited != (v_x, v_y):
+                    v_x, v_y = limited
+                    if binding is None or constraint.surface_m < binding.surface_m:
+                        binding = constraint
+            if all(_satisfied(c, v_x, v_y) for c in constraints):
+                break
+        else:
+            v_x = v_y = 0.0
+        allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
+        if binding is not None:
+            return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
+        return Verdict(allowed, zone)
+
+    def _constraint(self, human: Human, age_ms: int) -> _Constraint:
+        config = self.config
+        x, y = self._estimate(human)
+        distance = math.hypot(x, y)
+        seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
+        margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
+        surface = distance - self._robot_radius_m - config.human_radius_m - margin
+        if distance > 0:
+            u_x, u_y = x / distance, y / distance
+        else:
+            u_x, u_y = 1.0, 0.0
+        release = (config.stop_distance_m + config.slow_distance_m) / 2
+        if surface <= config.stop_distance_m:
+            self._held[human.id] = None
+        elif human.id in self._held and surface >= release:
+            del self._held[human.id]
+        if human.id in self._held:
+            sin_cone = 1.0 if margin >= distance else margin / distance
+            return _Constraint(human.id, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
+        gap = surface - config.stop_distance_m
+        a = self._limits.max_accel_mps2
+        cap = -a * self._dt_s + math.sqrt((a * self._dt_s) ** 2 + 2 * a * gap)
+        if surface < config.slow_distance_m:
+            cap = min(cap, config.slow_speed_mps)
+        return _Constraint(human.id, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
+
+    def _anchor(self, human: Human) -> None:
+        """Place a new reading in the odometry frame, with the pose the robot had when it
+        was taken (every tick, so that a reading is placed while that pose is kept)."""
+        at_ms = human.positionchangetime
+        anchor = self._anchors.get(human.id)
+        if anchor is None or anchor[0] != at_ms:
+            px, py, ptheta = self._pose_at(at_ms)
+            bearing = ptheta + human.positiontheta
+            self._anchors[human.id] = (
+                at_ms,
+                px + human.positionrho * math.cos(bearing),
+                py + human.positionrho * math.sin(bearing),
+            )
+
+    def _estimate(self, human: Human) -> tuple[float, float]:
+        """The human's last reported position in the robot's current body frame."""
+        anchor = self._anchors[human.id]
+        x, y, theta = self._pose
+        dx, dy = anchor[1] - x, anchor[2] - y
+        cos, sin = math.cos(theta), math.sin(theta)
+        return (cos * dx + sin * dy, -sin * dx + cos * dy)
+
+    def _pose_at(self, time_ms: int) -> tuple[float, float, float]:
+        """The odometry pose at ``time_ms`` (the oldest kept for older readings)."""
+        for at_ms, pose in reversed(self._history):
+            if at_ms <= time_ms:
+                return pose
+        return self._history[0][1]
+
+    def _advance(self, velocity: Velocity) -> None:
+        """Dead reckoning: the world applies the body-frame velocity with the heading at
+        the start of the step, and turns at ``v_theta``."""
+        x, y, theta = self._pose
+        dt = self._dt_s
+        cos, sin = math.cos(theta), math.sin(theta)
+        self._pose = (
+            x + dt * (cos * velocity.v_x - sin * velocity.v_y),
+            y + dt * (sin * velocity.v_x + cos * velocity.v_y),
+            theta + dt * velocity.v_theta,
+        )
+
+
+def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
+    """The nearest velocity to (v_x, v_y) that meets the constraint."""
+    along = v_x * c.u_x + v_y * c.u_y
+    if c.sin_cone is None:
+        if along <= c.cap_mps:
+            return v_x, v_y
+        cut = along - c.cap_mps
+        return v_x - cut * c.u_x, v_y - cut * c.u_y
+    if c.sin_cone >= 1.0:  # the robot is inside the human's uncertainty disc
+        return 0.0, 0.0
+    p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
+    across = math.hypot(p_x, p_y)
+    cos_cone = math.sqrt(1.0 - c.sin_cone**2)
+    if along * cos_cone <= -c.sin_cone * across:
+        return v_x, v_y
+    # project onto the cone's edge: direction (-sin, cos) in the (along, across) plane
+    reach = -along * c.sin_cone + across * cos_cone
+    if reach <= 0.0 or across == 0.0:
+        return 0.0, 0.0
+    new_along, new_across = -reach * c.sin_cone, reach * cos_cone
+    return (
+        new_along * c.u_x + new_across * p_x / across,
+        new_along * c.u_y + new_across * p_y / across,
+    )
+
+
+def _satisfied(c: _Constraint, v_x: float, v_y: float) -> bool:
+    along = v_x * c.u_x + v_y * c.u_y
+    if c.sin_cone is None:
+        return along <= c.cap_mps + _TOLERANCE
+    return along <= -c.sin_cone * math.hypot(v_x, v_y) + _TOLERANCE

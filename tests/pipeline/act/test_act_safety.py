@@ -1,0 +1,282 @@
+"""The safety supervisor on hand-made maps: zones, moving away, stale data, sources, events."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from pipeline.act.actuator import Actuator
+from pipeline.act.limits import RobotLimits, Velocity
+from pipeline.act.safety import SafetyConfig, SafetySupervisor, safety_problems
+from pipeline.events import (
+    JoystickInput,
+    MotionSource,
+    SafetyIntervention,
+    SafetyPhase,
+    SafetyZone,
+)
+from pipeline.messages import Camera, Human, InstructionBlock, Move, Pose, WorldMap
+
+TICK_MS = 20
+LIMITS = RobotLimits()
+# robot 0.3 + human 0.25 + margin (0.02 sensing + 1 m/s * one tick of age = 0.04)
+CONFIG = SafetyConfig(robot_radius_m=0.3)
+MARGIN_M = 0.02 + 1.0 * TICK_MS / 1000
+RADII_M = 0.3 + 0.25
+
+
+def centre_at(surface_m: float) -> float:
+    """The centre distance a fresh reading gives for a supervisor surface distance."""
+    return surface_m + RADII_M + MARGIN_M
+
+
+def seen(rho: float, theta: float = 0.0, *, at_ms: int = 0, ident: str = "child") -> Human:
+    pose = Pose(positionrho=rho, positiontheta=theta, positionchangetime=at_ms)
+    return Human(
+        id=ident,
+        creationtime=0,
+        positionrho=rho,
+        positiontheta=theta,
+        positionchangetime=at_ms,
+        poses=[pose],
+    )
+
+
+def room(*humans: Human, camera: bool = True) -> WorldMap:
+    return WorldMap(cameras=[Camera(id="front", isonline=camera)], humans=list(humans))
+
+
+def supervise(
+    velocity: Velocity,
+    world_map: WorldMap,
+    *,
+    now_ms: int = 0,
+    source: MotionSource = MotionSource.SCRIPT,
+    supervisor: SafetySupervisor | None = None,
+):
+    supervisor = supervisor or SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    return supervisor.supervise(
+        velocity, world_map, tick=now_ms // TICK_MS, now_ms=now_ms, source=source
+    )
+
+
+def test_far_from_everyone_full_speed_passes_untouched() -> None:
+    verdict, event = supervise(Velocity(0.5, 0.0, 1.0), room(seen(3.0)))
+    assert verdict.velocity == (0.5, 0.0, 1.0)
+    assert not verdict.limited
+    assert event is None
+
+
+def test_in_the_slow_zone_the_closing_speed_is_capped_and_the_sideways_part_kept() -> None:
+    verdict, event = supervise(Velocity(0.5, 0.3, 0.2), room(seen(centre_at(0.3))))
+    assert verdict.velocity.v_x == pytest.approx(0.2)
+    assert verdict.velocity.v_y == 0.3
+    assert verdict.velocity.v_theta == 0.2
+    assert verdict.zone is SafetyZone.SLOW
+    assert event is not None and event.phase is SafetyPhase.START
+    assert event.human == "child"
+    assert event.surface_distance_m == pytest.approx(0.3)
+    assert event.requested == (0.5, 0.3, 0.2)
+    assert event.allowed == pytest.approx((0.2, 0.3, 0.2))
+
+
+def test_near_the_stop_zone_the_closing_speed_leaves_braking_room() -> None:
+    # 1 cm from the stop zone: c*dt + c^2/(2a) <= 0.01 gives c = 0.1226 m/s
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), room(seen(centre_at(0.11))))
+    assert verdict.velocity.v_x == pytest.approx(-0.02 + math.sqrt(0.02**2 + 0.02), abs=1e-9)
+
+
+@pytest.mark.parametrize("bearing", [0.0, 1.0, -2.5, math.pi])
+def test_inside_the_stop_zone_nothing_moves_towards_the_human(bearing: float) -> None:
+    towards = Velocity(0.5 * math.cos(bearing), 0.5 * math.sin(bearing), 0.0)
+    verdict, event = supervise(towards, room(seen(centre_at(0.05), bearing)))
+    assert verdict.velocity[:2] == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert verdict.zone is SafetyZone.STOP
+    assert event is not None and event.zone is SafetyZone.STOP
+
+
+@pytest.mark.parametrize("bearing", [0.0, 1.0, -2.5])
+def test_inside_the_stop_zone_moving_away_is_allowed(bearing: float) -> None:
+    away = Velocity(-0.5 * math.cos(bearing), -0.5 * math.sin(bearing), 0.4)
+    verdict, event = supervise(away, room(seen(centre_at(0.0), bearing)))
+    assert verdict.velocity == away
+    assert event is None
+
+
+def test_inside_the_stop_zone_sideways_is_bent_away_from_the_uncertainty_disc() -> None:
+    # the human may be anywhere within the margin of the reading: a purely sideways move
+    # could graze them, so it keeps its speed but turns a little away
+    d = centre_at(0.05)
+    verdict, _ = supervise(Velocity(0.0, 0.4, 0.0), room(seen(d)))
+    v_x, v_y, _ = verdict.velocity
+    sin_cone = MARGIN_M / d
+    assert v_x == pytest.approx(-sin_cone * math.hypot(v_x, v_y))
+    assert v_y > 0.35
+
+
+def test_the_closest_of_several_humans_binds_and_all_are_respected() -> None:
+    humans = (seen(centre_at(0.3), 0.3, ident="a"), seen(centre_at(0.05), -0.3, ident="b"))
+    verdict, event = supervise(Velocity(0.5, 0.0, 0.0), room(*humans))
+    v_x, v_y, _ = verdict.velocity
+    for human in humans:
+        u = (math.cos(human.positiontheta), math.sin(human.positiontheta))
+        along = v_x * u[0] + v_y * u[1]
+        assert along <= (0.2 if human.id == "a" else 0.0) + 1e-12
+    assert event is not None and event.human == "b" and event.zone is SafetyZone.STOP
+
+
+def test_stale_human_data_caps_every_direction_at_the_slow_speed() -> None:
+    old = seen(4.0, at_ms=0)
+    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), room(old), now_ms=600)
+    assert math.hypot(*verdict.velocity[:2]) == pytest.approx(0.2)
+    assert verdict.zone is SafetyZone.STALE
+    assert event is not None and event.human == ""
+    fresh, _ = supervise(Velocity(-0.5, 0.0, 0.0), room(seen(4.0, at_ms=600)), now_ms=600)
+    assert fresh.velocity == (-0.5, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("cameras", [[Camera(id="front", isonline=False)], []])
+def test_without_a_camera_online_motion_is_capped_at_the_slow_speed(cameras) -> None:
+    verdict, event = supervise(Velocity(0.0, 0.5, 0.0), WorldMap(cameras=cameras))
+    assert verdict.velocity == pytest.approx((0.0, 0.2, 0.0))
+    assert event is not None and event.zone is SafetyZone.BLIND
+
+
+def test_between_readings_the_robot_own_motion_is_dead_reckoned() -> None:
+    # One reading, 1.2 m ahead, never refreshed (ages allowed long, no human motion): the
+    # robot asks 0.5 m/s every tick and must still stop short of the stop zone.
+    config = SafetyConfig(robot_radius_m=0.3, max_data_age_ms=60_000, human_speed_mps=0.0)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    world_map = room(seen(1.2))
+    travelled = 0.0
+    for tick in range(200):
+        verdict, _ = supervisor.supervise(
+            Velocity(0.5, 0.0, 0.0),
+            world_map,
+            tick=tick,
+            now_ms=tick * TICK_MS,
+            source=MotionSource.SCRIPT,
+        )
+        travelled += verdict.velocity.v_x * TICK_MS / 1000
+    assert verdict.velocity.v_x == pytest.approx(0.0, abs=1e-3)
+    assert 1.2 - travelled - RADII_M - 0.02 >= 0.1 - 1e-9
+    assert 1.2 - travelled - RADII_M - 0.02 == pytest.approx(0.1, abs=5e-3)
+
+
+@pytest.mark.parametrize("max_age_ms", [60_000, 100])
+def test_dead_reckoning_follows_the_robot_turning(max_age_ms: int) -> None:
+    # A reading ahead; the robot turns a quarter turn left: the human is now on its right,
+    # so driving forward stays free and driving right is stopped. With a short age the
+    # reading is stale long before the robot moves: it must still be placed with the
+    # heading the robot had when it was taken.
+    config = SafetyConfig(robot_radius_m=0.3, max_data_age_ms=max_age_ms, human_speed_mps=0.0)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    world_map = room(seen(0.6))  # in the stop zone: 0.6 - 0.55 - 0.02 < 0.1
+    spin = Velocity(0.0, 0.0, math.pi / 2)
+    for tick in range(50):  # 1 s at pi/2 rad/s
+        supervisor.supervise(
+            spin, world_map, tick=tick, now_ms=tick * TICK_MS, source=MotionSource.SCRIPT
+        )
+    ahead, _ = supervisor.supervise(
+        Velocity(0.3, 0.0, 0.0), world_map, tick=50, now_ms=1000, source=MotionSource.SCRIPT
+    )
+    top = 0.3 if max_age_ms > 1000 else config.slow_speed_mps  # stale: the slow speed
+    assert ahead.velocity.v_x == pytest.approx(top, abs=1e-3)  # bent a hair away (left)
+    assert ahead.velocity.v_y >= 0.0
+    right, _ = supervisor.supervise(
+        Velocity(0.0, -0.3, 0.0), world_map, tick=51, now_ms=1020, source=MotionSource.SCRIPT
+    )
+    assert right.velocity.v_y == pytest.approx(0.0, abs=1e-9)
+
+
+def test_an_episode_is_recorded_when_it_starts_worsens_and_ends_not_every_tick() -> None:
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    events: list[SafetyIntervention] = []
+    plan = [(centre_at(0.3), 0.5)] * 10 + [(centre_at(0.05), 0.5)] * 10 + [(3.0, 0.5)] * 40
+    for tick, (rho, speed) in enumerate(plan):
+        now = tick * TICK_MS
+        _, event = supervisor.supervise(
+            Velocity(speed, 0.0, 0.0),
+            room(seen(rho, at_ms=now)),
+            tick=tick,
+            now_ms=now,
+            source=MotionSource.JOYSTICK,
+        )
+        if event is not None:
+            events.append(event)
+    assert [(e.tick, e.phase, e.zone, e.source) for e in events] == [
+        (0, SafetyPhase.START, SafetyZone.SLOW, MotionSource.JOYSTICK),
+        (10, SafetyPhase.CHANGE, SafetyZone.STOP, MotionSource.JOYSTICK),
+        (19 + 25, SafetyPhase.END, SafetyZone.STOP, MotionSource.JOYSTICK),
+    ]
+
+
+@pytest.mark.parametrize("source", list(MotionSource))
+def test_every_source_is_supervised_and_named(source: MotionSource) -> None:
+    verdict, event = supervise(Velocity(0.5, 0.0, 0.0), room(seen(centre_at(0.05))), source=source)
+    assert verdict.velocity.v_x == 0.0
+    assert event is not None and event.source is source
+
+
+def test_the_actuator_names_the_source_of_its_motion() -> None:
+    block = InstructionBlock(move=(Move(v_x=0.2, v_y=0, v_theta=0, wait_t=0, duration=500),))
+    actuator = Actuator(LIMITS, tick_ms=TICK_MS)
+    actuator.issue(block, changed=False, now_ms=0)
+    assert actuator.motion_source is MotionSource.SCRIPT
+    forced = InstructionBlock(move=(Move(v_x=0.1, v_y=0, v_theta=0, wait_t=0, duration=500),))
+    actuator.issue(forced, changed=True, now_ms=20, forced=True)
+    assert actuator.motion_source is MotionSource.RULE
+    actuator.joystick(JoystickInput(tick=2, time_ms=40, left_y=1.0, buttons=("LB",)), now_ms=40)
+    assert actuator.motion_source is MotionSource.JOYSTICK
+    actuator.joystick(JoystickInput(tick=3, time_ms=60), now_ms=60)
+    assert actuator.motion_source is MotionSource.RULE
+
+
+def test_the_lock_release_stops_the_body_in_the_same_tick() -> None:
+    actuator = Actuator(LIMITS, tick_ms=TICK_MS)
+    actuator.joystick(JoystickInput(tick=0, time_ms=0, left_y=1.0, buttons=("LB",)), now_ms=0)
+    for t in range(0, 1000, TICK_MS):
+        moving = actuator.step(now_ms=t).outputs
+    assert moving.v_x == pytest.approx(0.5)
+    actuator.joystick(JoystickInput(tick=50, time_ms=1000, left_y=1.0), now_ms=1000)
+    stopped = actuator.step(now_ms=1000).outputs
+    assert (stopped.v_x, stopped.brake) == (0.0, True)
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"stop_distance_m": -0.1}, "stop_distance_m must be a non-negative number"),
+        ({"slow_speed_mps": math.nan}, "slow_speed_mps must be a non-negative number"),
+        ({"slow_distance_m": 0.05}, "the slow zone must contain the stop zone"),
+    ],
+)
+def test_bad_configurations_are_refused(fields: dict[str, float], message: str) -> None:
+    config = SafetyConfig(**fields)
+    assert any(message in text for _, text in safety_problems(config))
+    with pytest.raises(ValueError, match=message):
+        SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+
+
+def test_a_protective_stop_holds_while_fresh_frames_shrink_the_margin() -> None:
+    # A child standing 1.2 m ahead, seen every 100 ms; the robot asks 0.5 m/s all along.
+    # Once stopped, it must not creep in as each fresh frame makes the margin smaller.
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    x = 0.0
+    stopped_at = None
+    world_map = room(seen(1.2))
+    for tick in range(150):
+        now = tick * TICK_MS
+        if tick % 5 == 0:
+            world_map = room(seen(round(1.2 - x, 4), at_ms=now))
+        verdict, _ = supervisor.supervise(
+            Velocity(0.5, 0.0, 0.0), world_map, tick=tick, now_ms=now, source=MotionSource.SCRIPT
+        )
+        if stopped_at is None and verdict.zone is SafetyZone.STOP:
+            stopped_at = tick
+        if stopped_at is not None:
+            assert verdict.velocity.v_x <= 0.0, f"crept in at tick {tick}"
+        x += verdict.velocity.v_x * TICK_MS / 1000
+    assert stopped_at is not None
+    assert 1.2 - x - RADII_M >= 0.1

@@ -1,0 +1,196 @@
+"""Property: whatever drives the robot, the pipeline and the pymunk world keep it safe.
+
+Random joystick streams (lock held or not), random scripts' move blocks (asking up
+to 0.8 m/s, beyond the robot's 0.5) and random human paths run through the whole
+session (world, sensors, pipeline with its safety supervisor). After every world
+step the ground truth must show:
+
+1. the robot's speed never exceeds ``max_speed_mps`` (beyond float rounding, 1e-9);
+2. its closing speed towards any human *inside the stop zone* is zero (<= 1e-9);
+3. it stands still one tick after the safety lock is released.
+
+"Inside the stop zone" is measured on the ground truth, after the step: the
+centre distance between robot and human, less the robot's radius (0.3 m) and the
+human's (0.25 m, the supervisor's ``human_radius_m``), is below
+``stop_distance_m``. The closing speed is the robot's world velocity projected on
+the unit vector from its centre to the human's. The map lags the truth (a 10 Hz
+camera, readings rounded to 0.1 mm): the supervisor covers the lag with its own
+configured margin (``sensing_error_m + human_speed_mps * (age + one tick)``, and
+the humans here walk at most ``human_speed_mps``), not with any tolerance here.
+
+A human who walks into the robot pushes it: that velocity is the human's, not the
+robot's, so (2) and (3) skip ticks with a contact and the 0.5 s after it (the time
+the drive takes to brake a push of 0.5 m/s at 1 m/s²). The camera sees all round
+(``fov_rad`` 6.3) so that the map holds every human; a 12 m room keeps the robot
+off the walls, whose stops the dead reckoning does not model.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+
+from pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
+from pipeline.sink import MemorySink
+from scenarios.loader import load_scenario
+from scenarios.runner import Session
+
+TICK_MS = 20
+MAX_SPEED_MPS = 0.5
+RADII_M = 0.3 + 0.25
+STOP_DISTANCE_M = 0.1
+PUSH_TICKS = 25
+"""Ticks after a contact that (2) and (3) skip: 0.5 s, braking a 0.5 m/s push at 1 m/s²."""
+
+unit = st.floats(-1.0, 1.0, allow_nan=False).map(lambda v: round(v, 3))
+spot = st.tuples(st.floats(4.0, 8.0), st.floats(4.0, 8.0)).map(
+    lambda p: (round(p[0], 3), round(p[1], 3))
+)
+pad_state = st.tuples(
+    st.integers(2, 40),  # ticks held
+    unit,
+    unit,
+    unit,
+    st.sampled_from([(), ("LB",), ("LB",), ("LB",), ("LB", "RB"), ("LB", "X")]),
+)
+move_block = st.tuples(
+    st.floats(-0.8, 0.8).map(lambda v: round(v, 3)),
+    st.floats(-0.8, 0.8).map(lambda v: round(v, 3)),
+    st.floats(-2.0, 2.0).map(lambda v: round(v, 3)),
+    st.integers(100, 1500),
+)
+start = st.tuples(st.floats(1.2, 2.5), st.floats(-math.pi, math.pi)).map(
+    lambda p: (round(6.0 + p[0] * math.cos(p[1]), 3), round(6.0 + p[0] * math.sin(p[1]), 3))
+)
+"""Where a human starts: 1.2 to 2.5 m from the robot, clear of it."""
+human = st.tuples(
+    start,
+    st.lists(spot, min_size=1, max_size=4),
+    st.floats(0.2, 1.0).map(lambda v: round(v, 3)),
+)
+
+
+def scenario_text(pads, moves, humans, heading: float) -> str:
+    lines = [
+        'name = "safety property"',
+        "duration_s = 5.0",
+        "[world]",
+        "width_m = 12.0",
+        "height_m = 12.0",
+        "[robot]",
+        "x_m = 6.0",
+        "y_m = 6.0",
+        f"theta_rad = {heading}",
+        "[sensors]",
+        "fov_rad = 6.3",
+        "range_m = 20.0",
+    ]
+    for i, (start, waypoints, speed) in enumerate(humans):
+        points = ", ".join(f"[{x}, {y}]" for x, y in waypoints)
+        lines += [
+            "[[humans]]",
+            f'id = "h{i}"',
+            f"x_m = {start[0]}",
+            f"y_m = {start[1]}",
+            f'behaviour = [{{ kind = "waypoints", waypoints = [{points}], speed_mps = {speed} }}]',
+        ]
+    if moves:
+        lines += ["[[activities]]", 'script = "activities/moves.txt"']
+    at_tick = 5
+    for held, left_x, left_y, right_x, buttons in pads:
+        lines += [
+            "[[events]]",
+            'kind = "joystick"',
+            f"at_s = {at_tick * TICK_MS / 1000}",
+            f"left_x = {left_x}",
+            f"left_y = {left_y}",
+            f"right_x = {right_x}",
+            f"buttons = {list(buttons)!r}".replace("'", '"'),
+        ]
+        at_tick += held
+    return "\n".join(lines) + "\n"
+
+
+def script_text(moves) -> str:
+    lines = ["[moves]", "[goal:drive]", "[action]"]
+    for i, (v_x, v_y, v_theta, duration) in enumerate(moves):
+        lines.append(f'[b#m{i}#blk_inst: MV("{v_x}, {v_y}, {v_theta}, 0, {duration}") LD() AO()]')
+    lines.append("[b#end#blk_terminus]")
+    return "\n".join(lines) + "\n"
+
+
+def run_session(pads, moves, humans, heading: float) -> MemorySink:
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        (root / "activities").mkdir()
+        (root / "activities" / "moves.txt").write_text(script_text(moves))
+        (root / "property.toml").write_text(scenario_text(pads, moves, humans, heading))
+        session = Session(load_scenario(root / "property.toml"))
+        memory = MemorySink()
+        session.sink.add(memory)
+        session.run()
+    return memory
+
+
+@settings(
+    max_examples=40,
+    derandomize=True,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(
+    pads=st.lists(pad_state, max_size=8),
+    moves=st.lists(move_block, max_size=5),
+    humans=st.lists(human, min_size=1, max_size=2),
+    heading=st.floats(-3.1, 3.1).map(lambda v: round(v, 3)),
+)
+def test_no_source_drives_the_robot_too_fast_into_a_human_or_past_a_lock_release(
+    pads, moves, humans, heading
+) -> None:
+    memory = run_session(pads, moves, humans, heading)
+    states: list[WorldState] = memory.on(Topic.WORLD_STATE)  # type: ignore[assignment]
+    pushed_until = -1
+    speeds = {}
+    for state in states:
+        robot = state.robot
+        speed = math.hypot(robot.vx_mps, robot.vy_mps)
+        speeds[state.tick] = speed
+        assert speed <= MAX_SPEED_MPS + 1e-9, f"tick {state.tick}: {speed} m/s"
+        if state.contacts:
+            pushed_until = state.tick + PUSH_TICKS
+            event("a human pushed the robot")
+            continue
+        if state.tick <= pushed_until:
+            continue
+        for h in state.humans:
+            dx, dy = h.x_m - robot.x_m, h.y_m - robot.y_m
+            centre = math.hypot(dx, dy)
+            if centre - RADII_M < STOP_DISTANCE_M:
+                event("a human inside the stop zone")
+                closing = (robot.vx_mps * dx + robot.vy_mps * dy) / centre
+                assert closing <= 1e-9, f"tick {state.tick}: closing {closing} m/s on {h.id}"
+
+    script_moves = {
+        m.tick
+        for m in memory.on(Topic.ACTUATOR_COMMANDS)
+        if isinstance(m, ActuatorCommands)
+        and any(c.channel == "move" and c.source is Source.SCRIPT for c in m.commands)
+    }
+    contacts = [s.tick for s in states if s.contacts]
+    locked = False
+    for pad in memory.on(Topic.JOYSTICK):
+        assert isinstance(pad, JoystickInput)
+        lock = "LB" in pad.buttons
+        n = pad.tick
+        released = locked and not lock
+        locked = lock
+        if not released or {n, n + 1} & script_moves or n + 1 not in speeds:
+            continue
+        if any(n - PUSH_TICKS <= c <= n + 1 for c in contacts):
+            continue
+        event("the lock released")
+        assert speeds[n + 1] <= 1e-9, f"still moving at {speeds[n + 1]} m/s after release"

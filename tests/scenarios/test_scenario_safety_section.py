@@ -1,0 +1,59 @@
+"""The scenario's ``[robot.safety]`` section: decoded, defaulted, checked, recorded."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+
+from pipeline.act.safety import SafetyConfig
+from scenarios.errors import ScenarioError
+from scenarios.loader import parse_scenario
+from scenarios.runner import Session, pipeline_config
+
+
+def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
+    loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
+    assert loaded.scenario.robot.safety == SafetyConfig()
+    config = pipeline_config(loaded.scenario)
+    assert config.safety == SafetyConfig(robot_radius_m=0.35)
+
+
+def test_the_section_sets_the_zones() -> None:
+    text = (
+        b'name = "x"\n[robot.safety]\nstop_distance_m = 0.2\nslow_distance_m = 0.8\n'
+        b"slow_speed_mps = 0.1\nmax_data_age_ms = 300\nrobot_radius_m = 0.4\n"
+    )
+    safety = pipeline_config(parse_scenario(text).scenario).safety
+    assert (safety.stop_distance_m, safety.slow_distance_m, safety.slow_speed_mps) == (
+        0.2,
+        0.8,
+        0.1,
+    )
+    assert (safety.max_data_age_ms, safety.robot_radius_m) == (300, 0.4)
+
+
+@pytest.mark.parametrize(
+    ("body", "pattern", "line"),
+    [
+        ("stop_distance_m = -0.1\n", r"safety stop_distance_m must be a non-negative number", 3),
+        ("slow_distance_m = 0.05\n", r"the slow zone must contain the stop zone", 3),
+        ("slow_speed_mps = 0.2\nmax_data_age_ms = -5\n", r"max_data_age_ms must be", 4),
+        ("enabled = false\n", r"unknown field `enabled`", 3),
+    ],
+)
+def test_bad_safety_values_are_located_errors(body: str, pattern: str, line: int) -> None:
+    text = f'name = "x"\n[robot.safety]\n{body}'.encode()
+    with pytest.raises(ScenarioError, match=pattern) as caught:
+        parse_scenario(text, source="s.toml")
+    assert caught.value.line == line
+    assert str(caught.value).startswith(f"s.toml:{line}:")
+
+
+def test_the_supervisor_configuration_is_recorded_with_the_pipeline() -> None:
+    loaded = parse_scenario(
+        b'name = "x"\nduration_s = 0.1\n[robot.safety]\nslow_speed_mps = 0.15\n'
+    )
+    session = Session(loaded)
+    recorded = msgspec.json.decode(session.metadata()["configuration"]["pipeline"])
+    assert recorded["safety"]["slow_speed_mps"] == 0.15
+    assert recorded["safety"]["robot_radius_m"] == 0.3
