@@ -17,8 +17,7 @@ from pathlib import Path
 
 from oimi.cmd_run import print_result
 from oimi.cmd_serve import add_arguments as add_serve_arguments
-from oimi.ros2.bridge import BridgeSession
-from oimi.ros2.dds import Node, add_network_arguments, network_from_args
+from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.loader import load_scenario
 from scenarios.recording import recorded
@@ -30,6 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if why := missing_extra():
+        print(f"oimi bridge: {why}", file=sys.stderr)
+        return 2
+    from oimi.ros2.bridge import BridgeSession
+    from oimi.ros2.dds import Node
+
     loaded = load_scenario(args.scenario)
     network = network_from_args(args)
     output = args.output or Path("out") / f"{args.scenario.stem}-bridge.mcap"

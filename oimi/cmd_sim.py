@@ -15,8 +15,7 @@ import sys
 from pathlib import Path
 
 from oimi.cmd_bridge import note
-from oimi.ros2.dds import Node, add_network_arguments, network_from_args
-from oimi.ros2.sim import SimSession
+from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.loader import load_scenario
 from scenarios.recording import recorded
@@ -36,6 +35,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if why := missing_extra():
+        print(f"oimi sim: {why}", file=sys.stderr)
+        return 2
+    from oimi.ros2.dds import Node
+    from oimi.ros2.sim import SimSession
+
     loaded = load_scenario(args.scenario)
     network = network_from_args(args)
     if args.duration_s is not None and args.duration_s <= 0:

@@ -28,12 +28,13 @@ from oimi.ros2.remote import make_remote, outputs_message
 from pipeline.events import (
     Event,
     JoystickInput,
+    MapSnapshot,
     OperatorCommand,
     RuleChainState,
     RuleDecisions,
     Topic,
 )
-from pipeline.messages import ActuatorOutputs, WorldMap
+from pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
 from scenarios.live.inputs import JoystickGuard
 from scenarios.live.session import LiveSession
 from scenarios.loader import LoadedScenario
@@ -43,33 +44,40 @@ JOY_OWNER = "ros2:/joy"
 
 
 class ProgressPublisher:
-    """A sink that publishes the script's progress, the rule messages applied and the
-    rules' decisions on their ROS 2 topics."""
+    """A sink that publishes the script's progress (the map's ``scriptinfo`` when it
+    changes), the rule messages applied and the rules' decisions on their ROS 2 topics."""
 
     def __init__(self, node: Node, world_map: WorldMap) -> None:
         self.map = world_map
         self._script = node.writer(topics.SCRIPT_INFO)
         self._rules = node.writer(topics.RULE_MESSAGES)
         self._decisions = node.writer(topics.RULE_DECISIONS)
+        self._info: types.ScriptInfo | None = None
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
-        match topic, message:
-            case Topic.READER_PROGRESS, _:
-                self._script.write(script_info(self.map))
-            case Topic.RULE_CHAIN, RuleChainState():
+        match message:
+            case MapSnapshot():
+                info = script_info(self.map)
+                if info != self._info:
+                    self._info = info
+                    self._script.write(info)
+            case RuleChainState():
                 for rule in message.applied:
-                    self._rules.write(
-                        types.RuleMessage(
-                            rulecode=rule.rulecode,
-                            id=rule.id,
-                            intopic=rule.intopic,
-                            outtopic=rule.outtopic,
-                            action=int(rule.action),
-                            mutexcmd=int(rule.mutexcmd),
-                        )
-                    )
-            case Topic.RULE_DECISIONS, RuleDecisions():
+                    self._rules.write(rule_message(rule))
+            case RuleDecisions():
                 self._decisions.write(types.String(data=msgspec.json.encode(message).decode()))
+
+
+def rule_message(rule: RuleMessage) -> types.RuleMessage:
+    """An alfa/omega message as ``oimi_msgs/RuleMessage``."""
+    return types.RuleMessage(
+        rulecode=rule.rulecode,
+        id=rule.id,
+        intopic=rule.intopic,
+        outtopic=rule.outtopic,
+        action=int(rule.action),
+        mutexcmd=int(rule.mutexcmd),
+    )
 
 
 def script_info(world_map: WorldMap) -> types.ScriptInfo:

@@ -93,9 +93,7 @@ class RemoteBody:
             omega_radps=round(twist.angular.z, 6),
             radius_m=self.radius_m,
         )
-        return WorldState(
-            tick=tick, time_ms=time_ms, robot=robot, led=self.led, audio=self.audio
-        )
+        return WorldState(tick=tick, time_ms=time_ms, robot=robot, led=self.led, audio=self.audio)
 
 
 def make_remote(session: Session) -> tuple[RemoteBody, RemoteSensors]:
@@ -158,4 +156,3 @@ def outputs_message(outputs: ActuatorOutputs) -> tuple[types.Twist, types.ColorR
         types.ColorRGBA(r=r, g=g, b=b, a=1.0 if any(outputs.led) else 0.0),
         types.String(data=outputs.audio),
     )
-

@@ -21,8 +21,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from oimi.ros2 import topics, types
-from oimi.ros2.dds import Network, Node, take_all
+from oimi.ros2.dds import Node, take_all
 from oimi.ros2.joy import joy_of
+from oimi.ros2.network import Network
 from scenarios.live.inputs import NEUTRAL, Pad
 
 ROOM = Path(__file__).with_name("ros2_room.toml")
