@@ -252,7 +252,7 @@ def read_inputs(bag: Path, *, tick_ms: int) -> tuple[dict[int, _Inputs], int, bo
                     inputs.joys.append(((time_ns - start) / 1e9, sample))  # type: ignore[arg-type]
                 else:
                     getattr(inputs, field).append(sample)
-    except ReaderError as error:
+    except (ReaderError, OSError) as error:  # no metadata.yaml, a damaged file...
         raise BagError(f"not a readable rosbag2: {error}", source=str(bag)) from None
     return by_tick, last + 1, has_commands
 
