@@ -54,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
             asyncio.run(server.run())
     x, y, theta = session.world.robot_pose()
     print(
-        f"stopped after {server.ticks} ticks; {session.commands_received} cmd_vel received; "
+        f"stopped after {server.ticks} ticks; {session.mind.published} map updates sent, "
+        f"{session.commands_received} cmd_vel received; "
         f"robot at ({x:.3f}, {y:.3f}) m, heading {theta:.3f} rad",
         flush=True,
     )

@@ -18,11 +18,13 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Callable, Iterable
+from typing import Final
 
 import msgspec
+from cyclonedds.util import duration
 
 from oimi.ros2 import topics, types
-from oimi.ros2.dds import Node, take_all
+from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.remote import make_remote, outputs_message
 from pipeline.events import (
@@ -39,8 +41,10 @@ from scenarios.live.inputs import JoystickGuard
 from scenarios.live.session import LiveSession
 from scenarios.loader import LoadedScenario
 
-JOY_OWNER = "ros2:/joy"
+JOY_OWNER: Final = "ros2:/joy"
 """The joystick guard's owner for pad states that arrive over DDS."""
+STOP_ACK_MS: Final = 200
+"""How long the stopping bridge waits for the robot to acknowledge the stop."""
 
 
 class ProgressPublisher:
@@ -110,11 +114,12 @@ class BridgeSession(LiveSession):
         on_note: Callable[[str], None] | None = None,
     ) -> None:
         super().__init__(loaded, seed=seed)
+        self.network = node.network
         self.body, self.remote_sensors = make_remote(self)
         self.on_note = on_note
         self.guard: JoystickGuard | None = None
-        self._updates = node.reader(topics.MAP_UPDATES)
-        self._joy = node.reader(topics.JOY)
+        self._updates = node.reader(topics.MAP_UPDATES, depth=DEEP)
+        self._joy = node.reader(topics.JOY, depth=DEEP)
         self._odometry = node.reader(topics.ODOM)
         self._cmd_vel = node.writer(topics.CMD_VEL)
         self._led = node.writer(topics.LED)
@@ -160,9 +165,22 @@ class BridgeSession(LiveSession):
             self._audio.write(audio)
 
     def stand_still(self) -> None:
-        """The bridge is stopping: the robot stops, lights off, silence."""
+        """The bridge is stopping: the robot stops, lights off, silence (waiting a moment
+        for the robot to acknowledge; a robot that missed it stops when cmd_vel falls
+        silent)."""
         self._shown = None
         self.publish(ActuatorOutputs())
+        for writer in (self._cmd_vel, self._led, self._audio):
+            writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        metadata = super().metadata()
+        metadata["ros2"] = {
+            "role": "bridge",
+            "domain_id": str(self.network.domain_id),
+            "interface": self.network.interface,
+        }
+        return metadata
 
     def _note(self, text: str) -> None:
         if self.on_note is not None:

@@ -19,14 +19,25 @@ from cyclonedds.util import duration
 from oimi.ros2.network import Network, NetworkError
 from oimi.ros2.topics import RosTopic
 
-ROS_QOS: Final = Qos(
-    Policy.Reliability.Reliable(duration(milliseconds=100)),
-    Policy.Durability.Volatile,
-    Policy.History.KeepLast(10),
-)
-"""ROS 2's default QoS profile (``rmw_qos_profile_default``)."""
+ROS_DEPTH: Final = 10
+
+
+def ros_qos(depth: int = ROS_DEPTH) -> Qos:
+    """ROS 2's default QoS profile (``rmw_qos_profile_default``): reliable, volatile,
+    keep last ``depth`` (10)."""
+    return Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(depth),
+    )
+
+
 READ_BATCH: Final = 256
 """Samples taken from a reader at a time."""
+DEEP: Final = 1000
+"""History depth for inputs that must not be lost between two ticks (map updates, pad
+states): a tick's burst of updates exceeds ROS 2's default 10. Depth is not matched
+between endpoints, so ROS 2 nodes with default QoS still connect."""
 
 
 class Node:
@@ -46,17 +57,17 @@ class Node:
     def _topic(self, topic: RosTopic) -> Topic:
         if topic.dds_name not in self._topics:
             self._topics[topic.dds_name] = Topic(
-                self.participant, topic.dds_name, topic.kind, qos=ROS_QOS
+                self.participant, topic.dds_name, topic.kind, qos=ros_qos()
             )
         return self._topics[topic.dds_name]
 
-    def writer(self, topic: RosTopic) -> DataWriter:
-        """A writer on a ROS 2 topic, with ROS 2's default QoS."""
-        return DataWriter(self.participant, self._topic(topic), qos=ROS_QOS)
+    def writer(self, topic: RosTopic, *, depth: int = ROS_DEPTH) -> DataWriter:
+        """A writer on a ROS 2 topic, with ROS 2's default QoS (``depth``: keep last)."""
+        return DataWriter(self.participant, self._topic(topic), qos=ros_qos(depth))
 
-    def reader(self, topic: RosTopic) -> DataReader:
-        """A reader on a ROS 2 topic, with ROS 2's default QoS."""
-        return DataReader(self.participant, self._topic(topic), qos=ROS_QOS)
+    def reader(self, topic: RosTopic, *, depth: int = ROS_DEPTH) -> DataReader:
+        """A reader on a ROS 2 topic, with ROS 2's default QoS (``depth``: keep last)."""
+        return DataReader(self.participant, self._topic(topic), qos=ros_qos(depth))
 
     def close(self) -> None:
         """Leave the domain (peers see the node go)."""

@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import Final
 
 from oimi.ros2 import topics, types
-from oimi.ros2.dds import Node, take_all
+from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.remote import odometry, outputs_of
 from pipeline.events import JoystickInput, OperatorCommand
 from pipeline.loop import Pipeline
@@ -33,7 +33,9 @@ class _RemoteMind:
         self.handler = pipeline.handler
         self.actuator = pipeline.actuator
         self.outputs = ActuatorOutputs()
-        self._updates = node.writer(topics.MAP_UPDATES)
+        self.published = 0
+        """Map updates published so far."""
+        self._updates = node.writer(topics.MAP_UPDATES, depth=DEEP)
 
     def tick(
         self,
@@ -52,6 +54,7 @@ class _RemoteMind:
                     jsonmsg=update.jsonmsg,
                 )
             )
+        self.published += len(updates)
         return self.outputs
 
 
