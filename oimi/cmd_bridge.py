@@ -16,9 +16,11 @@ import sys
 from pathlib import Path
 
 from oimi.cmd_run import print_result
+from oimi.cmd_serve import _announce as announce
+from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from scenarios.live.server import Addresses, LiveServer, ServeConfig
+from scenarios.live.server import LiveServer, ServeConfig
 from scenarios.loader import load_scenario
 from scenarios.recording import recorded
 
@@ -65,16 +67,3 @@ def run(args: argparse.Namespace) -> int:
     print(f"recording: {output}", flush=True)
     return 0
 
-
-def announce(addresses: Addresses) -> None:
-    """Where the operator's interfaces listen, then that the session runs."""
-    if addresses.tcp is not None:
-        host, port = addresses.tcp
-        print(f"app interface: tcp {host}:{port}")
-    if addresses.console is not None:
-        print(f"console: {addresses.console}")
-    print("bridging; Ctrl-C to stop", flush=True)
-
-
-def note(text: str) -> None:
-    print(f"note: {text}", file=sys.stderr, flush=True)

@@ -14,7 +14,7 @@ import asyncio
 import sys
 from pathlib import Path
 
-from oimi.cmd_bridge import note
+from oimi.cmd_serve import _note as note
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.loader import load_scenario
