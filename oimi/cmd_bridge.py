@@ -66,4 +66,3 @@ def run(args: argparse.Namespace) -> int:
     print_result(session.result())
     print(f"recording: {output}", flush=True)
     return 0
-

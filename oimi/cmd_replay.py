@@ -61,9 +61,11 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
     from scenarios.loader import load_scenario
 
     output = args.output or Path("out") / f"{args.recording.name}-replay.mcap"
-    result, ticks = replay_rosbag(
+    result, ticks, notes = replay_rosbag(
         args.recording, load_scenario(args.scenario), output=output, seed=args.seed
     )
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
     print(f"rosbag2 {args.recording}: {ticks} ticks driven")
     print_result(result)
     print(f"recording: {output}")

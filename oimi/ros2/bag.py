@@ -266,9 +266,9 @@ def _decode(kind: type, raw: bytes | memoryview, where: str) -> object:
 
 def replay_rosbag(
     bag: Path, loaded: LoadedScenario, *, output: Path | None, seed: int | None = None
-) -> tuple[RunResult, int]:
+) -> tuple[RunResult, int, list[str]]:
     """Drive the scenario's pipeline over the bag's inputs, recording to ``output``;
-    the session's result and the number of ticks run."""
+    the session's result, the number of ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
     session = Session(loaded, seed=seed, autostart=not has_commands)
     body, sensors = make_remote(session)
@@ -288,4 +288,4 @@ def replay_rosbag(
             pad = guard.take(now_s=time_ms / 1000)
             joystick = None if pad is None else pad.at(tick=tick, time_ms=time_ms)
             session.step(tick, commands=now.commands, joystick=joystick)
-    return session.result(), ticks
+    return session.result(), ticks, [*sensors.refused, *guard.released]

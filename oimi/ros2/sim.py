@@ -84,6 +84,14 @@ class SimSession(Session):
         self.commands_received = 0
         """``cmd_vel`` messages taken so far."""
 
+    def metadata(self) -> dict[str, dict[str, str]]:
+        metadata = super().metadata()
+        metadata["ros2"] = {
+            "role": "sim",
+            "replay": "none: the world only, commanded over ROS 2; the mind ran elsewhere",
+        }
+        return metadata
+
     def step(
         self,
         tick: int,
