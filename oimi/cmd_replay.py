@@ -41,6 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.recording.is_dir():
         return _drive_rosbag(args)
+    if args.scenario is not None or args.output is not None or args.seed is not None:
+        print("oimi replay: --scenario, -o and --seed are for a rosbag2 folder", file=sys.stderr)
+        return 2
     comparison = MODES[args.mode](args.recording)
     print(format_report(comparison))
     return 0 if comparison.ok else 1
@@ -49,6 +52,11 @@ def run(args: argparse.Namespace) -> int:
 def _drive_rosbag(args: argparse.Namespace) -> int:
     if why := missing_extra():
         print(f"oimi replay: {why}", file=sys.stderr)
+        return 2
+    if args.mode != "redrive":
+        print(
+            "oimi replay: a rosbag2 is driven, not re-run: --mode does not apply", file=sys.stderr
+        )
         return 2
     if args.scenario is None:
         print(

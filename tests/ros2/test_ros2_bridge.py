@@ -80,8 +80,9 @@ def test_the_activity_drives_the_simulated_robot_over_cmd_vel(drive):
     assert moves[0].source is Source.SCRIPT and moves[0].v_x == pytest.approx(0.1)
     assert bridge.summary[Topic.SENSOR_UPDATES.value] > 0  # the sim's sensors, over DDS
     sim = open_recording(out / "sim.mcap")
-    xs = [m.decoded().robot.x_m for m in sim.iter_messages([Topic.WORLD_STATE])]
-    assert max(xs) > xs[0] + 0.005  # it drove forward
+    states = [m.decoded() for m in sim.iter_messages([Topic.WORLD_STATE])]
+    assert max(s.robot.x_m for s in states) > states[0].robot.x_m + 0.005  # it drove forward
+    assert any(s.led == pytest.approx((0.0, 0.8, 0.0)) for s in states)  # the script's green
 
 
 def test_the_pad_takes_over_with_the_lock_and_stops_on_release(drive):

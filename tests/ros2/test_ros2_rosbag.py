@@ -107,3 +107,7 @@ def test_a_bag_without_a_scenario_or_not_a_bag_is_refused(exported, tmp_path, ca
     assert "not a readable rosbag2" in capsys.readouterr().err
     assert main(["export", "--ros2", str(exported[0]), str(bag)]) == 2
     assert "exists already" in capsys.readouterr().err
+    assert main(["replay", str(bag), "--mode", "rerun", "--scenario", str(SCENARIO)]) == 2
+    assert "--mode does not apply" in capsys.readouterr().err
+    assert main(["replay", str(exported[0]), "--scenario", str(SCENARIO)]) == 2
+    assert "are for a rosbag2 folder" in capsys.readouterr().err
