@@ -17,6 +17,7 @@ bridge stops, it commands the robot to stand still.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from collections.abc import Callable, Iterable
 from typing import Final
 
@@ -171,7 +172,9 @@ class BridgeSession(LiveSession):
         self._shown = None
         self.publish(ActuatorOutputs())
         for writer in (self._cmd_vel, self._led, self._audio):
-            writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
+            # Best effort: cyclonedds 11.0.1 raises AttributeError when the wait times out.
+            with contextlib.suppress(Exception):
+                writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
 
     def metadata(self) -> dict[str, dict[str, str]]:
         metadata = super().metadata()

@@ -11,6 +11,7 @@ from typing import Final
 
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import Domain, DomainParticipant
+from cyclonedds.internal import InvalidSample
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -82,10 +83,11 @@ class Node:
 
 
 def take_all(reader: DataReader) -> list[object]:
-    """Every sample waiting on ``reader``, oldest first."""
+    """Every sample waiting on ``reader``, oldest first (without the data-less notices
+    DDS gives when a writer goes away)."""
     samples: list[object] = []
     while batch := reader.take(N=READ_BATCH):
-        samples.extend(batch)
+        samples.extend(s for s in batch if not isinstance(s, InvalidSample))
         if len(batch) < READ_BATCH:
             break
     return samples

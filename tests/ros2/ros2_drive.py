@@ -42,7 +42,9 @@ class Operator:
         self.odometry = node.reader(topics.ODOM)
         self.cmd_vel = node.reader(topics.CMD_VEL)
         self.joy = node.writer(topics.JOY)
+        self.cmd = node.writer(topics.CMD_VEL)
         self.pad: Pad | None = None
+        self.twist: types.Twist | None = None
         self.last: types.Odometry | None = None
         self.commands: list[types.Twist] = []
 
@@ -53,6 +55,8 @@ class Operator:
         self.commands.extend(take_all(self.cmd_vel))  # type: ignore[arg-type]
         if self.pad is not None:
             self.joy.write(joy_of(self.pad, time_ns=time.monotonic_ns()))
+        if self.twist is not None:
+            self.cmd.write(self.twist)
 
     def wait(self, what: str, done: Callable[[], bool]) -> bool:
         end = time.monotonic() + WAIT_S
@@ -79,6 +83,17 @@ def oimi(*args: str) -> subprocess.Popen[str]:
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def end(process: subprocess.Popen[str]) -> tuple[int, str, str]:
+    """Ctrl-C, then its exit code and what it printed."""
+    process.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = process.communicate(timeout=WAIT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        stdout, stderr = process.communicate()
+    return process.returncode, stdout, stderr
 
 
 def request(stream: socket.socket, reader, **fields: object) -> dict:  # type: ignore[no-untyped-def]
@@ -133,18 +148,23 @@ def main(out: Path) -> int:
                 (c.linear.x, c.linear.y, c.angular.z) for c in op.commands[:20]
             ]
             op.pad = None
+            # The bridge goes; someone else drives the robot, then falls silent.
+            result["bridge_exit"], result["bridge_stdout"], result["bridge_stderr"] = end(bridge)
+            op.twist = types.Twist(linear=types.Vector3(x=0.2))
+            result["moves_again"] = op.wait(
+                "cmd_vel from this process to move the robot", lambda: op.velocity()[0] > 0.05
+            )
+            op.twist = None
+            result["silence_stops"] = op.wait(
+                "the robot to stop when cmd_vel falls silent",
+                lambda: max(map(abs, op.velocity())) < 1e-3,
+            )
     finally:
-        for process in (bridge, sim):
-            process.send_signal(signal.SIGINT)
         for name, process in (("bridge", bridge), ("sim", sim)):
-            try:
-                stdout, stderr = process.communicate(timeout=WAIT_S)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                stdout, stderr = process.communicate()
-            result[f"{name}_exit"] = process.returncode
-            result[f"{name}_stdout"] = stdout
-            result[f"{name}_stderr"] = stderr
+            if process.returncode is None:
+                result[f"{name}_exit"], result[f"{name}_stdout"], result[f"{name}_stderr"] = end(
+                    process
+                )
     (out / "drive.json").write_text(json.dumps(result, indent=1))
     return 0
 

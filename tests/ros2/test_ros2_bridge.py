@@ -111,3 +111,10 @@ def test_the_pad_takes_over_with_the_lock_and_stops_on_release(drive):
 def test_the_bridge_recording_replays_clean(drive):
     _, out = drive
     assert main(["replay", str(out / "bridge.mcap"), "--mode", "redrive"]) == 0
+
+
+def test_the_simulated_robot_stands_still_when_cmd_vel_falls_silent(drive):
+    result, _ = drive
+    assert result["moves_again"], result["sim_stderr"]
+    assert result["silence_stops"], result["sim_stderr"]
+    assert "no cmd_vel for 500 ms: standing still" in result["sim_stderr"]
