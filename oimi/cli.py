@@ -22,6 +22,9 @@ COMMANDS: tuple[str, ...] = (
     "serve",
     "batch",
     "bench",
+    "bridge",
+    "sim",
+    "export",
 )
 """Sub-commands, each in ``oimi/cmd_<name>.py`` with ``add_arguments(parser)`` and ``run(args)``."""
 

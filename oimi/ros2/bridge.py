@@ -1,0 +1,190 @@
+"""``oimi bridge``: the pipeline as a ROS 2 participant, run as a live session.
+
+The live server (``scenarios/live/server.py``) paces the session to the wall clock and
+serves the operator's App Interface and console as in ``oimi serve``. Each tick the
+bridge's session takes what arrived over DDS: map updates become the tick's sensor
+updates, ``Joy`` states go to the live session's joystick guard (the same dead-man
+rules as the console's pad: the lock is released when the pad falls silent for
+0.5 s), odometry becomes the recorded world state. After the tick it publishes the
+actuator's outputs (``cmd_vel`` every tick; LED and audio when they change) and,
+through a sink, the script's progress and the rules' messages and decisions.
+
+Every input enters the recording at the tick that used it, exactly as in a live
+session, so the recording replays with ``oimi replay --mode redrive``. When the
+bridge stops, it commands the robot to stand still.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable, Iterable
+from typing import Final
+
+import msgspec
+from cyclonedds.util import duration
+
+from oimi.ros2 import topics, types
+from oimi.ros2.dds import DEEP, Node, take_all
+from oimi.ros2.joy import pad_of
+from oimi.ros2.remote import make_remote, outputs_message
+from pipeline.events import (
+    Event,
+    JoystickInput,
+    MapSnapshot,
+    OperatorCommand,
+    RuleChainState,
+    RuleDecisions,
+    Topic,
+)
+from pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from scenarios.live.inputs import JoystickGuard
+from scenarios.live.session import LiveSession
+from scenarios.loader import LoadedScenario
+
+JOY_OWNER: Final = "ros2:/joy"
+"""The joystick guard's owner for pad states that arrive over DDS."""
+STOP_ACK_MS: Final = 200
+"""How long the stopping bridge waits for the robot to acknowledge the stop."""
+
+
+class ProgressPublisher:
+    """A sink that publishes the script's progress (the map's ``scriptinfo`` when it
+    changes), the rule messages applied and the rules' decisions on their ROS 2 topics."""
+
+    def __init__(self, node: Node, world_map: WorldMap) -> None:
+        self.map = world_map
+        self._script = node.writer(topics.SCRIPT_INFO)
+        self._rules = node.writer(topics.RULE_MESSAGES)
+        self._decisions = node.writer(topics.RULE_DECISIONS)
+        self._info: types.ScriptInfo | None = None
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        match message:
+            case MapSnapshot():
+                info = script_info(self.map)
+                if info != self._info:
+                    self._info = info
+                    self._script.write(info)
+            case RuleChainState():
+                for rule in message.applied:
+                    self._rules.write(rule_message(rule))
+            case RuleDecisions():
+                self._decisions.write(types.String(data=msgspec.json.encode(message).decode()))
+
+
+def rule_message(rule: RuleMessage) -> types.RuleMessage:
+    """An alfa/omega message as ``oimi_msgs/RuleMessage``."""
+    return types.RuleMessage(
+        rulecode=rule.rulecode,
+        id=rule.id,
+        intopic=rule.intopic,
+        outtopic=rule.outtopic,
+        action=int(rule.action),
+        mutexcmd=int(rule.mutexcmd),
+    )
+
+
+def script_info(world_map: WorldMap) -> types.ScriptInfo:
+    """The map's ``scriptinfo`` as ``oimi_msgs/ScriptInfo``."""
+    info = world_map.scriptinfo
+    return types.ScriptInfo(
+        currentactivity=info.currentactivity,
+        scriptpath=info.scriptpath,
+        goalid=info.goalid,
+        actionid=info.actionid,
+        blockid=info.blockid,
+        goalname=info.goalname,
+        submove=info.submove,
+        subled=info.subled,
+        subaout=info.subaout,
+        block="" if info.block is None else msgspec.json.encode(info.block).decode(),
+        script_vect=list(info.script_vect),
+    )
+
+
+class BridgeSession(LiveSession):
+    """A live session whose body and sensors are a ROS 2 robot reached through ``node``."""
+
+    def __init__(
+        self,
+        loaded: LoadedScenario,
+        node: Node,
+        *,
+        seed: int | None = None,
+        on_note: Callable[[str], None] | None = None,
+    ) -> None:
+        super().__init__(loaded, seed=seed)
+        self.network = node.network
+        self.body, self.remote_sensors = make_remote(self)
+        self.on_note = on_note
+        self.guard: JoystickGuard | None = None
+        self._updates = node.reader(topics.MAP_UPDATES, depth=DEEP)
+        self._joy = node.reader(topics.JOY, depth=DEEP)
+        self._odometry = node.reader(topics.ODOM)
+        self._cmd_vel = node.writer(topics.CMD_VEL)
+        self._led = node.writer(topics.LED)
+        self._audio = node.writer(topics.AUDIO)
+        self._shown: tuple[tuple[float, float, float], str] | None = None
+        self.sink.add(ProgressPublisher(node, self.pipeline.map))
+
+    def attach(self, guard: JoystickGuard) -> None:
+        """Hand the pad states received to the live server's joystick guard."""
+        self.guard = guard
+
+    def step(
+        self,
+        tick: int,
+        *,
+        commands: Iterable[OperatorCommand] = (),
+        joystick: JoystickInput | None = None,
+    ) -> None:
+        """Take what arrived over DDS, run the tick, publish the body's command."""
+        for update in take_all(self._updates):
+            self.remote_sensors.receive(update)  # type: ignore[arg-type]
+        for odometry in take_all(self._odometry):
+            self.body.odometry = odometry  # type: ignore[assignment]
+        pads = [pad_of(joy) for joy in take_all(self._joy)]  # type: ignore[arg-type]
+        if pads and self.guard is not None:
+            now_s = asyncio.get_running_loop().time()
+            for pad in pads:
+                self.guard.receive(JOY_OWNER, pad, now_s=now_s)
+        for why in self.remote_sensors.refused:
+            self._note(why)
+        self.remote_sensors.refused.clear()
+        super().step(tick, commands=commands, joystick=joystick)
+        self.publish(self.outputs)
+
+    def publish(self, outputs: ActuatorOutputs) -> None:
+        """Command the body: velocity every time, LED and audio when they change."""
+        twist, led, audio = outputs_message(outputs)
+        self._cmd_vel.write(twist)
+        shown = (outputs.led, outputs.audio)
+        if shown != self._shown:
+            self._shown = shown
+            self._led.write(led)
+            self._audio.write(audio)
+
+    def stand_still(self) -> None:
+        """The bridge is stopping: the robot stops, lights off, silence (waiting a moment
+        for the robot to acknowledge; a robot that missed it stops when cmd_vel falls
+        silent)."""
+        self._shown = None
+        self.publish(ActuatorOutputs())
+        for writer in (self._cmd_vel, self._led, self._audio):
+            # Best effort: cyclonedds 11.0.1 raises AttributeError when the wait times out.
+            with contextlib.suppress(Exception):
+                writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        metadata = super().metadata()
+        metadata["ros2"] = {
+            "role": "bridge",
+            "domain_id": str(self.network.domain_id),
+            "interface": self.network.interface,
+        }
+        return metadata
+
+    def _note(self, text: str) -> None:
+        if self.on_note is not None:
+            self.on_note(text)

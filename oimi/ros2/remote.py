@@ -1,0 +1,158 @@
+"""A body and sensors that are somewhere else: the session's world and sensors when the
+robot is reached over ROS 2 (``oimi bridge``) or read from a rosbag2 (``oimi replay``).
+
+``RemoteSensors`` hands the session the map updates that arrived since the last tick,
+numbered in arrival order; ``RemoteBody`` keeps the robot's latest odometry for the
+recorded world state. Neither simulates anything: scenario touches, faults and people's
+behaviours belong to the real room and are ignored.
+"""
+
+from __future__ import annotations
+
+import math
+
+from oimi.ros2 import types
+from pipeline.events import BodyState, WorldState
+from pipeline.messages import ActuatorOutputs, MapUpdate, Policy
+from scenarios.runner import Session
+from scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
+
+
+class RemoteSensors:
+    """The map updates received, given to the session once, at the next tick."""
+
+    def __init__(self) -> None:
+        self._inbox: list[MapUpdate] = []
+        self._seq = 0
+        self.refused: list[str] = []
+        """Why an update was refused before it reached the pipeline (read and cleared)."""
+
+    def receive(self, update: types.MapUpdate) -> None:
+        """A ``MapUpdate`` arrived; one with a policy other than R or A is refused."""
+        try:
+            policy = Policy(update.policy)
+        except ValueError:
+            self.refused.append(
+                f"map update for {update.objectid!r}/{update.attributename!r} refused: "
+                f"policy {update.policy!r} is not 'R' or 'A'"
+            )
+            return
+        self._seq += 1
+        self._inbox.append(
+            MapUpdate(
+                objectid=update.objectid,
+                attributename=update.attributename,
+                policy=policy,
+                jsonmsg=update.jsonmsg,
+                seq=self._seq,
+            )
+        )
+
+    def sample(self, world: object, *, tick: int, time_ms: int) -> list[MapUpdate]:
+        """The updates received since the last tick, in arrival order."""
+        updates, self._inbox = self._inbox, []
+        return updates
+
+    def touch(self, event: TouchEvent, *, time_ms: int) -> None:
+        """Touches come from the robot's own sensors."""
+
+    def fault(self, event: FaultEvent) -> None:
+        """Faults happen to the robot's own sensors."""
+
+
+class RemoteBody:
+    """The robot as its odometry reports it; the LED and audio as oimi last asked."""
+
+    def __init__(self, radius_m: float) -> None:
+        self.radius_m = radius_m
+        self.odometry = types.Odometry()
+        self.led: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self.audio = ""
+
+    def step(self, outputs: ActuatorOutputs, *, tick: int) -> None:
+        """The body moves by itself."""
+
+    def apply_event(self, event: BehaviourEvent) -> None:
+        """People in the real room do as they please."""
+
+    def state(self, *, tick: int, time_ms: int) -> WorldState:
+        """The robot's latest reported pose and velocity (world frame)."""
+        pose, twist = self.odometry.pose.pose, self.odometry.twist.twist
+        q = pose.orientation
+        theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        cos, sin = math.cos(theta), math.sin(theta)
+        vx, vy = twist.linear.x, twist.linear.y
+        robot = BodyState(
+            id="robot",
+            kind="robot",
+            x_m=round(pose.position.x, 6),
+            y_m=round(pose.position.y, 6),
+            theta_rad=round(theta, 6),
+            vx_mps=round(cos * vx - sin * vy, 6),
+            vy_mps=round(sin * vx + cos * vy, 6),
+            omega_radps=round(twist.angular.z, 6),
+            radius_m=self.radius_m,
+        )
+        return WorldState(tick=tick, time_ms=time_ms, robot=robot, led=self.led, audio=self.audio)
+
+
+def make_remote(session: Session) -> tuple[RemoteBody, RemoteSensors]:
+    """Give ``session`` a remote body and sensors in place of its simulated ones."""
+    body = RemoteBody(session.scenario.robot.radius_m)
+    sensors = RemoteSensors()
+    session.world = body  # type: ignore[assignment]
+    session.sensors = sensors  # type: ignore[assignment]
+    return body, sensors
+
+
+def odometry(
+    *, time_ns: int, pose: tuple[float, float, float], velocity: tuple[float, float, float]
+) -> types.Odometry:
+    """An odometry message: ``pose`` (x m, y m, heading rad) in the odom frame,
+    ``velocity`` (forward m/s, leftward m/s, turn rad/s) in the body frame."""
+    x, y, theta = pose
+    return types.Odometry(
+        header=types.Header(stamp=types.stamp(time_ns), frame_id="odom"),
+        child_frame_id="base_link",
+        pose=types.PoseWithCovariance(
+            pose=types.Pose(
+                position=types.Point(x=x, y=y),
+                orientation=types.Quaternion(z=math.sin(theta / 2), w=math.cos(theta / 2)),
+            )
+        ),
+        twist=types.TwistWithCovariance(
+            twist=types.Twist(
+                linear=types.Vector3(x=velocity[0], y=velocity[1]),
+                angular=types.Vector3(z=velocity[2]),
+            )
+        ),
+    )
+
+
+def outputs_of(twist: types.Twist, led: types.ColorRGBA, audio: types.String) -> ActuatorOutputs:
+    """What the body is asked to do, from the last commands received (a non-finite
+    number is read as 0: nothing received drives the body at an undefined speed)."""
+
+    def finite(value: float) -> float:
+        return value if math.isfinite(value) else 0.0
+
+    return ActuatorOutputs(
+        v_x=finite(twist.linear.x),
+        v_y=finite(twist.linear.y),
+        v_theta=finite(twist.angular.z),
+        led=(finite(led.r), finite(led.g), finite(led.b)),
+        audio=audio.data,
+    )
+
+
+def outputs_message(outputs: ActuatorOutputs) -> tuple[types.Twist, types.ColorRGBA, types.String]:
+    """The commands that ask a body for ``outputs``."""
+    r, g, b = outputs.led
+    return (
+        types.Twist(
+            linear=types.Vector3(x=outputs.v_x, y=outputs.v_y),
+            angular=types.Vector3(z=outputs.v_theta),
+        ),
+        types.ColorRGBA(r=r, g=g, b=b, a=1.0 if any(outputs.led) else 0.0),
+        types.String(data=outputs.audio),
+    )
