@@ -84,6 +84,8 @@ class Task(msgspec.Struct, frozen=True, kw_only=True):
     """(dotted key, TOML value text), sorted by key."""
     out_dir: str
     """Where the recording and the result sidecar go."""
+    allow_outside_paths: bool = False
+    """Scripts may be outside the scenario's folder and the library (``--allow-outside-paths``)."""
 
     @property
     def mcap(self) -> Path:
@@ -209,13 +211,14 @@ def expand(
     seeds: int | None,
     seed_range: range | None,
     out_dir: Path,
+    allow_outside_paths: bool = False,
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
     each combination once, so bad files or overrides fail here, before anything runs."""
     tasks: list[Task] = []
     combos = grid(params)
     for path in scenarios:
-        loaded = load_scenario(path)
+        loaded = load_scenario(path, allow_outside=allow_outside_paths)
         for combo in combos:
             apply_overrides(loaded.scenario, dict(combo))
             for seed in seeds_for(loaded.scenario.seed, seeds=seeds, seed_range=seed_range):
@@ -226,6 +229,7 @@ def expand(
                         seed=seed,
                         overrides=combo,
                         out_dir=str(out_dir),
+                        allow_outside_paths=allow_outside_paths,
                     )
                 )
     return tasks
@@ -239,6 +243,7 @@ def expand_spec(
     params: Mapping[str, Sequence[str]] | None = None,
     seeds: int | None = None,
     seed_range: range | None = None,
+    allow_outside_paths: bool = False,
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
     groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds."""
@@ -270,6 +275,7 @@ def expand_spec(
             seeds=group_seeds,
             seed_range=group_range,
             out_dir=out_dir,
+            allow_outside_paths=allow_outside_paths,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))
