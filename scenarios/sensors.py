@@ -44,7 +44,7 @@ class _Update(msgspec.Struct, frozen=True):
     jsonmsg: str
 
 
-class _Schedule:
+class Schedule:
     """Something due every ``period_ms`` from 0, at most once a tick.
 
     The scenario's ranges keep periods positive and finite; this refuses any other
@@ -69,7 +69,7 @@ class _Schedule:
         return True
 
 
-class _Sensor(_Schedule):
+class _Sensor(Schedule):
     """Mode, schedule, tracks and last reading of one sensor."""
 
     def __init__(self, ident: str, period_ms: float):
@@ -90,7 +90,7 @@ class Sensors:
         self.rng = rng
         self.camera = _Sensor(config.camera_id, _period_ms(config.rate_hz))
         self.sonar = _Sensor(config.sonar_id, _period_ms(config.sonar_scan_hz))
-        self._status = _Schedule(config.status_period_s * 1000)
+        self._status = Schedule(config.status_period_s * 1000)
         self._seq = 0
         self._started = False
         self._pending: list[_Update] = []
@@ -278,7 +278,7 @@ class Sensors:
 
 
 def _period_ms(rate_hz: float) -> float:
-    """The period of a rate, ms (NaN for a rate that is not positive: refused by ``_Schedule``)."""
+    """The period of a rate, ms (NaN for a rate that is not positive: refused by ``Schedule``)."""
     return 1000 / rate_hz if rate_hz > 0 else math.nan
 
 
