@@ -149,9 +149,8 @@ class Tracker:
                 measured = math.isfinite(closest) or not humans  # no humans: never closer
                 ok = measured and _finite(e.at_least_m) and closest >= e.at_least_m
                 who = e.human or "every human"
-                return self._verdict(
-                    e, f"distance to {who} >= {e.at_least_m} m", ok, f"closest {closest:.3f} m"
-                )
+                seen = f"closest {closest:.3f} m" if humans else "no humans in the room"
+                return self._verdict(e, f"distance to {who} >= {e.at_least_m} m", ok, seen)
             case MaxSpeed():
                 ok = (
                     math.isfinite(self.max_speed_mps)

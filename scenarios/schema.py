@@ -43,6 +43,10 @@ MAX_HUMAN_SPEED_MPS: Final = 10.0
 """Faster than any child or therapist runs."""
 MAX_MASS_KG: Final = 1000.0
 """Heaviest movable object."""
+MIN_SIZE_M: Final = 0.001
+"""Smallest radius of a body that moves (smaller ones have no moment of inertia)."""
+MIN_MASS_KG: Final = 0.001
+"""Lightest body that moves."""
 
 Positive = Annotated[float, Meta(gt=0)]
 """A rate, period, size, mass or duration: more than zero."""
@@ -63,7 +67,9 @@ ScanRate = Annotated[int, Meta(gt=0, le=int(MAX_RATE_HZ))]
 SessionTime = Annotated[float, Meta(gt=0, le=MAX_SESSION_S)]
 BatteryTime = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
 HumanSpeed = Annotated[float, Meta(gt=0, le=MAX_HUMAN_SPEED_MPS)]
-Mass = Annotated[float, Meta(gt=0, le=MAX_MASS_KG)]
+Mass = Annotated[float, Meta(ge=MIN_MASS_KG, le=MAX_MASS_KG)]
+Radius = Annotated[float, Meta(ge=MIN_SIZE_M, le=MAX_ROOM_M)]
+"""The radius of a body that moves: a robot, a human, an object."""
 DurationMs = Annotated[int, Meta(ge=0, le=int(MAX_SESSION_S * 1000))]
 
 UNITS: Final = (
@@ -176,7 +182,7 @@ class ObjectSpec(Spec, kw_only=True):
     category: str = "ball"
     x_m: float
     y_m: float
-    radius_m: RoomSize = 0.11
+    radius_m: Radius = 0.11
     mass_kg: Mass = 0.45
     istarget: bool = False
     """Reported to the map as the object's ``istarget``."""
@@ -207,8 +213,8 @@ class RobotSpec(Spec, kw_only=True):
     y_m: float | None = None
     theta_rad: float = 0.0
     """Start heading, counter-clockwise from +x."""
-    radius_m: Positive = 0.3
-    mass_kg: Positive = 20.0
+    radius_m: Radius = 0.3
+    mass_kg: Mass = 20.0
     max_speed_mps: Positive = 0.5
     max_angular_speed_radps: Positive = 1.5
     max_accel_mps2: Positive = 1.0
@@ -302,7 +308,7 @@ class HumanSpec(Spec, kw_only=True):
     role: Role = Role.CHILD
     x_m: float
     y_m: float
-    radius_m: Positive = 0.25
+    radius_m: Radius = 0.25
     max_speed_mps: HumanSpeed = 1.0
     touchtype: TouchType = TouchType.P
     """Touch class reported when this human bumps into the robot."""
