@@ -169,16 +169,23 @@ def parse_json_path(text: str) -> PathKey:
 
 
 def _strip_comment(line: str) -> str:
-    out, quote = [], ""
-    for char in line:
+    return "".join(char for _, char, _ in _characters(line))
+
+
+def _characters(line: str) -> Iterator[tuple[int, str, bool]]:
+    """(index, character, inside a string) for a line up to its comment."""
+    quote = ""
+    for index, char in enumerate(line):
         if quote:
             quote = "" if char == quote else quote
+            yield index, char, True
         elif char in "\"'":
             quote = char
+            yield index, char, True
         elif char == "#":
-            break
-        out.append(char)
-    return "".join(out)
+            return
+        else:
+            yield index, char, False
 
 
 def _split_key(key: str) -> list[str]:
@@ -329,18 +336,13 @@ def _too_deep(text: str) -> tuple[int, int] | None:
     strings and comments), or None; ``tomllib`` would recurse on it without limit."""
     depth = 0
     for number, line in enumerate(text.splitlines(), start=1):
-        quote = ""
-        for column, char in enumerate(line, start=1):
-            if quote:
-                quote = "" if char == quote else quote
-            elif char in "\"'":
-                quote = char
-            elif char == "#":
-                break
-            elif char in "[{":
+        for index, char, quoted in _characters(line):
+            if quoted:
+                continue
+            if char in "[{":
                 depth += 1
                 if depth > MAX_NESTING:
-                    return number, column
+                    return number, index + 1
             elif char in "]}":
                 depth = max(0, depth - 1)
     return None

@@ -5,18 +5,21 @@
 from __future__ import annotations
 
 import math
+import re
+import typing
 from pathlib import Path
 
 import pytest
 
 from oimi.cli import main
 from pipeline.events import BodyState, Topic, WorldState
+from scenarios import schema
 from scenarios.errors import ScenarioError
 from scenarios.expectations import Tracker
 from scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
 from scenarios.profile import THESIS_ROBOT
 from scenarios.runner import Session
-from scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints
+from scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints, unit_of
 
 BASE = 'name = "bad"\n'
 CHILD = '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n'
@@ -373,3 +376,40 @@ def test_finite_figures_still_pass():
     tracker = Tracker(scenario)
     tracker.record(Topic.WORLD_STATE, 0, state(1.0, 3.0, 0.4))
     assert [v.ok for v in tracker.verdicts()] == [True, True]
+
+
+# ------------------------------------------------------------------------- docs
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "scenario-files.md"
+
+
+def test_the_doc_states_the_ceiling_of_the_profile():
+    rows = re.findall(r"^\| `(\w+)` \| `[\d.]+` \| `([\d.]+)` ([^|]+) \|$", DOC.read_text(), re.M)
+    assert {name: float(value) for name, value, _ in rows} == THESIS_ROBOT.ceilings()
+    assert all(unit.strip() == unit_of(name) for name, _, unit in rows)
+
+
+def test_every_number_of_the_schema_is_in_the_doc():
+    text = DOC.read_text()
+    specs = [v for v in vars(schema).values() if isinstance(v, type) and issubclass(v, schema.Spec)]
+    numbers = {
+        name
+        for spec in specs
+        for name, hint in typing.get_type_hints(spec).items()
+        if re.search(r"\b(float|int)\b", str(hint))
+    }
+    missing = [name for name in sorted(numbers) if f"`{name}`" not in text]
+    assert len(numbers) > 40 and not missing
+
+
+@pytest.mark.parametrize("command", [["run", "--no-record", "-q"], ["serve"], ["batch", "-q"]])
+def test_every_command_refuses_a_bad_scenario_before_it_starts(tmp_path, capsys, command):
+    path = tmp_path / "bad.toml"
+    path.write_text(BASE + "[sensors]\nstatus_period_s = 0\n")
+    argv = [command[0], str(path), *command[1:]]
+    if command[0] == "batch":
+        argv += ["--out", str(tmp_path / "out")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{path}:3:1: sensors.status_period_s (s): must be > 0.0, got 0" in err
+    assert not (tmp_path / "out").exists()
