@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -152,6 +153,8 @@ def load_spec(path: Path) -> BatchSpec:
 
 def toml_literal(value: Any, *, source: str) -> str:
     """A grid value as the TOML text ``apply_overrides`` reads (numbers, text, booleans, lists)."""
+    if _non_finite(value):
+        raise SpecError(f"parameter value {value!r} must be a finite number", source=source)
     if isinstance(value, bool | int | float | str) or (
         isinstance(value, list)
         and all(isinstance(v, bool | int | float | str | list) for v in value)
@@ -160,6 +163,12 @@ def toml_literal(value: Any, *, source: str) -> str:
     raise SpecError(
         f"parameter value {value!r} must be a number, text, boolean or list", source=source
     )
+
+
+def _non_finite(value: Any) -> bool:
+    if isinstance(value, list):
+        return any(_non_finite(v) for v in value)
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 def grid(params: Mapping[str, Sequence[str]]) -> list[tuple[tuple[str, str], ...]]:

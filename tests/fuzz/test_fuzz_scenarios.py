@@ -172,6 +172,7 @@ def test_oimi_run_as_a_process_ends_with_a_code_never_a_signal(tmp_path, name, s
     path.write_text(_with_section(LIBRARY[name], section))
     done = subprocess.run(
         [sys.executable, "-m", "oimi", "run", str(path), "--no-record", "-q"],
+        stdin=subprocess.DEVNULL,
         capture_output=True,
         text=True,
         timeout=120,  # a guard against the old infinite loops, not a timing

@@ -14,6 +14,7 @@ import pytest
 from oimi.cli import main
 from pipeline.events import BodyState, Topic, WorldState
 from scenarios import schema
+from scenarios.batch.spec import SpecError, toml_literal
 from scenarios.errors import ScenarioError
 from scenarios.expectations import Tracker
 from scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
@@ -312,9 +313,9 @@ def test_run_refuses_a_param_over_the_ceiling_before_it_drives(tmp_path, capsys)
 # ------------------------------------------------------------- verdicts on NaN
 
 
-def test_a_nan_walking_speed_that_reaches_a_session_fails_its_distance_verdict():
-    """Built past the loader (a Struct's constructor checks no ranges): the verdict must not
-    pass on NaN positions, as it did ('PASS ... closest inf m')."""
+def test_a_nan_walking_speed_that_reaches_a_session_leaves_the_child_standing():
+    """Built past the loader (a Struct's constructor checks no ranges): the child's NaN speed
+    once made NaN positions and 'PASS ... closest inf m'; now the child stands still."""
     child = HumanSpec(
         id="child",
         x_m=1.0,
@@ -325,11 +326,19 @@ def test_a_nan_walking_speed_that_reaches_a_session_fails_its_distance_verdict()
         name="nan child",
         duration_s=1.0,
         humans=[child],
-        expect=[MinDistance(human="child", at_least_m=0.5), MaxSpeed(at_most_mps=0.5)],
+        expect=[MinDistance(human="child", at_least_m=0.5)],
     )
     loaded = LoadedScenario(scenario=scenario, source=Path("nan.toml"), raw=b"", activity_paths=())
-    verdicts = Session(loaded).run().verdicts
-    assert not verdicts[0].ok, verdicts[0]
+    result = Session(loaded).run()
+    assert result.summary.min_distance_m == {"child": round(math.hypot(2.0, 1.5), 4)}
+    assert result.verdicts[0].ok and "nan" not in result.verdicts[0].detail
+
+
+def test_a_batch_grid_value_must_be_finite():
+    with pytest.raises(SpecError, match=r"parameter value nan must be a finite number"):
+        toml_literal(math.nan, source="spec.toml")
+    with pytest.raises(SpecError, match=r"parameter value \[1.0, inf\] must be a finite"):
+        toml_literal([1.0, math.inf], source="spec.toml")
 
 
 def state(robot_x: float, human_x: float, speed: float = 0.0) -> WorldState:
