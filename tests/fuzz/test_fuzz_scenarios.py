@@ -22,10 +22,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from oimi.cli import main
-from scenarios.loader import LIBRARY_DIR, load_scenario
+from scenarios.errors import ScenarioError
+from scenarios.loader import LIBRARY_DIR, apply_overrides, load_scenario
+from scenarios.profile import THESIS_ROBOT
 from scenarios.runner import Session
 
-EXAMPLES = int(os.environ.get("OIMI_FUZZ_EXAMPLES", "40"))
+EXAMPLES = int(os.environ.get("OIMI_FUZZ_EXAMPLES", "60"))
 RUN_S = 0.5
 """Simulated seconds of each short run."""
 HANG_S = 20
@@ -146,11 +148,47 @@ def test_mutated_library_scenarios_are_checked_or_run_never_crash(tmp_path, caps
         assert check_then_run(path, capsys) in (0, 1, 2)
 
 
+# ----------------------------------------------------------------- overrides
+
+
+def numeric_keys(node: object, prefix: str = "") -> list[str]:
+    """Every dotted ``--param`` key of a number in a decoded scenario."""
+    if isinstance(node, dict):
+        return [k for key, v in node.items() for k in numeric_keys(v, f"{prefix}{key}.")]
+    if isinstance(node, list):
+        return [k for i, v in enumerate(node) for k in numeric_keys(v, f"{prefix}{i}.")]
+    is_number = isinstance(node, int | float) and not isinstance(node, bool)
+    return [prefix.rstrip(".")] if is_number else []
+
+
+GREETING = load_scenario(LIBRARY_DIR / "greeting.toml")
+KEYS = numeric_keys(msgspec.to_builtins(GREETING.scenario))
+
+
+@settings(max_examples=EXAMPLES, derandomize=True, deadline=None, database=None)
+@given(
+    overrides=st.dictionaries(
+        st.sampled_from(KEYS), st.sampled_from(NUMBERS), min_size=1, max_size=3
+    )
+)
+def test_params_are_refused_with_their_field_or_run(overrides):
+    """``--param`` values go through the same validation: refused naming the field, or run."""
+    with no_hang(HANG_S):
+        try:
+            scenario = apply_overrides(GREETING.scenario, overrides)
+        except ScenarioError as error:
+            assert re.match(r"<overrides>: override: (\S+ \(.+?\): |\S+: )", str(error)), error
+            return
+        short = msgspec.structs.replace(scenario, duration_s=min(scenario.duration_s, RUN_S))
+        Session(msgspec.structs.replace(GREETING, scenario=short)).run()
+        robot = scenario.robot
+        assert robot.max_speed_mps <= THESIS_ROBOT.max_speed_mps
+
+
 # ----------------------------------------------------------- as a real process
 
 PROCESS_CASES = [
     ("greeting.toml", "[sensors]\nstatus_period_s = 0\n", 2),
-    ("greeting.toml", "[sensors]\nrate_hz = inf\n", 2),
     ("child_too_close.toml", "[robot]\nmass_kg = inf\n", 2),
     ("blink.toml", "", 0),  # unmutated: a whole run, to show the process ends cleanly
 ]
