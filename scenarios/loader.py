@@ -1,9 +1,11 @@
 """Loading a scenario file: TOML -> strict Structs -> checks, with errors at ``FILE:LINE:COL``.
 
 ``load_scenario`` reads the file; ``parse_scenario`` does the work on bytes already
-read (for tests and for recordings that carry the file). Type errors keep
-msgspec's ``$.path`` text and are placed on the line of the offending key by a
-best-effort scan of the TOML text (``TomlLocator``).
+read (for tests and for recordings that carry the file). ``decode_scenario`` is the one
+validation of a scenario, for files and ``--param`` overrides alike: every number finite,
+the ranges the schema declares, then ``check_scenario`` (places, order, ids, the robot's
+ceiling). Errors read ``FILE:LINE:COL: field (unit): what is wrong``, placed on the line
+of the offending key by a best-effort scan of the TOML text (``TomlLocator``).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ import pytest
 from oimi.cli import main
 from pipeline.events import BodyState, Topic, WorldState
 from scenarios import schema
-from scenarios.batch.spec import SpecError, toml_literal
+from scenarios.batch.spec import SpecError, expand, toml_literal
 from scenarios.errors import ScenarioError
 from scenarios.expectations import Tracker
 from scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
@@ -422,3 +422,18 @@ def test_every_command_refuses_a_bad_scenario_before_it_starts(tmp_path, capsys,
     err = capsys.readouterr().err
     assert f"{path}:3:1: sensors.status_period_s (s): must be > 0.0, got 0" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_batch_tasks_carry_the_outside_paths_flag_to_their_runs(tmp_path):
+    (tmp_path / "shared").mkdir()
+    (tmp_path / "shared" / "wave.txt").write_text(
+        "[wave]\n[goal:g]\n[action]\n[b#one#blk_inst: MV() LD() AO()]\n"
+    )
+    (tmp_path / "s").mkdir()
+    path = tmp_path / "s" / "a.toml"
+    path.write_text(BASE + '[[activities]]\nscript = "../shared/wave.txt"\n')
+    grid = {"params": {}, "seeds": 1, "seed_range": None, "out_dir": tmp_path / "out"}
+    with pytest.raises(ScenarioError, match="is outside the scenario's folder"):
+        expand([path], **grid)
+    (task,) = expand([path], **grid, allow_outside_paths=True)
+    assert task.allow_outside_paths
