@@ -20,6 +20,7 @@ import msgspec
 import polars as pl
 
 from oimi import console
+from oimi.cmd_check import add_outside_paths_argument
 from recorder.errors import RecordingError
 from replay.redrive import redrive
 from scenarios.batch import results
@@ -71,6 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ray", action="store_true", help="run on Ray (a local instance)")
     parser.add_argument("--ray-address", metavar="ADDR", help="run on this Ray cluster")
     parser.add_argument("--resume", action="store_true", help="skip runs already finished in --out")
+    add_outside_paths_argument(parser)
     parser.add_argument("--replay", type=Path, metavar="DIR", help="redrive every recording in DIR")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -133,12 +135,18 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
                 params=params,
                 seeds=args.seeds,
                 seed_range=seed_range,
+                allow_outside_paths=args.allow_outside_paths,
             )
         else:
             scenarios += scenario_files([path], base=Path.cwd())
     if scenarios:
         tasks += expand(
-            scenarios, params=params, seeds=args.seeds, seed_range=seed_range, out_dir=out_dir
+            scenarios,
+            params=params,
+            seeds=args.seeds,
+            seed_range=seed_range,
+            out_dir=out_dir,
+            allow_outside_paths=args.allow_outside_paths,
         )
     check_unique(tasks)
     return tasks

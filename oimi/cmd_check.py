@@ -12,9 +12,10 @@ import sys
 from pathlib import Path
 
 from pipeline.errors import LocatedError
-from pipeline.script import ParsedScript, ScriptError, condition_errors, parse_script
+from pipeline.script import ParsedScript, ScriptError
 from pipeline.think.conditions import compile_condition
 from pipeline.think.library import RULES
+from scenarios.activities import check_script_file
 from scenarios.loader import load_scenario
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
@@ -31,6 +32,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="TEXT",
         help="a rule condition to check (repeatable)",
     )
+    add_outside_paths_argument(parser)
+
+
+def add_outside_paths_argument(parser: argparse.ArgumentParser) -> None:
+    """``--allow-outside-paths`` (check, run, serve, batch): scripts a scenario names may be
+    outside its folder and the library."""
+    parser.add_argument(
+        "--allow-outside-paths",
+        action="store_true",
+        help="let a scenario's scripts be outside its folder and the library",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     failed = False
     for name in args.files:
-        errors = check_file(Path(name))
+        errors = check_file(Path(name), allow_outside=args.allow_outside_paths)
         if errors:
             failed = True
             for error in errors:
@@ -56,21 +68,15 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_BAD_INPUT if failed else EXIT_OK
 
 
-def check_file(path: Path) -> list[LocatedError]:
+def check_file(path: Path, *, allow_outside: bool = False) -> list[LocatedError]:
     """Every problem found in one file (empty when it is fine)."""
     if path.suffix.lower() == ".toml":
-        return check_scenario(path)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
-    try:
-        parsed = parse_script(data, source=str(path))
-    except ScriptError as error:
-        return [error]
-    for warning in unknown_rule_codes(parsed):
-        report(f"{warning} (warning)")
-    return condition_errors(parsed, compile_condition)
+        return check_scenario(path, allow_outside=allow_outside)
+    parsed, errors = check_script_file(path)
+    if parsed is not None:
+        for warning in unknown_rule_codes(parsed):
+            report(f"{warning} (warning)")
+    return errors
 
 
 def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
@@ -92,10 +98,11 @@ def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
     ]
 
 
-def check_scenario(path: Path) -> list[LocatedError]:
-    """A scenario's problems (``scenarios.loader.load_scenario`` checks everything)."""
+def check_scenario(path: Path, *, allow_outside: bool = False) -> list[LocatedError]:
+    """A scenario's problems: everything ``oimi run`` would refuse, ranges, the robot's
+    ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
     try:
-        load_scenario(path)
+        load_scenario(path, allow_outside=allow_outside)
     except LocatedError as error:
         return [error]
     except OSError as error:

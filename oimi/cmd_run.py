@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import console
+from oimi.cmd_check import add_outside_paths_argument
 from scenarios.batch.spec import parse_param
 from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
@@ -33,10 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    add_outside_paths_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    loaded = load_scenario(args.scenario)
+    loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
     session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))
     progress = None if args.quiet else console.Progress(f"{session.scenario.name}", session.tick_ms)

@@ -15,6 +15,7 @@ import ipaddress
 import sys
 from pathlib import Path
 
+from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.live.session import LiveSession
@@ -40,12 +41,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration-s", type=float, help="stop after this much session time (default: Ctrl-C)"
     )
+    add_outside_paths_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    loaded = load_scenario(args.scenario)
+    loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
     output = args.output or Path("out") / f"{args.scenario.stem}-live.mcap"
-    if args.duration_s is not None and args.duration_s <= 0:
+    if args.duration_s is not None and not args.duration_s > 0:  # NaN too
         print("oimi serve: --duration-s must be positive", file=sys.stderr)
         return 2
     if not _loopback(args.host) and args.token is None:

@@ -6,9 +6,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Final
 
+from pipeline.errors import LocatedError
 from pipeline.messages import Script
+from pipeline.script import ParsedScript, condition_errors
 from pipeline.script.errors import ScriptError
 from pipeline.script.files import parse_script
+from pipeline.think.conditions import compile_condition
 from pipeline.think.reader import ScriptEntry
 
 LIBRARY: Final = Path(__file__).resolve().parent / "library"
@@ -24,6 +27,20 @@ def load_script_file(path: Path) -> Script:
     except OSError as error:
         raise ScriptError(f"cannot read the script: {error.strerror}", source=str(path)) from None
     return parse_script(raw, source=str(path)).script
+
+
+def check_script_file(path: Path) -> tuple[ParsedScript | None, list[LocatedError]]:
+    """A script file parsed and its jump conditions compiled, as ``oimi run`` would load it:
+    the parsed script (None when it does not parse) and every error, placed in the file."""
+    try:
+        raw = path.read_bytes()
+    except OSError as error:
+        return None, [ScriptError(f"cannot read the script: {error.strerror}", source=str(path))]
+    try:
+        parsed = parse_script(raw, source=str(path))
+    except ScriptError as error:
+        return None, [error]
+    return parsed, condition_errors(parsed, compile_condition)
 
 
 class ActivityLibrary:

@@ -1,4 +1,8 @@
-"""Checking a scenario's expectations: a sink that watches the session as it streams by."""
+"""Checking a scenario's expectations: a sink that watches the session as it streams by.
+
+A figure that is not a finite number (a NaN position, a distance never measured) never
+passes: a verdict on it fails and says what was seen.
+"""
 
 from __future__ import annotations
 
@@ -91,10 +95,13 @@ class Tracker:
 
     def _world(self, state: WorldState) -> None:
         robot = state.robot
-        self.max_speed_mps = max(self.max_speed_mps, math.hypot(robot.vx_mps, robot.vy_mps))
+        speed = math.hypot(robot.vx_mps, robot.vy_mps)
+        if not speed <= self.max_speed_mps:  # a larger speed, or NaN (which sticks)
+            self.max_speed_mps = speed if math.isfinite(self.max_speed_mps) else math.nan
         for human in state.humans:
             distance = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
-            if distance < self.min_distance_m.get(human.id, math.inf):
+            closest = self.min_distance_m.get(human.id, math.inf)
+            if not distance >= closest and not math.isnan(closest):
                 self.min_distance_m[human.id] = distance
         self.contacts += len(state.contacts)
         world = self.scenario.world
@@ -143,15 +150,15 @@ class Tracker:
             case GoalReached():
                 at = self.goals_reached.get(e.goal)
                 deadline = _ms(e.by_s, end_ms)
-                ok = at is not None and at <= deadline
+                ok = at is not None and deadline is not None and at <= deadline
                 seen = "never" if at is None else f"at {at / 1000:.2f} s"
                 return self._verdict(
-                    e, f"goal {e.goal} reached by {deadline / 1000:.2f} s", ok, f"reached {seen}"
+                    e, f"goal {e.goal} reached by {_s(deadline)} s", ok, f"reached {seen}"
                 )
             case ActivityCompleted():
                 deadline = _ms(e.by_s, end_ms)
                 done = [t for t, s in self.activity_states.get(e.activity, ()) if s == "completed"]
-                ok = bool(done) and done[0] <= deadline
+                ok = bool(done) and deadline is not None and done[0] <= deadline
                 seen = f"at {done[0] / 1000:.2f} s" if done else "never"
                 return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
             case RuleFired():
@@ -174,16 +181,20 @@ class Tracker:
                 )
             case MinDistance():
                 humans = [e.human] if e.human else list(self.min_distance_m)
-                closest = min(
-                    (self.min_distance_m.get(h, math.inf) for h in humans), default=math.inf
-                )
-                ok = closest >= e.at_least_m
+                distances = [self.min_distance_m.get(h, math.inf) for h in humans]
+                nan = any(math.isnan(d) for d in distances)
+                closest = math.nan if nan else min(distances, default=math.inf)
+                measured = math.isfinite(closest) or not humans  # no humans: never closer
+                ok = measured and _finite(e.at_least_m) and closest >= e.at_least_m
                 who = e.human or "every human"
-                return self._verdict(
-                    e, f"distance to {who} >= {e.at_least_m} m", ok, f"closest {closest:.3f} m"
-                )
+                seen = f"closest {closest:.3f} m" if humans else "no humans in the room"
+                return self._verdict(e, f"distance to {who} >= {e.at_least_m} m", ok, seen)
             case MaxSpeed():
-                ok = self.max_speed_mps <= e.at_most_mps + 1e-9
+                ok = (
+                    math.isfinite(self.max_speed_mps)
+                    and _finite(e.at_most_mps)
+                    and self.max_speed_mps <= e.at_most_mps + 1e-9
+                )
                 return self._verdict(
                     e, f"speed <= {e.at_most_mps} m/s", ok, f"max {self.max_speed_mps:.3f} m/s"
                 )
@@ -205,10 +216,10 @@ class Tracker:
                 )
             case ActivityState():
                 when = _ms(e.at_s, end_ms)
-                state = self.state_at(e.activity, when)
+                state = self.state_at(e.activity, when) if when is not None else "never checked"
                 return self._verdict(
                     e,
-                    f"activity {e.activity} is {e.state} at {when / 1000:.2f} s",
+                    f"activity {e.activity} is {e.state} at {_s(when)} s",
                     state == e.state,
                     f"was {state}",
                 )
@@ -226,5 +237,16 @@ def _within(count: int, at_least: int, at_most: int | None) -> tuple[bool, str]:
     return ok, bound
 
 
-def _ms(seconds: float | None, default_ms: int) -> int:
-    return default_ms if seconds is None else round(seconds * 1000)
+def _ms(seconds: float | None, default_ms: int) -> int | None:
+    """A deadline in ms; None when ``seconds`` is not a finite number (it never passes)."""
+    if seconds is None:
+        return default_ms
+    return round(seconds * 1000) if _finite(seconds) else None
+
+
+def _s(time_ms: int | None) -> str:
+    return "nan" if time_ms is None else f"{time_ms / 1000:.2f}"
+
+
+def _finite(value: float) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)

@@ -74,6 +74,8 @@ class HumanDriver:
         segment = self.segment
         speed = segment.speed_mps if segment.speed_mps is not None else self.spec.max_speed_mps
         speed = min(speed, self.spec.max_speed_mps)
+        if not (math.isfinite(speed) and speed > 0):  # refused by the loader; never NaN here
+            speed = 0.0
         vx, vy = 0.0, 0.0
         match segment:
             case Stand():

@@ -6,14 +6,20 @@ in Hz (``_hz``), masses in kg (``_kg``). The arena's origin is its lower-left
 corner: x to the right, y up, angles counter-clockwise from +x. Distances
 between bodies are measured centre to centre. ``docs/scenario-files.md``
 documents every field.
+
+Ranges are declared on the fields (the ``Annotated`` aliases below) and checked
+when a file or an override is decoded; every float must also be finite
+(``scenarios.loader`` refuses NaN and infinities before decoding). The robot's
+physical ceiling is in ``scenarios.profile``.
 """
 
 from __future__ import annotations
 
 import enum
-from typing import Final
+from typing import Annotated, Final
 
 import msgspec
+from msgspec import Meta
 
 from pipeline.act.safety import SafetyConfig
 from pipeline.events import MotionSource, OperatorVerb, SafetyZone
@@ -24,6 +30,78 @@ DEFAULT_TICK_HZ: Final = 50
 
 class Spec(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Base of every part of a scenario file: unknown keys are errors."""
+
+
+# ---------------------------------------------------------------------- ranges
+
+MAX_ROOM_M: Final = 100.0
+"""Largest side of the arena (and of anything in it), m."""
+MAX_SESSION_S: Final = 86_400.0
+"""Longest session (and battery), s: one day."""
+MAX_RATE_HZ: Final = 1000.0
+"""Fastest sensor rate: the clock ticks at most every millisecond."""
+MAX_HUMAN_SPEED_MPS: Final = 10.0
+"""Faster than any child or therapist runs."""
+MAX_MASS_KG: Final = 1000.0
+"""Heaviest movable object."""
+MIN_SIZE_M: Final = 0.001
+"""Smallest radius of a body that moves (smaller ones have no moment of inertia)."""
+MIN_MASS_KG: Final = 0.001
+"""Lightest body that moves."""
+
+Positive = Annotated[float, Meta(gt=0)]
+"""A rate, period, size, mass or duration: more than zero."""
+NonNegative = Annotated[float, Meta(ge=0)]
+"""A time, distance, noise or threshold that may be zero."""
+Fraction = Annotated[float, Meta(ge=0, le=1)]
+"""A probability or a fraction, 0 to 1."""
+Axis = Annotated[float, Meta(ge=-1, le=1)]
+"""A joystick axis, -1 to 1."""
+Count = Annotated[int, Meta(ge=0)]
+"""A count or an index: zero or more."""
+PositiveInt = Annotated[int, Meta(gt=0)]
+RoomSize = Annotated[float, Meta(gt=0, le=MAX_ROOM_M)]
+BodySize = Annotated[float, Meta(ge=0, le=MAX_ROOM_M)]
+"""A size that may be zero (a box's sides when it is a disc)."""
+Rate = Annotated[float, Meta(gt=0, le=MAX_RATE_HZ)]
+ScanRate = Annotated[int, Meta(gt=0, le=int(MAX_RATE_HZ))]
+SessionTime = Annotated[float, Meta(gt=0, le=MAX_SESSION_S)]
+BatteryTime = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
+HumanSpeed = Annotated[float, Meta(gt=0, le=MAX_HUMAN_SPEED_MPS)]
+Mass = Annotated[float, Meta(ge=MIN_MASS_KG, le=MAX_MASS_KG)]
+Radius = Annotated[float, Meta(ge=MIN_SIZE_M, le=MAX_ROOM_M)]
+"""The radius of a body that moves: a robot, a human, an object."""
+DurationMs = Annotated[int, Meta(ge=0, le=int(MAX_SESSION_S * 1000))]
+
+UNITS: Final = (
+    ("_radps2", "rad/s²"),
+    ("_mps2", "m/s²"),
+    ("_radps", "rad/s"),
+    ("_mps", "m/s"),
+    ("_per_s", "fraction kept per s"),
+    ("_rad", "rad"),
+    ("_ms", "ms"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_hz", "Hz"),
+    ("_fps", "frames/s"),
+    ("_kg", "kg"),
+    ("_px", "px"),
+    ("_probability", "0 to 1"),
+    ("waypoints", "m"),
+    ("left_x", "-1 to 1"),
+    ("left_y", "-1 to 1"),
+    ("right_x", "-1 to 1"),
+    ("at_least", "count"),
+    ("at_most", "count"),
+    ("position", "index"),
+)
+"""A field's unit by the end of its name (the first match wins)."""
+
+
+def unit_of(field: str) -> str:
+    """The unit of a field named ``field`` (``"m/s"`` for ``max_speed_mps``), or ``""``."""
+    return next((unit for end, unit in UNITS if field.endswith(end)), "")
 
 
 # ----------------------------------------------------------------------- codes
@@ -88,11 +166,11 @@ class ObstacleSpec(Spec, kw_only=True):
     x_m: float
     """Centre, m."""
     y_m: float
-    width_m: float = 0.0
+    width_m: BodySize = 0.0
     """Extent along x before rotation, m (boxes)."""
-    height_m: float = 0.0
+    height_m: BodySize = 0.0
     """Extent along y before rotation, m (boxes; top view, not the furniture's height)."""
-    radius_m: float = 0.0
+    radius_m: BodySize = 0.0
     """Radius, m (discs: set instead of width/height)."""
     angle_rad: float = 0.0
     """Rotation of a box, counter-clockwise."""
@@ -105,21 +183,21 @@ class ObjectSpec(Spec, kw_only=True):
     category: str = "ball"
     x_m: float
     y_m: float
-    radius_m: float = 0.11
-    mass_kg: float = 0.45
+    radius_m: Radius = 0.11
+    mass_kg: Mass = 0.45
     istarget: bool = False
     """Reported to the map as the object's ``istarget``."""
-    damping_per_s: float = 0.6
+    damping_per_s: Fraction = 0.6
     """Fraction of its speed a rolling object keeps after one second (0 to 1)."""
-    rolling_decel_mps2: float = 0.2
+    rolling_decel_mps2: NonNegative = 0.2
     """Constant rolling resistance, m/s² (makes it stop in finite time)."""
 
 
 class WorldSpec(Spec, kw_only=True):
     """The therapy room: a walled rectangle with furniture and objects."""
 
-    width_m: float = 6.0
-    height_m: float = 5.0
+    width_m: RoomSize = 6.0
+    height_m: RoomSize = 5.0
     exit_x_m: float = 0.0
     """Where humans who ``leave`` walk to (default: the middle of the left wall)."""
     exit_y_m: float | None = None
@@ -136,13 +214,13 @@ class RobotSpec(Spec, kw_only=True):
     y_m: float | None = None
     theta_rad: float = 0.0
     """Start heading, counter-clockwise from +x."""
-    radius_m: float = 0.3
-    mass_kg: float = 20.0
-    max_speed_mps: float = 0.5
-    max_angular_speed_radps: float = 1.5
-    max_accel_mps2: float = 1.0
-    max_angular_accel_radps2: float = 3.0
-    battery_s: float = 3600.0
+    radius_m: Radius = 0.3
+    mass_kg: Mass = 20.0
+    max_speed_mps: Positive = 0.5
+    max_angular_speed_radps: Positive = 1.5
+    max_accel_mps2: Positive = 1.0
+    max_angular_accel_radps2: Positive = 3.0
+    battery_s: BatteryTime = 3600.0
     """Battery time at the start, s (reported as ``batterytimeleft`` in ms)."""
     safety: SafetyConfig = msgspec.field(default_factory=SafetyConfig)
     """The safety supervisor's zones (``[robot.safety]``; always on, see
@@ -152,28 +230,28 @@ class RobotSpec(Spec, kw_only=True):
 class SensorSpec(Spec, kw_only=True):
     """The simulated sensors: a front camera (humans, objects) and a sonar ring (obstacles)."""
 
-    range_m: float = 5.0
+    range_m: Positive = 5.0
     """Camera range, m."""
-    fov_rad: float = 2.2
+    fov_rad: Positive = 2.2
     """Camera field of view, centred on the heading, rad."""
-    rate_hz: float = 10.0
+    rate_hz: Rate = 10.0
     """Camera frame rate of entity updates, Hz."""
-    noise_rho_m: float = 0.0
+    noise_rho_m: NonNegative = 0.0
     """Standard deviation of the gaussian noise on distances, m."""
-    noise_theta_rad: float = 0.0
+    noise_theta_rad: NonNegative = 0.0
     """Standard deviation of the gaussian noise on bearings, rad."""
-    dropout_probability: float = 0.0
+    dropout_probability: Fraction = 0.0
     """Probability that one detection is lost (0 to 1)."""
     camera_id: str = "front"
-    camera_width_px: int = 640
-    camera_height_px: int = 480
-    camera_fps: int = 30
+    camera_width_px: PositiveInt = 640
+    camera_height_px: PositiveInt = 480
+    camera_fps: PositiveInt = 30
     sonar_id: str = "ring"
-    sonar_range_m: float = 3.0
+    sonar_range_m: Positive = 3.0
     """Sonar range, all around the robot, m."""
-    sonar_scan_hz: int = 5
+    sonar_scan_hz: ScanRate = 5
     """Sonar scans per second (reported as ``scanfrequency``)."""
-    status_period_s: float = 1.0
+    status_period_s: SessionTime = 1.0
     """How often the robot's status (speed, battery, elapsed time) is reported, s."""
 
 
@@ -183,8 +261,8 @@ class SensorSpec(Spec, kw_only=True):
 class Segment(Spec, tag_field="kind", kw_only=True):
     """A timed piece of a human's behaviour; it runs from ``at_s`` until the next one."""
 
-    at_s: float = 0.0
-    speed_mps: float | None = None
+    at_s: NonNegative = 0.0
+    speed_mps: HumanSpeed | None = None
     """Walking speed; None: the human's ``max_speed_mps``."""
 
 
@@ -203,21 +281,21 @@ class Waypoints(Segment, tag="waypoints", kw_only=True):
 class Approach(Segment, tag="approach", kw_only=True):
     """Walk towards the robot until ``distance_m`` from it, then stand."""
 
-    distance_m: float = 0.8
+    distance_m: Positive = 0.8
 
 
 class Wander(Segment, tag="wander", kw_only=True):
     """Walk to random places in the arena, pausing at each."""
 
-    pause_s: float = 1.0
-    margin_m: float = 0.5
+    pause_s: NonNegative = 1.0
+    margin_m: NonNegative = 0.5
     """Keep targets this far from the walls, m."""
 
 
 class Follow(Segment, tag="follow", kw_only=True):
     """Keep within ``distance_m`` of the robot: walk towards it whenever farther."""
 
-    distance_m: float = 1.0
+    distance_m: Positive = 1.0
 
 
 class Leave(Segment, tag="leave", kw_only=True):
@@ -234,8 +312,8 @@ class HumanSpec(Spec, kw_only=True):
     role: Role = Role.CHILD
     x_m: float
     y_m: float
-    radius_m: float = 0.25
-    max_speed_mps: float = 1.0
+    radius_m: Radius = 0.25
+    max_speed_mps: HumanSpeed = 1.0
     touchtype: TouchType = TouchType.P
     """Touch class reported when this human bumps into the robot."""
     behaviour: list[BehaviourSegment] = []
@@ -262,7 +340,7 @@ class ActivitySpec(Spec, kw_only=True):
 class EventSpec(Spec, tag_field="kind", kw_only=True):
     """Something that happens at ``at_s`` of simulated time."""
 
-    at_s: float
+    at_s: NonNegative
 
 
 class OperatorEvent(EventSpec, tag="operator", kw_only=True):
@@ -271,20 +349,20 @@ class OperatorEvent(EventSpec, tag="operator", kw_only=True):
     verb: OperatorVerb
     activity: str = ""
     options: dict[str, str] = {}
-    position: int = 0
+    position: Count = 0
 
 
 class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
     """The pad's sticks and buttons, held for ``hold_s`` then released (0: until changed)."""
 
-    left_x: float = 0.0
+    left_x: Axis = 0.0
     """-1 to 1, right positive."""
-    left_y: float = 0.0
+    left_y: Axis = 0.0
     """-1 to 1, forward positive."""
-    right_x: float = 0.0
+    right_x: Axis = 0.0
     """-1 to 1, right positive."""
     buttons: list[str] = []
-    hold_s: float = 0.0
+    hold_s: NonNegative = 0.0
 
 
 class TouchEvent(EventSpec, tag="touch", kw_only=True):
@@ -292,7 +370,7 @@ class TouchEvent(EventSpec, tag="touch", kw_only=True):
 
     human: str
     touchtype: TouchType = TouchType.T
-    duration_ms: int = 500
+    duration_ms: DurationMs = 500
 
 
 class FaultEvent(EventSpec, tag="fault", kw_only=True):
@@ -327,20 +405,20 @@ class ExpectSpec(Spec, tag_field="kind", kw_only=True):
 class GoalReached(ExpectSpec, tag="goal_reached", kw_only=True):
     goal: str
     """The goal's ``goalid``."""
-    by_s: float | None = None
+    by_s: NonNegative | None = None
     """Deadline; None: by the end."""
 
 
 class ActivityCompleted(ExpectSpec, tag="activity_completed", kw_only=True):
     activity: str
-    by_s: float | None = None
+    by_s: NonNegative | None = None
 
 
 class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
     rule: str
     """The rule instance's id."""
-    at_least: int = 1
-    at_most: int | None = None
+    at_least: Count = 1
+    at_most: Count | None = None
 
 
 class MinDistance(ExpectSpec, tag="min_distance", kw_only=True):
@@ -348,13 +426,13 @@ class MinDistance(ExpectSpec, tag="min_distance", kw_only=True):
 
     human: str | None = None
     """None: every human."""
-    at_least_m: float
+    at_least_m: NonNegative
 
 
 class MaxSpeed(ExpectSpec, tag="max_speed", kw_only=True):
     """The robot's speed never exceeds ``at_most_mps``."""
 
-    at_most_mps: float
+    at_most_mps: NonNegative
 
 
 class NoRejectedInputs(ExpectSpec, tag="no_rejected_inputs", kw_only=True):
@@ -370,7 +448,7 @@ class ActivityState(ExpectSpec, tag="activity_state", kw_only=True):
 
     activity: str
     state: str
-    at_s: float | None = None
+    at_s: NonNegative | None = None
     """When to check; None: at the end."""
 
 
@@ -408,7 +486,7 @@ class Scenario(Spec, kw_only=True):
     description: str = ""
     seed: int = 0
     """Seeds every random generator of the session (see ``scenarios.world.stream_rng``)."""
-    duration_s: float = 60.0
+    duration_s: SessionTime = 60.0
     tick_hz: int = DEFAULT_TICK_HZ
     """Simulated clock rate; must divide 1000 (ticks are whole milliseconds)."""
     world: WorldSpec = msgspec.field(default_factory=WorldSpec)

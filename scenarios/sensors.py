@@ -31,6 +31,8 @@ from scenarios.world import World, wrap_angle
 DECIMALS: Final = 4
 TRUE: Final = "s_true"
 FALSE: Final = "s_false"
+MAX_CATCH_UP: Final = 1000
+"""Most periods a schedule steps over in one tick (a 1 ms period in a 1 s tick)."""
 
 
 class _Update(msgspec.Struct, frozen=True):
@@ -42,24 +44,41 @@ class _Update(msgspec.Struct, frozen=True):
     jsonmsg: str
 
 
-class _Sensor:
+class Schedule:
+    """Something due every ``period_ms`` from 0, at most once a tick.
+
+    The scenario's ranges keep periods positive and finite; this refuses any other
+    and never steps more than ``MAX_CATCH_UP`` periods, so no period can hang a tick.
+    """
+
+    def __init__(self, period_ms: float):
+        if not (math.isfinite(period_ms) and period_ms > 0):
+            raise ValueError(f"a sensor period must be positive and finite, got {period_ms!r} ms")
+        self.period_ms = period_ms
+        self.next_ms = 0.0
+
+    def due(self, time_ms: int) -> bool:
+        """Whether it is due at ``time_ms``; if so, the schedule moves past it."""
+        if time_ms < self.next_ms:
+            return False
+        for _ in range(MAX_CATCH_UP):
+            self.next_ms += self.period_ms
+            if self.next_ms > time_ms:
+                return True
+        self.next_ms = math.nextafter(float(time_ms), math.inf)  # due again next tick
+        return True
+
+
+class _Sensor(Schedule):
     """Mode, schedule, tracks and last reading of one sensor."""
 
     def __init__(self, ident: str, period_ms: float):
+        super().__init__(period_ms)
         self.ident = ident
-        self.period_ms = period_ms
-        self.next_ms = 0.0
         self.mode = FaultMode.ONLINE
         self.tracks: dict[str, int] = {}
         """objectid -> appearance time (ms), in order of appearance."""
         self.last: list[_Update] = []
-
-    def due(self, time_ms: int) -> bool:
-        if time_ms < self.next_ms:
-            return False
-        while self.next_ms <= time_ms:
-            self.next_ms += self.period_ms
-        return True
 
 
 class Sensors:
@@ -69,10 +88,9 @@ class Sensors:
         self.config = config
         self.scenario = scenario
         self.rng = rng
-        self.camera = _Sensor(config.camera_id, 1000 / config.rate_hz)
-        self.sonar = _Sensor(config.sonar_id, 1000 / config.sonar_scan_hz)
-        self._status_period_ms = config.status_period_s * 1000
-        self._next_status_ms = 0.0
+        self.camera = _Sensor(config.camera_id, _period_ms(config.rate_hz))
+        self.sonar = _Sensor(config.sonar_id, _period_ms(config.sonar_scan_hz))
+        self._status = Schedule(config.status_period_s * 1000)
         self._seq = 0
         self._started = False
         self._pending: list[_Update] = []
@@ -132,9 +150,7 @@ class Sensors:
                     self.sonar, furniture, pose, time_ms, self.config.sonar_range_m, math.tau
                 )
             )
-        if time_ms >= self._next_status_ms:
-            while self._next_status_ms <= time_ms:
-                self._next_status_ms += self._status_period_ms
+        if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
         return [self._number(update) for update in updates]
 
@@ -250,7 +266,7 @@ class Sensors:
             "xspeed": round(forward, DECIMALS) + 0.0,
             "yspeed": round(left, DECIMALS) + 0.0,
             "thetaspeed": round(omega, DECIMALS) + 0.0,
-            "duration": round(self._status_period_ms),
+            "duration": round(self._status.period_ms),
             "startingtime": time_ms,
         }
         battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
@@ -259,6 +275,11 @@ class Sensors:
             _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
             _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
         ]
+
+
+def _period_ms(rate_hz: float) -> float:
+    """The period of a rate, ms (NaN for a rate that is not positive: refused by ``Schedule``)."""
+    return 1000 / rate_hz if rate_hz > 0 else math.nan
 
 
 def _pose(objectid: str, rho: float, theta: float, time_ms: int) -> _Update:

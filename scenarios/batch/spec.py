@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -84,6 +85,8 @@ class Task(msgspec.Struct, frozen=True, kw_only=True):
     """(dotted key, TOML value text), sorted by key."""
     out_dir: str
     """Where the recording and the result sidecar go."""
+    allow_outside_paths: bool = False
+    """Scripts may be outside the scenario's folder and the library (``--allow-outside-paths``)."""
 
     @property
     def mcap(self) -> Path:
@@ -150,6 +153,8 @@ def load_spec(path: Path) -> BatchSpec:
 
 def toml_literal(value: Any, *, source: str) -> str:
     """A grid value as the TOML text ``apply_overrides`` reads (numbers, text, booleans, lists)."""
+    if _non_finite(value):
+        raise SpecError(f"parameter value {value!r} must be a finite number", source=source)
     if isinstance(value, bool | int | float | str) or (
         isinstance(value, list)
         and all(isinstance(v, bool | int | float | str | list) for v in value)
@@ -158,6 +163,12 @@ def toml_literal(value: Any, *, source: str) -> str:
     raise SpecError(
         f"parameter value {value!r} must be a number, text, boolean or list", source=source
     )
+
+
+def _non_finite(value: Any) -> bool:
+    if isinstance(value, list):
+        return any(_non_finite(v) for v in value)
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 def grid(params: Mapping[str, Sequence[str]]) -> list[tuple[tuple[str, str], ...]]:
@@ -209,13 +220,14 @@ def expand(
     seeds: int | None,
     seed_range: range | None,
     out_dir: Path,
+    allow_outside_paths: bool = False,
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
     each combination once, so bad files or overrides fail here, before anything runs."""
     tasks: list[Task] = []
     combos = grid(params)
     for path in scenarios:
-        loaded = load_scenario(path)
+        loaded = load_scenario(path, allow_outside=allow_outside_paths)
         for combo in combos:
             apply_overrides(loaded.scenario, dict(combo))
             for seed in seeds_for(loaded.scenario.seed, seeds=seeds, seed_range=seed_range):
@@ -226,6 +238,7 @@ def expand(
                         seed=seed,
                         overrides=combo,
                         out_dir=str(out_dir),
+                        allow_outside_paths=allow_outside_paths,
                     )
                 )
     return tasks
@@ -239,6 +252,7 @@ def expand_spec(
     params: Mapping[str, Sequence[str]] | None = None,
     seeds: int | None = None,
     seed_range: range | None = None,
+    allow_outside_paths: bool = False,
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
     groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds."""
@@ -270,6 +284,7 @@ def expand_spec(
             seeds=group_seeds,
             seed_range=group_range,
             out_dir=out_dir,
+            allow_outside_paths=allow_outside_paths,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))

@@ -48,7 +48,9 @@ def run_task(task: Task) -> ResultRow:
     part = mcap.with_name(mcap.name + ".part")
     try:
         session = Session(
-            load_scenario(task.scenario), seed=task.seed, overrides=dict(task.overrides)
+            load_scenario(task.scenario, allow_outside=task.allow_outside_paths),
+            seed=task.seed,
+            overrides=dict(task.overrides),
         )
         with recorded(session, mcap=part, rrd=None):
             result = session.run()

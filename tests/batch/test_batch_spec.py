@@ -75,7 +75,7 @@ def test_a_bad_override_fails_before_anything_runs(tmp_path: Path) -> None:
         expand(
             [path], params={"robot.top_speed": ["1"]}, seeds=1, seed_range=None, out_dir=tmp_path
         )
-    with pytest.raises(ScenarioError, match="max_speed_mps must be positive"):
+    with pytest.raises(ScenarioError, match=r"max_speed_mps \(m/s\): must be > 0"):
         expand(
             [path],
             params={"robot.max_speed_mps": ["-1"]},

@@ -7,7 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from oimi.cli import main
 from pipeline.events import OperatorVerb
+from pipeline.operator.generator import Catalogue
+from pipeline.operator.generators import DanceGenerator
 from scenarios.errors import ScenarioError
 from scenarios.loader import apply_overrides, load_scenario, parse_scenario
 from scenarios.schema import (
@@ -145,13 +148,21 @@ def write(folder: Path, text: str, name: str = "scenario.toml") -> Path:
     path = folder / name
     path.write_text(text)
     (folder / "activities").mkdir(exist_ok=True)
-    (folder / "activities" / "wave.txt").write_text("activity wave\n")
+    (folder / "activities" / "wave.txt").write_text(WAVE)
     return path
+
+
+WAVE = """[wave]
+[goal:hello]
+[action]
+[b#one#blk_inst: MV() LD("1, 1, 0, 1, 0, 500") AO()]
+[b#end#blk_terminus]
+"""
 
 
 def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
     path = write(tmp_path, FULL)
-    loaded = load_scenario(path, known_generators={"test_dance"})
+    loaded = load_scenario(path)
     scenario = loaded.scenario
     assert loaded.source == path
     assert loaded.raw == path.read_bytes()
@@ -182,23 +193,23 @@ def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
 
 ERRORS = [
     # (what, text, message pattern, line)
-    ("unknown key", "[robot]\nx_m = 1.0\nspeed = 2\n", r"unknown field `speed` - at `\$.robot`", 4),
+    ("unknown key", "[robot]\nx_m = 1.0\nspeed = 2\n", r"robot.speed: unknown field$", 4),
     (
         "wrong type",
         '[[humans]]\nid = "kid"\nx_m = "left"\ny_m = 1.0\n',
-        r"Expected `float`, got `str` - at `\$.humans\[0\].x_m`",
+        r"humans\[0\].x_m \(m\): Expected `float`, got `str`$",
         4,
     ),
     (
         "wrong type in the second array table",
         '[[humans]]\nid = "a"\nx_m = 1.0\ny_m = 1.0\n[[humans]]\nid = "b"\nx_m = 1.0\ny_m = []\n',
-        r"Expected `float`, got `array` - at `\$.humans\[1\].y_m`",
+        r"humans\[1\].y_m \(m\): Expected `float`, got `array`$",
         9,
     ),
     (
         "missing field",
         '[[events]]\nat_s = 1.0\nkind = "touch"\n',
-        r"missing required field `human` - at `\$.events\[0\]`",
+        r"events\[0\].human: required, but missing$",
         2,
     ),
     ("unknown tag", '[[events]]\nat_s = 1.0\nkind = "dance"\n', r"Invalid value 'dance'", 4),
@@ -213,7 +224,7 @@ ERRORS = [
     (
         "unknown generator",
         '[[activities]]\ngenerator = "disco"\n',
-        r"unknown generator 'disco' \(known: test_dance\)",
+        r"unknown generator 'disco' \(known: example_act, greeting, joint_attention, test_dance\)",
         3,
     ),
     ("neither script nor generator", "[[activities]]\noptions = {}\n", r"exactly one of", 2),
@@ -264,7 +275,7 @@ ERRORS = [
         r"must be in time order",
         10,
     ),
-    ("tick rate", "tick_hz = 60\n", r"tick_hz 60 must divide 1000", 2),
+    ("tick rate", "tick_hz = 60\n", r"tick_hz \(Hz\): 60 must divide 1000", 2),
 ]
 
 
@@ -273,7 +284,7 @@ def test_errors_name_the_file_and_line(tmp_path, what, text, pattern, line):
     path = tmp_path / "bad.toml"
     path.write_text('name = "bad"\n' + text)
     with pytest.raises(ScenarioError, match=pattern) as caught:
-        load_scenario(path, known_generators=("test_dance",))
+        load_scenario(path)
     assert caught.value.line == line, what
     assert str(caught.value).startswith(f"{path}:{line}:")
 
@@ -281,22 +292,31 @@ def test_errors_name_the_file_and_line(tmp_path, what, text, pattern, line):
 def test_error_column_points_at_the_key():
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(b'name = "x"\n[robot]\n  max_speed_mps = "fast"\n', source="s.toml")
-    assert str(caught.value).startswith("s.toml:3:3: Expected `float`, got `str`")
+    assert str(caught.value) == "s.toml:3:3: robot.max_speed_mps (m/s): Expected `float`, got `str`"
 
 
-def test_generators_are_not_checked_without_a_list():
-    loaded = parse_scenario(b'name = "x"\n[[activities]]\ngenerator = "anything"\n')
+def test_generators_are_checked_against_the_catalogue_given():
+    loaded = parse_scenario(
+        b'name = "x"\n[[activities]]\ngenerator = "anything"\n',
+        catalogue=Catalogue({"anything": lambda: DanceNamed("anything")}),
+    )
     assert loaded.activity_paths == (None,)
+
+
+class DanceNamed(DanceGenerator):
+    def __init__(self, name: str):
+        super().__init__()
+        self.name = name
 
 
 def test_scripts_are_found_in_the_library(tmp_path, monkeypatch):
     library = tmp_path / "library"
     (library / "activities").mkdir(parents=True)
-    (library / "activities" / "hello.json").write_text("{}")
+    (library / "activities" / "hello.txt").write_text(WAVE)
     monkeypatch.setattr("scenarios.loader.LIBRARY_DIR", library)
-    text = b'name = "x"\n[[activities]]\nscript = "activities/hello.json"\n'
+    text = b'name = "x"\n[[activities]]\nscript = "activities/hello.txt"\n'
     loaded = parse_scenario(text, source=tmp_path / "elsewhere" / "s.toml")
-    assert loaded.activity_paths == (library / "activities" / "hello.json",)
+    assert loaded.activity_paths == (library / "activities" / "hello.txt",)
 
 
 def test_an_unreadable_file_is_a_scenario_error(tmp_path):
@@ -336,7 +356,7 @@ def _full():
     [
         ({"robot.top_speed": "1"}, r"override 'robot.top_speed': no field 'top_speed'"),
         ({"humans.ghost.x_m": "1"}, r"no element 'ghost'"),
-        ({"robot.max_speed_mps": "fast"}, r"Expected `float`, got `str` - at `\$.robot"),
+        ({"robot.max_speed_mps": "fast"}, r"robot.max_speed_mps \(m/s\): Expected `float`, got"),
         ({"humans.child.x_m": "99"}, r"human 'child' starts outside the arena"),
     ],
 )
@@ -345,15 +365,14 @@ def test_bad_overrides_are_scenario_errors(overrides, pattern):
         apply_overrides(_full(), overrides)
 
 
-def test_the_documented_example_loads(tmp_path):
+def test_the_documented_example_passes_oimi_check(tmp_path, capsys):
     text = DOC.read_text()
     example = re.search(r"```toml\n(.*?)```", text, re.S)
     assert example, "docs/scenario-files.md has a ```toml example"
     path = tmp_path / "example.toml"
     path.write_text(example.group(1))
-    for script in re.findall(r'script = "([^"]+)"', example.group(1)):
-        (tmp_path / script).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / script).write_text("")
+    assert main(["check", str(path)]) == 0, capsys.readouterr().err
+    assert capsys.readouterr().out == f"{path}: ok\n"
     loaded = load_scenario(path)
     scenario = loaded.scenario
     assert scenario.humans and scenario.events and scenario.expect and scenario.activities
@@ -378,7 +397,7 @@ def test_errors_inside_inline_tables_point_at_the_element_key():
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(INLINE.encode(), source="s.toml")
     assert str(caught.value).startswith(
-        "s.toml:9:36: Expected `float`, got `str` - at `$.humans[0].behaviour[2].distance_m`"
+        "s.toml:9:36: humans[0].behaviour[2].distance_m (m): Expected `float`, got `str`"
     )
 
 

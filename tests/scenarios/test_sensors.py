@@ -10,7 +10,7 @@ import pytest
 from pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from scenarios.loader import parse_scenario
 from scenarios.schema import FaultEvent, FaultMode, SensorKind, TouchEvent, TouchType
-from scenarios.sensors import Sensors
+from scenarios.sensors import Schedule, Sensors
 from scenarios.world import World, stream_rng
 
 STOP = ActuatorOutputs()
@@ -286,3 +286,29 @@ def test_led_colours_and_tracks_are_reported_as_the_robots_history_when_they_end
     ]
     world.step(STOP, tick=3)
     assert of(sensors.sample(world, tick=3, time_ms=60), "RobotStatus", "led") == []
+
+
+# ----------------------------------------------------- schedules (defence in depth)
+
+
+@pytest.mark.parametrize("period_ms", [0.0, -20.0, math.inf, math.nan])
+def test_a_schedule_refuses_a_period_that_would_never_advance(period_ms):
+    with pytest.raises(ValueError, match="must be positive and finite"):
+        Schedule(period_ms)
+
+
+def test_a_sensor_at_rate_zero_is_refused_not_divided_by():
+    scenario = parse_scenario(b'name = "x"\n').scenario
+    bad = msgspec.structs.replace(scenario.sensors, rate_hz=0.0)  # past the loader's ranges
+    with pytest.raises(ValueError, match="got nan ms"):
+        Sensors(bad, scenario, stream_rng(0, "sensors"))
+
+
+def test_a_tiny_period_is_due_once_a_tick_and_never_hangs():
+    schedule = Schedule(1e-300)
+    assert [schedule.due(t) for t in (0, 0, 20, 20, 40)] == [True, False, True, False, True]
+
+
+def test_a_schedule_keeps_its_phase():
+    schedule = Schedule(30.0)  # due at 0, 30, 60, 90 ... sampled every 20 ms
+    assert [t for t in range(0, 200, 20) if schedule.due(t)] == [0, 40, 60, 100, 120, 160, 180]

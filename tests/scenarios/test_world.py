@@ -44,8 +44,8 @@ def test_robot_accelerates_within_its_limit_to_the_commanded_speed():
 
 
 def test_robot_speed_is_clamped_to_its_maximum():
-    w = world("[robot]\nmax_accel_mps2 = 100.0\nmax_angular_accel_radps2 = 100.0\n")
-    run(w, ActuatorOutputs(v_x=3.0, v_y=3.0, v_theta=9.0), 10)
+    w = world()  # 1 m/s² and 3 rad/s²: the limits are reached within 25 ticks
+    run(w, ActuatorOutputs(v_x=3.0, v_y=3.0, v_theta=9.0), 40)
     assert w.robot.velocity.length == pytest.approx(0.5)
     assert w.robot.angular_velocity == pytest.approx(1.5)
 
@@ -57,8 +57,8 @@ def test_angular_speed_respects_the_angular_acceleration_limit():
 
 
 def test_body_frame_command_is_rotated_into_the_world_frame():
-    w = world(f"[robot]\ntheta_rad = {math.pi / 2}\nmax_accel_mps2 = 100.0\n")
-    w.step(ActuatorOutputs(v_x=0.3, v_y=0.1), tick=0)
+    w = world(f"[robot]\ntheta_rad = {math.pi / 2}\nmax_accel_mps2 = 2.0\n")
+    run(w, ActuatorOutputs(v_x=0.3, v_y=0.1), 10)  # 0.04 m/s per tick: there after 8
     # facing +y: forward is world +y, left is world -x
     assert w.robot.velocity.x == pytest.approx(-0.1)
     assert w.robot.velocity.y == pytest.approx(0.3)
