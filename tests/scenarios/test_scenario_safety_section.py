@@ -38,7 +38,7 @@ def test_the_section_sets_the_zones() -> None:
         ("stop_distance_m = -0.1\n", r"safety stop_distance_m must be a non-negative number", 3),
         ("slow_distance_m = 0.05\n", r"the slow zone must contain the stop zone", 3),
         ("slow_speed_mps = 0.2\nmax_data_age_ms = -5\n", r"max_data_age_ms must be", 4),
-        ("enabled = false\n", r"unknown field `enabled`", 3),
+        ("enabled = false\n", r"robot.safety.enabled: unknown field", 3),
     ],
 )
 def test_bad_safety_values_are_located_errors(body: str, pattern: str, line: int) -> None:
