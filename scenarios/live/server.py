@@ -6,6 +6,16 @@ operator commands and pad states, which the next tick applies, stamped with that
 tick (and so recorded as that tick's inputs). Replies go out after the tick.
 Clients never touch the session directly; a client that sends nonsense gets a
 refusal, one that stops reading is dropped, one that vanishes is forgotten.
+
+Closed by default (``docs/security.md``): a connection is *pending* until it is
+admitted (with a token: its ``auth`` accepted; without: its first request read)
+and learns nothing about the session before; pending connections are few
+(:data:`MAX_PENDING`, the oldest evicted for a new one, so a flood cannot keep
+the operator out) and short-lived (:data:`AUTH_TIMEOUT_S`); admitted ones are
+capped (:data:`MAX_CLIENTS`), idle ones closed (:data:`IDLE_TIMEOUT_S`) and each
+is rate-limited. Wrong tokens are answered ever later and cut off. The console's
+WebSocket takes only the console's own origin and ``Host``; the TCP port closes
+a connection that speaks HTTP.
 """
 
 from __future__ import annotations
@@ -14,9 +24,14 @@ import asyncio
 import contextlib
 import hmac
 import importlib.resources
+import ipaddress
+import logging
+import re
 import signal
+import socket
+import sys
 from collections.abc import Callable
-from typing import Final
+from typing import Any, Final
 
 import msgspec
 from websockets.asyncio.server import ServerConnection, serve
@@ -25,9 +40,10 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request as HttpRequest
 from websockets.http11 import Response
 
+from pipeline.errors import LocatedError
 from pipeline.events import Level, LogEntry, OperatorCommand
 from scenarios.live import protocol
-from scenarios.live.inputs import JoystickGuard, Pad
+from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
 from scenarios.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
@@ -59,6 +75,32 @@ WEB_FILES: Final = {
 }
 WS_PATH: Final = "/ws"
 
+MAX_PENDING: Final = 64
+"""Connections not yet admitted (both ports); a new one evicts the oldest beyond this."""
+MAX_CLIENTS: Final = 16
+"""Admitted connections; one more is refused."""
+AUTH_TIMEOUT_S: Final = 5.0
+"""A pending connection is closed after this long (send ``auth`` or a request first)."""
+IDLE_TIMEOUT_S: Final = 300.0
+"""An admitted connection that sends nothing for this long is closed."""
+MAX_AUTH_FAILURES: Final = 3
+"""Wrong tokens on one connection before it is closed."""
+AUTH_DELAY_S: Final = 0.25
+"""The delay before answering an ``auth`` after one earlier failure from the same address;
+it doubles with each further failure, up to :data:`MAX_AUTH_DELAY_S` (reset by a success)."""
+MAX_AUTH_DELAY_S: Final = 4.0
+REQUESTS_PER_S: Final = 200.0
+"""A connection's sustained request rate; beyond its burst it is closed."""
+REQUEST_BURST: Final = 1000
+BACKLOG: Final = 1024
+"""The listening sockets' accept queue."""
+_HTTP_LINE: Final = re.compile(rb"^[A-Z]{3,16} \S* HTTP/\d|^\x16\x03")
+"""An HTTP request line (or a TLS hello): a browser's request to the TCP port."""
+
+
+class ServeError(LocatedError):
+    """The server cannot start as asked (an address in use, no token on an open address)."""
+
 
 class ServeConfig(msgspec.Struct, frozen=True, kw_only=True):
     """Where and how long to serve."""
@@ -70,6 +112,9 @@ class ServeConfig(msgspec.Struct, frozen=True, kw_only=True):
     """The web console's port (0: any free one); None: no console."""
     token: str | None = None
     """When set, every client must send ``{"cmd": "auth", "token": ...}`` first."""
+    allow_origins: tuple[str, ...] = ()
+    """Web origins (``https://tablet.example:8443``) allowed on the console's WebSocket
+    besides the console's own."""
     duration_s: float | None = None
     """Stop after this much session time; None: run until stopped."""
 
@@ -82,18 +127,87 @@ class Addresses(msgspec.Struct, frozen=True, kw_only=True):
     """The web console's URL."""
 
 
+class Listeners:
+    """The server's listening sockets, bound before any recording is opened."""
+
+    def __init__(self, tcp: socket.socket | None, http: socket.socket | None) -> None:
+        self.tcp = tcp
+        self.http = http
+
+    def close(self) -> None:
+        for sock in (self.tcp, self.http):
+            if sock is not None:
+                sock.close()
+
+
+def is_loopback(host: str) -> bool:
+    """``host`` is a loopback name or address (``127.0.0.1``, ``::1``, ``localhost``)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def listen(config: ServeConfig) -> Listeners:
+    """Bind both ports now; a :class:`ServeError` naming the address when one cannot be,
+    or when a non-loopback address is asked for without a token."""
+    if not is_loopback(config.host) and not config.token:
+        raise ServeError(
+            f"listening on {config.host} needs --token: anyone who can reach it could "
+            "drive the robot",
+            source="--host",
+        )
+    bound: list[socket.socket] = []
+    try:
+        for port in (config.tcp_port, config.http_port):
+            if port is None:
+                bound.append(None)  # type: ignore[arg-type]
+                continue
+            try:
+                bound.append(socket.create_server((config.host, port), backlog=BACKLOG))
+            except OSError as error:
+                raise ServeError(
+                    f"cannot listen on {config.host}:{port}: {error.strerror or error}",
+                    source="oimi serve",
+                ) from None
+    except ServeError:
+        for sock in bound:
+            if sock is not None:
+                sock.close()
+        raise
+    return Listeners(bound[0], bound[1])
+
+
 class _Client:
     """One connection: an outgoing queue drained by its own task (``pump``)."""
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str, address: str, now_s: float) -> None:
         self.name = name
+        self.address = address
         self.queue: asyncio.Queue[bytes | None] = asyncio.Queue(OUT_QUEUE)
         self.open = True
         """Still taking messages; False once finishing or dropped."""
-        self.authed = False
+        self.admitted = False
+        """Authenticated (or, without a token, has sent a request)."""
         self.subscribed = False
         self.world = False
         self.task: asyncio.Task[None] | None = None
+        self.since_s = now_s
+        self.heard_s = now_s
+        self.failures = 0
+        """Wrong tokens sent on this connection."""
+        self.gate_key: object = self
+        """What stands for this connection in the server's gate of pending ones."""
+        self._budget = float(REQUEST_BURST)
+
+    def spend(self, now_s: float) -> bool:
+        """One request's share of the rate budget; False when it is exhausted."""
+        self._budget = min(REQUEST_BURST, self._budget + (now_s - self.heard_s) * REQUESTS_PER_S)
+        self.heard_s = now_s
+        self._budget -= 1
+        return self._budget >= 0
 
     def start(self) -> None:
         self.task = asyncio.create_task(self._run_pump())
@@ -149,8 +263,9 @@ class _Client:
 
 
 class _TcpClient(_Client):
-    def __init__(self, name: str, writer: asyncio.StreamWriter) -> None:
-        super().__init__(name)
+    def __init__(self, name: str, writer: asyncio.StreamWriter, now_s: float) -> None:
+        peer = writer.get_extra_info("peername")
+        super().__init__(name, str(peer[0]) if peer else "?", now_s)
         self.writer = writer
 
     async def _write(self, data: bytes) -> None:
@@ -165,8 +280,9 @@ class _TcpClient(_Client):
 
 
 class _WsClient(_Client):
-    def __init__(self, name: str, connection: ServerConnection) -> None:
-        super().__init__(name)
+    def __init__(self, name: str, connection: ServerConnection, now_s: float) -> None:
+        peer = connection.remote_address
+        super().__init__(name, str(peer[0]) if peer else "?", now_s)
         self.connection = connection
 
     async def _write(self, data: bytes) -> None:
@@ -177,6 +293,60 @@ class _WsClient(_Client):
 
     def _drop(self) -> None:
         self.connection.transport.abort()
+
+
+class _Gate:
+    """Connections not yet admitted, oldest first: a new one beyond ``limit`` evicts the
+    oldest (so a flood of idle connections cannot keep the operator out)."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.waiting: dict[Any, float] = {}
+        """Connection (anything with ``abort()``) -> when it arrived."""
+        self.evicted = 0
+
+    def enter(self, connection: Any, now_s: float) -> None:
+        while len(self.waiting) >= self.limit:
+            oldest = next(iter(self.waiting))
+            del self.waiting[oldest]
+            self.evicted += 1
+            oldest.abort()
+        self.waiting[connection] = now_s
+
+    def leave(self, connection: Any) -> None:
+        self.waiting.pop(connection, None)
+
+    def expire(self, before_s: float) -> None:
+        """Close every connection that arrived before ``before_s``."""
+        for connection, since in list(self.waiting.items()):
+            if since < before_s:
+                del self.waiting[connection]
+                connection.abort()
+
+
+class _ConsoleConnection(ServerConnection):
+    """A connection to the console's port, held in the gate until admitted or closed."""
+
+    gate: _Gate
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        super().connection_made(transport)
+        self.gate.enter(self, asyncio.get_running_loop().time())
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.gate.leave(self)
+        super().connection_lost(exc)
+
+    def abort(self) -> None:
+        self.transport.abort()
+
+
+def _quiet_logger() -> logging.Logger:
+    """The websockets library's logger, silenced: the server reports what matters itself."""
+    logger = logging.getLogger("oimi.serve.websockets")
+    logger.propagate = False
+    logger.addHandler(logging.NullHandler())
+    return logger
 
 
 class LiveServer:
@@ -200,12 +370,19 @@ class LiveServer:
         self.ticks = 0
         """Ticks run so far."""
         self._clients: list[_Client] = []
+        self._gate = _Gate(MAX_PENDING)
         self._pending: list[OperatorCommand] = []
         self._waiting: dict[int, tuple[_Client, protocol.Request]] = {}
         self._stop: asyncio.Event | None = None
         self._last_state = b""
         self._frame_every = max(1, FRAME_PERIOD_MS // session.tick_ms)
+        self._sweep_every = max(1, 1000 // session.tick_ms)
         self._counter = 0
+        self._released = ""
+        self._auth_failures: dict[str, int] = {}
+        """Wrong tokens per peer address since its last accepted one."""
+        self._console_port = 0
+        self._last_error_s = -1.0
 
     # ---------------------------------------------------------------- lifetime
 
@@ -214,35 +391,42 @@ class LiveServer:
         if self._stop is not None:
             self._stop.set()
 
-    async def run(self) -> int:
-        """Serve until stopped or ``duration_s`` has passed; the number of ticks run."""
+    async def run(self, listeners: Listeners | None = None) -> int:
+        """Serve until stopped or ``duration_s`` has passed; the number of ticks run.
+
+        ``listeners`` are the ports bound by :func:`listen` (bound here when None)."""
         loop = asyncio.get_running_loop()
+        loop.set_exception_handler(self._loop_error)
         self._stop = asyncio.Event()
         signals = (signal.SIGINT, signal.SIGTERM)
         for sig in signals:
             loop.add_signal_handler(sig, self.stop)
+        listeners = listeners or listen(self.config)
         tcp = web = None
         try:
-            host = self.config.host
             tcp_address = console = None
-            if self.config.tcp_port is not None:
+            if listeners.tcp is not None:
                 tcp = await asyncio.start_server(
-                    self._serve_tcp, host, self.config.tcp_port, limit=MAX_LINE_BYTES + 1
+                    self._serve_tcp, sock=listeners.tcp, limit=MAX_LINE_BYTES + 1
                 )
-                tcp_address = (host, tcp.sockets[0].getsockname()[1])
-            if self.config.http_port is not None:
+                tcp_address = (self.config.host, listeners.tcp.getsockname()[1])
+            if listeners.http is not None:
+                self._console_port = listeners.http.getsockname()[1]
+                gate = self._gate
+                connection_type = type("ConsoleConnection", (_ConsoleConnection,), {"gate": gate})
                 web = await serve(
                     self._serve_ws,
-                    host,
-                    self.config.http_port,
+                    sock=listeners.http,
                     process_request=self._static,
                     max_size=MAX_LINE_BYTES,
                     ping_interval=2,
                     ping_timeout=2,
                     close_timeout=1,
+                    open_timeout=AUTH_TIMEOUT_S,
+                    logger=_quiet_logger(),
+                    create_connection=connection_type,
                 )
-                port = next(iter(web.sockets)).getsockname()[1]
-                console = f"http://{host}:{port}/"
+                console = f"http://{_url_host(self.config.host)}:{self._console_port}/"
             if self.on_ready is not None:
                 self.on_ready(Addresses(tcp=tcp_address, console=console))
             await self._tick_loop()
@@ -254,13 +438,26 @@ class LiveServer:
                 client.finish()
             if clients:
                 await asyncio.wait([asyncio.ensure_future(c.wait()) for c in clients], timeout=1)
+            self._gate.expire(float("inf"))
             if tcp is not None:
                 tcp.close()
             if web is not None:
                 web.close()
                 await web.wait_closed()
+            listeners.close()
             await asyncio.sleep(0)
         return self.ticks
+
+    def _loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """An error inside asyncio (out of file descriptors while accepting...): one line,
+        at most once a second, never a traceback."""
+        now = loop.time()
+        if now - self._last_error_s < 1.0:
+            return
+        self._last_error_s = now
+        error = context.get("exception")
+        detail = f": {error}" if error is not None else ""
+        print(f"note: {context.get('message', 'error')}{detail}", file=sys.stderr, flush=True)
 
     async def _tick_loop(self) -> None:
         loop = asyncio.get_running_loop()
@@ -271,7 +468,10 @@ class LiveServer:
         start = loop.time()
         assert self._stop is not None
         while not self._stop.is_set() and (last is None or self.ticks < last):
-            self._step(self.ticks, now_s=loop.time())
+            now = loop.time()
+            self._step(self.ticks, now_s=now)
+            if self.ticks % self._sweep_every == 0:
+                self._sweep(now)
             self.ticks += 1
             delay = start + self.ticks * tick_s - loop.time()
             if delay < -MAX_LAG_S:
@@ -284,16 +484,26 @@ class LiveServer:
             else:
                 await asyncio.sleep(0)
 
+    def _sweep(self, now_s: float) -> None:
+        """Close pending connections past their time and admitted ones idle too long."""
+        self._gate.expire(now_s - AUTH_TIMEOUT_S)
+        for client in self._clients:
+            if client.admitted and client.open and now_s - client.heard_s > IDLE_TIMEOUT_S:
+                client.send(Reply(id=None, ok=False, reason="idle too long: closing"))
+                client.finish()
+
     # ------------------------------------------------------------------- a tick
 
     def _step(self, tick: int, *, now_s: float) -> None:
         commands, self._pending = self._pending, []
-        pad = self.guard.take(now_s=now_s)
-        for why in self.guard.released:
-            self._note(f"safety lock released: {why}", level=Level.WARNING)
-        self.guard.released.clear()
+        taken = self.guard.take(now_s=now_s)
         time_ms = tick * self.session.tick_ms
-        joystick = None if pad is None else pad.at(tick=tick, time_ms=time_ms)
+        joystick = None
+        if taken is not None:
+            joystick = taken.pad.at(tick=tick, time_ms=time_ms, release=taken.release)
+            if taken.release is not None:
+                self._released = RELEASE_TEXT[taken.release]
+                self._note(f"safety lock released: {self._released}", level=Level.WARNING)
         self.session.step(tick, commands=commands, joystick=joystick)
         for command_id, reply in self.view.take_replies().items():
             waiting = self._waiting.pop(command_id, None)
@@ -327,7 +537,9 @@ class LiveServer:
         watchers = [c for c in self._clients if c.subscribed and c.world]
         if not watchers:
             return
-        frame = self.view.frame(joystick_engaged=self.session.pipeline.actuator.engaged)
+        frame = self.view.frame(
+            joystick_engaged=self.session.pipeline.actuator.engaged, released=self._released
+        )
         if frame is not None:
             for client in watchers:
                 client.send(frame)
@@ -339,28 +551,81 @@ class LiveServer:
 
     # ---------------------------------------------------------------- requests
 
-    def _on_line(self, client: _Client, line: bytes | str) -> None:
+    async def _on_line(self, client: _Client, line: bytes | str) -> None:
         if not line.strip():
+            return
+        if not client.spend(asyncio.get_running_loop().time()):
+            client.send(Reply(id=None, ok=False, reason="too many requests: closing"))
+            client.finish()
             return
         try:
             request = decode_request(line)
         except ProtocolError as error:
             client.send(Reply(id=error.id, ok=False, reason=str(error)))
             return
-        self._handle(client, request)
+        if isinstance(request, protocol.Auth):
+            await self._authenticate(client, request)
+        elif client.admitted or (self.config.token is None and self._admit(client)):
+            self._handle(client, request)
+        elif self.config.token is not None:
+            client.send(
+                Reply(
+                    id=request.id,
+                    ok=False,
+                    reason='unauthorised: send {"cmd": "auth", "token": ...} first',
+                )
+            )
+
+    def _admit(self, client: _Client) -> bool:
+        """Let a pending client in when there is room; refuse and close it when not."""
+        self._gate.leave(client.gate_key)
+        if sum(c.admitted for c in self._clients) >= MAX_CLIENTS:
+            client.send(Reply(id=None, ok=False, reason=f"too many clients ({MAX_CLIENTS})"))
+            client.finish()
+            return False
+        client.admitted = True
+        return True
+
+    async def _authenticate(self, client: _Client, request: protocol.Auth) -> None:
+        """Check a token: each earlier failure from the same address delays the answer
+        (doubling), and the connection closes at its :data:`MAX_AUTH_FAILURES`-th."""
+        token = self.config.token
+        if token is None or client.admitted:
+            client.send(Reply(id=request.id, ok=True, reason="authorised"))
+            if not client.admitted:
+                self._admit(client)
+            return
+        earlier = self._auth_failures.get(client.address, 0)
+        if earlier:
+            await asyncio.sleep(min(AUTH_DELAY_S * 2 ** (earlier - 1), MAX_AUTH_DELAY_S))
+            if not client.open:
+                return
+        if hmac.compare_digest(request.token.encode(), token.encode()):
+            self._auth_failures.pop(client.address, None)
+            if self._admit(client):
+                client.send(Reply(id=request.id, ok=True, reason="authorised"))
+                client.send(self._hello())
+            return
+        self._auth_failures[client.address] = earlier + 1
+        client.failures += 1
+        if client.failures >= MAX_AUTH_FAILURES:
+            client.send(Reply(id=request.id, ok=False, reason="wrong token: closing"))
+            client.finish()
+            return
+        delay = min(AUTH_DELAY_S * 2**earlier, MAX_AUTH_DELAY_S)
+        client.send(
+            Reply(
+                id=request.id,
+                ok=False,
+                reason=f"wrong token ({client.failures} of {MAX_AUTH_FAILURES}); "
+                f"the next answer comes after {delay:g} s",
+            )
+        )
 
     def _handle(self, client: _Client, request: protocol.AnyRequest) -> None:
         def reply(ok: bool, reason: str = "", **extra: object) -> None:
             client.send(Reply(id=request.id, ok=ok, reason=reason, **extra))  # type: ignore[arg-type]
 
-        token = self.config.token
-        if isinstance(request, protocol.Auth):
-            if token is None or hmac.compare_digest(request.token.encode(), token.encode()):
-                client.authed = True
-                return reply(True, "authorised")
-            return reply(False, "wrong token")
-        if token is not None and not client.authed:
-            return reply(False, 'unauthorised: send {"cmd": "auth", "token": ...} first')
         verb = OPERATOR_REQUESTS.get(type(request))
         if verb is not None:
             command = self.session.command(
@@ -371,7 +636,7 @@ class LiveServer:
             )
             self._pending.append(command)
             self._waiting[command.id] = (client, request)
-            return None
+            return
         match request:
             case protocol.Subscribe():
                 client.subscribed, client.world = True, request.world
@@ -390,12 +655,12 @@ class LiveServer:
                     buttons=request.buttons,
                 )
                 self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
-                reply(True)
-        return None
+                reply(True, tick=self.ticks)
 
     # -------------------------------------------------------------- transports
 
     def _hello(self) -> Hello:
+        """The session's hello: only that a token is needed, until it has been given."""
         return Hello(
             scenario=self.session.scenario.name,
             tick_ms=self.session.tick_ms,
@@ -406,25 +671,34 @@ class LiveServer:
     def _connect(self, client: _Client) -> None:
         self._clients.append(client)
         client.start()
-        client.send(self._hello())
+        if self.config.token is None:
+            client.send(self._hello())
+        else:
+            client.send(Hello(auth_required=True))
 
     async def _disconnect(self, client: _Client) -> None:
         if client in self._clients:
             self._clients.remove(client)
+        self._gate.leave(client.gate_key)
         self.guard.lost(client)
         client.finish()
         await client.wait()
 
     async def _serve_tcp(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._counter += 1
-        client = _TcpClient(f"tcp-{self._counter}", writer)
+        now = asyncio.get_running_loop().time()
+        client = _TcpClient(f"tcp-{self._counter}", writer, now)
+        self._gate.enter(client, now)
         self._connect(client)
+        first = True
         try:
             while client.open:
                 try:
                     line = await reader.readuntil(b"\n")
                 except asyncio.IncompleteReadError as end:
-                    self._on_line(client, end.partial)
+                    if first and _HTTP_LINE.match(end.partial):
+                        break
+                    await self._on_line(client, end.partial)
                     break
                 except asyncio.LimitOverrunError:
                     client.send(
@@ -436,7 +710,11 @@ class LiveServer:
                     )
                     client.finish()
                     break
-                self._on_line(client, line)
+                if first and _HTTP_LINE.match(line):
+                    client.abort()  # a browser's request: its body is never read
+                    break
+                first = False
+                await self._on_line(client, line)
         except ConnectionError:
             pass
         finally:
@@ -444,11 +722,12 @@ class LiveServer:
 
     async def _serve_ws(self, connection: ServerConnection) -> None:
         self._counter += 1
-        client = _WsClient(f"ws-{self._counter}", connection)
+        client = _WsClient(f"ws-{self._counter}", connection, asyncio.get_running_loop().time())
+        client.gate_key = connection
         self._connect(client)
         try:
             async for message in connection:
-                self._on_line(client, message)
+                await self._on_line(client, message)
                 if not client.open:
                     break
         except ConnectionClosed:
@@ -457,6 +736,9 @@ class LiveServer:
             await self._disconnect(client)
 
     def _static(self, connection: ServerConnection, request: HttpRequest) -> Response | None:
+        refused = self._refuse(request)
+        if refused is not None:
+            return connection.respond(403, f"refused: {refused}\n")
         path = request.path.split("?", 1)[0]
         if path == WS_PATH:
             return None
@@ -476,3 +758,49 @@ class LiveServer:
             ]
         )
         return Response(200, "OK", headers, body)
+
+    def _refuse(self, request: HttpRequest) -> str | None:
+        """Why an HTTP request to the console is refused (None: it is not).
+
+        ``Host`` must name this port by an IP address, ``localhost`` or an allowed
+        origin's host (a DNS name an attacker controls cannot rebind to it); a
+        WebSocket's ``Origin`` must be the console's own (``http://`` + ``Host``) or
+        allowed with ``--allow-origin``; a request without one is no browser's console.
+        """
+        host = request.headers.get("Host", "")
+        name, _, port = host.rpartition(":") if not host.endswith("]") else (host, "", "")
+        if not name:
+            name, port = port, ""
+        if port and port != str(self._console_port):
+            return f"Host {host!r} is not this console's port"
+        allowed = {_origin_host(origin) for origin in self.config.allow_origins}
+        if not (_is_address(name) or name == "localhost" or name in allowed):
+            return f"Host {host!r} is not an address of this console"
+        if request.path.split("?", 1)[0] != WS_PATH:
+            return None
+        origin = request.headers.get("Origin")
+        if origin is None or origin == "null":
+            return "a WebSocket needs the console's Origin"
+        if origin != f"http://{host}" and origin not in self.config.allow_origins:
+            return f"Origin {origin!r} is not allowed (see --allow-origin)"
+        return None
+
+
+def _is_address(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name.strip("[]"))
+    except ValueError:
+        return False
+    return True
+
+
+def _origin_host(origin: str) -> str:
+    """``https://tablet.example:8443`` -> ``tablet.example``."""
+    rest = origin.split("://", 1)[-1]
+    if rest.startswith("["):
+        return rest.split("]", 1)[0] + "]"
+    return rest.split(":", 1)[0].split("/", 1)[0]
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
