@@ -45,9 +45,7 @@ class Pad(msgspec.Struct, frozen=True, kw_only=True):
         """The safety lock (dead-man, ``LB``) is held."""
         return LOCK in self.buttons
 
-    def at(
-        self, *, tick: int, time_ms: int, release: LockRelease | None = None
-    ) -> JoystickInput:
+    def at(self, *, tick: int, time_ms: int, release: LockRelease | None = None) -> JoystickInput:
         """This state as the joystick input of ``tick``."""
         return JoystickInput(
             tick=tick,
