@@ -130,13 +130,14 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
         page.mouse.down()
         expect(page.locator("#engaged")).to_contain_text("engaged")
         page.mouse.up()
-        expect(page.locator("#engaged")).to_have_text("released")
+        expect(page.locator("#engaged")).to_have_text("released: the operator let go of the lock")
         live.stop()
     assert live.returncode == 0, live.errors
 
     rec = open_recording(recording)
     pads = [m.decoded() for m in rec.iter_messages(topics=[Topic.JOYSTICK])]
     assert [p.buttons for p in pads if isinstance(p, JoystickInput)][-2:] == [("LB",), ()]
+    assert pads[-1].release == "operator"  # type: ignore[union-attr]
     verbs = [
         c.verb
         for m in rec.iter_messages(topics=[Topic.OPERATOR_COMMANDS])
