@@ -89,6 +89,8 @@ AUTH_DELAY_S: Final = 0.25
 """The delay before answering an ``auth`` after one earlier failure from the same address;
 it doubles with each further failure, up to :data:`MAX_AUTH_DELAY_S` (reset by a success)."""
 MAX_AUTH_DELAY_S: Final = 4.0
+MAX_FAILING_ADDRESSES: Final = 4096
+"""Addresses whose failures are remembered (the oldest forgotten first)."""
 REQUESTS_PER_S: Final = 200.0
 """A connection's sustained request rate; beyond its burst it is closed."""
 REQUEST_BURST: Final = 1000
@@ -606,7 +608,10 @@ class LiveServer:
                 client.send(Reply(id=request.id, ok=True, reason="authorised"))
                 client.send(self._hello())
             return
-        self._auth_failures[client.address] = earlier + 1
+        self._auth_failures.pop(client.address, None)
+        self._auth_failures[client.address] = earlier + 1  # the newest last
+        if len(self._auth_failures) > MAX_FAILING_ADDRESSES:
+            del self._auth_failures[next(iter(self._auth_failures))]
         client.failures += 1
         if client.failures >= MAX_AUTH_FAILURES:
             client.send(Reply(id=request.id, ok=False, reason="wrong token: closing"))
