@@ -190,6 +190,12 @@ def test_a_thousand_idle_connections_neither_lock_out_the_operator_nor_trace(gua
         ports = (live.tcp_port, port_of(live.console))
         for i in range(1000):  # far over the server's 256 files
             idle.append(socket.create_connection(("127.0.0.1", ports[i % 2]), timeout=5))
+        # both accept queues worked through: a later connection on each port is answered
+        page = f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{ports[1]}\r\n\r\n".encode()
+        assert http_status(ports[1], page) == "HTTP/1.1 200 OK"
+        probe = LineClient.connect(live.tcp_port)
+        assert probe.read()["type"] == "hello"
+        probe.close()
         operator = LineClient.connect(live.tcp_port)
         hello = operator.read()
         assert hello == {"type": "hello", "auth_required": True}
