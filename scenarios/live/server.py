@@ -161,25 +161,26 @@ def listen(config: ServeConfig) -> Listeners:
             "drive the robot",
             source="--host",
         )
-    bound: list[socket.socket] = []
+    bound: list[socket.socket | None] = []
     try:
         for port in (config.tcp_port, config.http_port):
-            if port is None:
-                bound.append(None)  # type: ignore[arg-type]
-                continue
-            try:
-                bound.append(socket.create_server((config.host, port), backlog=BACKLOG))
-            except OSError as error:
-                raise ServeError(
-                    f"cannot listen on {config.host}:{port}: {error.strerror or error}",
-                    source="oimi serve",
-                ) from None
+            bound.append(None if port is None else _bind(config.host, port))
     except ServeError:
         for sock in bound:
             if sock is not None:
                 sock.close()
         raise
     return Listeners(bound[0], bound[1])
+
+
+def _bind(host: str, port: int) -> socket.socket:
+    try:
+        family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
+        return socket.create_server((host, port), family=family, backlog=BACKLOG)
+    except OSError as error:
+        raise ServeError(
+            f"cannot listen on {host}:{port}: {error.strerror or error}", source="oimi serve"
+        ) from None
 
 
 class _Client:
