@@ -17,12 +17,17 @@ import asyncio
 import datetime
 import sys
 from pathlib import Path
+from typing import Final
 
 from oimi.cmd_run import print_result
 from scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
 from scenarios.live.session import LiveSession
 from scenarios.loader import load_scenario
 from scenarios.recording import check_outputs, dated_path, recorded
+
+LIVE_CHUNK_BYTES: Final = 128 * 1024
+"""A live session's MCAP chunks (uncompressed): a killed session loses at most the open
+chunk, a few seconds of session rather than the default 1 MiB's minute or more."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -84,7 +89,13 @@ def run(args: argparse.Namespace) -> int:
     session = LiveSession(loaded, seed=args.seed)
     server = LiveServer(session, config, on_ready=_announce, on_note=_note)
     try:
-        with recorded(session, mcap=output, rrd=args.rrd, overwrite=args.overwrite):
+        with recorded(
+            session,
+            mcap=output,
+            rrd=args.rrd,
+            overwrite=args.overwrite,
+            chunk_size_bytes=LIVE_CHUNK_BYTES,
+        ):
             asyncio.run(server.run(listeners))
     finally:
         listeners.close()

@@ -11,7 +11,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from recorder.errors import RecordingError
-from recorder.mcap_sink import McapSink
+from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from recorder.rerun_sink import RerunSink
 from recorder.scene import ObstacleGeometry, SceneGeometry
 from scenarios.runner import Session
@@ -155,7 +155,12 @@ def _finish(partial: Path, path: Path, *, overwrite: bool) -> None:
 
 @contextlib.contextmanager
 def recorded(
-    session: Session, *, mcap: Path | None, rrd: Path | None, overwrite: bool = True
+    session: Session,
+    *,
+    mcap: Path | None,
+    rrd: Path | None,
+    overwrite: bool = True,
+    chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
 ) -> Iterator[Session]:
     """Attach the MCAP (and Rerun) sinks to a session, and close them whatever happens.
 
@@ -165,7 +170,8 @@ def recorded(
     ``NAME.mcap``; without ``overwrite`` an existing file is refused, never replaced.
     The sinks open before the first tick, with the session's metadata and
     attachments at the start of the file; Ctrl-C or an error still closes them, and
-    a second Ctrl-C while they close is ignored.
+    a second Ctrl-C while they close is ignored. ``chunk_size_bytes`` bounds what a
+    killed session loses (the open chunk).
     """
     check_outputs((mcap, rrd), overwrite=overwrite)
     claimed: list[tuple[Path, Path]] = []
@@ -182,7 +188,11 @@ def recorded(
                 metadata = session.metadata()
                 metadata["oimi"]["recording_id"] = ident
                 sink: _Sink = McapSink(
-                    partial, metadata=metadata, attachments=session.attachments(), scene=scene
+                    partial,
+                    metadata=metadata,
+                    attachments=session.attachments(),
+                    scene=scene,
+                    chunk_size_bytes=chunk_size_bytes,
                 )
             else:
                 sink = RerunSink(partial, recording_id=ident, scene=scene)
