@@ -80,9 +80,10 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
     page = browser_page
     recording = tmp_path / "console.mcap"
     screenshot = Path(os.environ.get("OIMI_CONSOLE_SCREENSHOT", tmp_path / "console.png"))
-    with served(recording) as live:
-        page.goto(live.console)
+    with served(recording, "--token", "t0ken") as live:  # the console sends it from its URL
+        page.goto(f"{live.console}?token=t0ken")
         expect(page.locator("body")).to_have_attribute("data-link", "up")
+        expect(page.locator("#scenario")).to_have_text("live_room")  # the hello after auth
         command = page.locator("#command")
         expect(command).to_have_attribute("data-button", "get_ready")
 
