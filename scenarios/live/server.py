@@ -24,11 +24,7 @@ import asyncio
 import contextlib
 import hmac
 import importlib.resources
-import ipaddress
-import logging
-import re
 import signal
-import socket
 import sys
 from collections.abc import Callable
 from typing import Any, Final
@@ -40,9 +36,25 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request as HttpRequest
 from websockets.http11 import Response
 
-from pipeline.errors import LocatedError
 from pipeline.events import Level, LogEntry, OperatorCommand
 from scenarios.live import protocol
+from scenarios.live.connections import (
+    HTTP_LINE,
+    Addresses,
+    Client,
+    ConsoleConnection,
+    Gate,
+    Listeners,
+    ServeConfig,
+    ServeError,
+    TcpClient,
+    WsClient,
+    console_refusal,
+    is_loopback,
+    listen,
+    quiet_logger,
+    url_host,
+)
 from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
 from scenarios.live.protocol import (
     MAX_LINE_BYTES,
@@ -52,16 +64,21 @@ from scenarios.live.protocol import (
     Reply,
     StateMessage,
     decode_request,
-    encode_message,
 )
 from scenarios.live.view import LiveView
 from scenarios.recording import scene_of
 from scenarios.runner import Session
 
-OUT_QUEUE: Final = 256
-"""Messages waiting for a client; one that falls this far behind is dropped."""
-WRITE_TIMEOUT_S: Final = 5.0
-"""A client that takes longer than this to accept data is dropped."""
+__all__ = [
+    "Addresses",
+    "Listeners",
+    "LiveServer",
+    "ServeConfig",
+    "ServeError",
+    "is_loopback",
+    "listen",
+]
+
 FRAME_PERIOD_MS: Final = 100
 """The live view's frame period (10 Hz)."""
 MAX_LAG_S: Final = 1.0
@@ -91,265 +108,6 @@ it doubles with each further failure, up to :data:`MAX_AUTH_DELAY_S` (reset by a
 MAX_AUTH_DELAY_S: Final = 4.0
 MAX_FAILING_ADDRESSES: Final = 4096
 """Addresses whose failures are remembered (the oldest forgotten first)."""
-REQUESTS_PER_S: Final = 200.0
-"""A connection's sustained request rate; beyond its burst it is closed."""
-REQUEST_BURST: Final = 1000
-BACKLOG: Final = 1024
-"""The listening sockets' accept queue."""
-_HTTP_LINE: Final = re.compile(rb"^[A-Z]{3,16} \S* HTTP/\d|^\x16\x03")
-"""An HTTP request line (or a TLS hello): a browser's request to the TCP port."""
-
-
-class ServeError(LocatedError):
-    """The server cannot start as asked (an address in use, no token on an open address)."""
-
-
-class ServeConfig(msgspec.Struct, frozen=True, kw_only=True):
-    """Where and how long to serve."""
-
-    host: str = "127.0.0.1"
-    tcp_port: int | None = 7070
-    """The App Interface's port (0: any free one); None: no TCP interface."""
-    http_port: int | None = 8080
-    """The web console's port (0: any free one); None: no console."""
-    token: str | None = None
-    """When set, every client must send ``{"cmd": "auth", "token": ...}`` first."""
-    allow_origins: tuple[str, ...] = ()
-    """Web origins (``https://tablet.example:8443``) allowed on the console's WebSocket
-    besides the console's own."""
-    duration_s: float | None = None
-    """Stop after this much session time; None: run until stopped."""
-
-
-class Addresses(msgspec.Struct, frozen=True, kw_only=True):
-    """Where the server listens, once it does."""
-
-    tcp: tuple[str, int] | None = None
-    console: str | None = None
-    """The web console's URL."""
-
-
-class Listeners:
-    """The server's listening sockets, bound before any recording is opened."""
-
-    def __init__(self, tcp: socket.socket | None, http: socket.socket | None) -> None:
-        self.tcp = tcp
-        self.http = http
-
-    def close(self) -> None:
-        for sock in (self.tcp, self.http):
-            if sock is not None:
-                sock.close()
-
-
-def is_loopback(host: str) -> bool:
-    """``host`` is a loopback name or address (``127.0.0.1``, ``::1``, ``localhost``)."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
-def listen(config: ServeConfig) -> Listeners:
-    """Bind both ports now; a :class:`ServeError` naming the address when one cannot be,
-    or when a non-loopback address is asked for without a token."""
-    if not is_loopback(config.host) and not config.token:
-        raise ServeError(
-            f"listening on {config.host} needs --token: anyone who can reach it could "
-            "drive the robot",
-            source="--host",
-        )
-    bound: list[socket.socket | None] = []
-    try:
-        for port in (config.tcp_port, config.http_port):
-            bound.append(None if port is None else _bind(config.host, port))
-    except ServeError:
-        for sock in bound:
-            if sock is not None:
-                sock.close()
-        raise
-    return Listeners(bound[0], bound[1])
-
-
-def _bind(host: str, port: int) -> socket.socket:
-    try:
-        family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
-        return socket.create_server((host, port), family=family, backlog=BACKLOG)
-    except OSError as error:
-        raise ServeError(
-            f"cannot listen on {host}:{port}: {error.strerror or error}", source="oimi serve"
-        ) from None
-
-
-class _Client:
-    """One connection: an outgoing queue drained by its own task (``pump``)."""
-
-    def __init__(self, name: str, address: str, now_s: float) -> None:
-        self.name = name
-        self.address = address
-        self.queue: asyncio.Queue[bytes | None] = asyncio.Queue(OUT_QUEUE)
-        self.open = True
-        """Still taking messages; False once finishing or dropped."""
-        self.admitted = False
-        """Authenticated (or, without a token, has sent a request)."""
-        self.subscribed = False
-        self.world = False
-        self.task: asyncio.Task[None] | None = None
-        self.since_s = now_s
-        self.heard_s = now_s
-        self.failures = 0
-        """Wrong tokens sent on this connection."""
-        self.gate_key: object = self
-        """What stands for this connection in the server's gate of pending ones."""
-        self._budget = float(REQUEST_BURST)
-
-    def spend(self, now_s: float) -> bool:
-        """One request's share of the rate budget; False when it is exhausted."""
-        self._budget = min(REQUEST_BURST, self._budget + (now_s - self.heard_s) * REQUESTS_PER_S)
-        self.heard_s = now_s
-        self._budget -= 1
-        return self._budget >= 0
-
-    def start(self) -> None:
-        self.task = asyncio.create_task(self._run_pump())
-
-    def send(self, message: protocol.Message) -> None:
-        """Queue a message; a client this far behind is dropped."""
-        if not self.open:
-            return
-        try:
-            self.queue.put_nowait(encode_message(message))
-        except asyncio.QueueFull:
-            self.abort()
-
-    def finish(self) -> None:
-        """Close once what is queued has been sent."""
-        if self.open:
-            self.open = False
-            try:
-                self.queue.put_nowait(None)
-            except asyncio.QueueFull:
-                self.abort()
-
-    def abort(self) -> None:
-        """Drop the connection now."""
-        self.open = False
-        self._drop()
-        if self.task is not None:
-            self.task.cancel()
-
-    async def wait(self) -> None:
-        """Until the pump has ended."""
-        if self.task is not None:
-            await asyncio.gather(self.task, return_exceptions=True)
-
-    async def _run_pump(self) -> None:
-        try:
-            while (data := await self.queue.get()) is not None:
-                await asyncio.wait_for(self._write(data), WRITE_TIMEOUT_S)
-        except (ConnectionError, ConnectionClosed, TimeoutError):
-            self.open = False
-            self._drop()
-        finally:
-            await self._close()
-
-    async def _write(self, data: bytes) -> None:
-        raise NotImplementedError
-
-    async def _close(self) -> None:
-        raise NotImplementedError
-
-    def _drop(self) -> None:
-        raise NotImplementedError
-
-
-class _TcpClient(_Client):
-    def __init__(self, name: str, writer: asyncio.StreamWriter, now_s: float) -> None:
-        peer = writer.get_extra_info("peername")
-        super().__init__(name, str(peer[0]) if peer else "?", now_s)
-        self.writer = writer
-
-    async def _write(self, data: bytes) -> None:
-        self.writer.write(data)
-        await self.writer.drain()
-
-    async def _close(self) -> None:
-        self.writer.close()
-
-    def _drop(self) -> None:
-        self.writer.transport.abort()
-
-
-class _WsClient(_Client):
-    def __init__(self, name: str, connection: ServerConnection, now_s: float) -> None:
-        peer = connection.remote_address
-        super().__init__(name, str(peer[0]) if peer else "?", now_s)
-        self.connection = connection
-
-    async def _write(self, data: bytes) -> None:
-        await self.connection.send(data[:-1].decode())
-
-    async def _close(self) -> None:
-        await self.connection.close()
-
-    def _drop(self) -> None:
-        self.connection.transport.abort()
-
-
-class _Gate:
-    """Connections not yet admitted, oldest first: a new one beyond ``limit`` evicts the
-    oldest (so a flood of idle connections cannot keep the operator out)."""
-
-    def __init__(self, limit: int) -> None:
-        self.limit = limit
-        self.waiting: dict[Any, float] = {}
-        """Connection (anything with ``abort()``) -> when it arrived."""
-        self.evicted = 0
-
-    def enter(self, connection: Any, now_s: float) -> None:
-        while len(self.waiting) >= self.limit:
-            oldest = next(iter(self.waiting))
-            del self.waiting[oldest]
-            self.evicted += 1
-            oldest.abort()
-        self.waiting[connection] = now_s
-
-    def leave(self, connection: Any) -> None:
-        self.waiting.pop(connection, None)
-
-    def expire(self, before_s: float) -> None:
-        """Close every connection that arrived before ``before_s``."""
-        for connection, since in list(self.waiting.items()):
-            if since < before_s:
-                del self.waiting[connection]
-                connection.abort()
-
-
-class _ConsoleConnection(ServerConnection):
-    """A connection to the console's port, held in the gate until admitted or closed."""
-
-    gate: _Gate
-
-    def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        super().connection_made(transport)
-        self.gate.enter(self, asyncio.get_running_loop().time())
-
-    def connection_lost(self, exc: Exception | None) -> None:
-        self.gate.leave(self)
-        super().connection_lost(exc)
-
-    def abort(self) -> None:
-        self.transport.abort()
-
-
-def _quiet_logger() -> logging.Logger:
-    """The websockets library's logger, silenced: the server reports what matters itself."""
-    logger = logging.getLogger("oimi.serve.websockets")
-    logger.propagate = False
-    logger.addHandler(logging.NullHandler())
-    return logger
 
 
 class LiveServer:
@@ -372,10 +130,10 @@ class LiveServer:
         self.guard = JoystickGuard()
         self.ticks = 0
         """Ticks run so far."""
-        self._clients: list[_Client] = []
-        self._gate = _Gate(MAX_PENDING)
+        self._clients: list[Client] = []
+        self._gate = Gate(MAX_PENDING)
         self._pending: list[OperatorCommand] = []
-        self._waiting: dict[int, tuple[_Client, protocol.Request]] = {}
+        self._waiting: dict[int, tuple[Client, protocol.Request]] = {}
         self._stop: asyncio.Event | None = None
         self._last_state = b""
         self._frame_every = max(1, FRAME_PERIOD_MS // session.tick_ms)
@@ -416,7 +174,7 @@ class LiveServer:
             if listeners.http is not None:
                 self._console_port = listeners.http.getsockname()[1]
                 gate = self._gate
-                connection_type = type("ConsoleConnection", (_ConsoleConnection,), {"gate": gate})
+                connection_type = type("ConsoleConnection", (ConsoleConnection,), {"gate": gate})
                 web = await serve(
                     self._serve_ws,
                     sock=listeners.http,
@@ -426,10 +184,10 @@ class LiveServer:
                     ping_timeout=2,
                     close_timeout=1,
                     open_timeout=AUTH_TIMEOUT_S,
-                    logger=_quiet_logger(),
+                    logger=quiet_logger(),
                     create_connection=connection_type,
                 )
-                console = f"http://{_url_host(self.config.host)}:{self._console_port}/"
+                console = f"http://{url_host(self.config.host)}:{self._console_port}/"
             if self.on_ready is not None:
                 self.on_ready(Addresses(tcp=tcp_address, console=console))
             await self._tick_loop()
@@ -554,7 +312,7 @@ class LiveServer:
 
     # ---------------------------------------------------------------- requests
 
-    async def _on_line(self, client: _Client, line: bytes | str) -> None:
+    async def _on_line(self, client: Client, line: bytes | str) -> None:
         if not line.strip():
             return
         if not client.spend(asyncio.get_running_loop().time()):
@@ -579,7 +337,7 @@ class LiveServer:
                 )
             )
 
-    def _admit(self, client: _Client) -> bool:
+    def _admit(self, client: Client) -> bool:
         """Let a pending client in when there is room; refuse and close it when not."""
         self._gate.leave(client.gate_key)
         if sum(c.admitted for c in self._clients) >= MAX_CLIENTS:
@@ -589,7 +347,7 @@ class LiveServer:
         client.admitted = True
         return True
 
-    async def _authenticate(self, client: _Client, request: protocol.Auth) -> None:
+    async def _authenticate(self, client: Client, request: protocol.Auth) -> None:
         """Check a token: each earlier failure from the same address delays the answer
         (doubling), and the connection closes at its :data:`MAX_AUTH_FAILURES`-th."""
         token = self.config.token
@@ -628,7 +386,7 @@ class LiveServer:
             )
         )
 
-    def _handle(self, client: _Client, request: protocol.AnyRequest) -> None:
+    def _handle(self, client: Client, request: protocol.AnyRequest) -> None:
         def reply(ok: bool, reason: str = "", **extra: object) -> None:
             client.send(Reply(id=request.id, ok=ok, reason=reason, **extra))  # type: ignore[arg-type]
 
@@ -674,7 +432,7 @@ class LiveServer:
             scene=scene_of(self.session.scenario),
         )
 
-    def _connect(self, client: _Client) -> None:
+    def _connect(self, client: Client) -> None:
         self._clients.append(client)
         client.start()
         if self.config.token is None:
@@ -682,7 +440,7 @@ class LiveServer:
         else:
             client.send(Hello(auth_required=True))
 
-    async def _disconnect(self, client: _Client) -> None:
+    async def _disconnect(self, client: Client) -> None:
         if client in self._clients:
             self._clients.remove(client)
         self._gate.leave(client.gate_key)
@@ -693,7 +451,7 @@ class LiveServer:
     async def _serve_tcp(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._counter += 1
         now = asyncio.get_running_loop().time()
-        client = _TcpClient(f"tcp-{self._counter}", writer, now)
+        client = TcpClient(f"tcp-{self._counter}", writer, now)
         self._gate.enter(client, now)
         self._connect(client)
         first = True
@@ -702,7 +460,7 @@ class LiveServer:
                 try:
                     line = await reader.readuntil(b"\n")
                 except asyncio.IncompleteReadError as end:
-                    if first and _HTTP_LINE.match(end.partial):
+                    if first and HTTP_LINE.match(end.partial):
                         break
                     await self._on_line(client, end.partial)
                     break
@@ -716,7 +474,7 @@ class LiveServer:
                     )
                     client.finish()
                     break
-                if first and _HTTP_LINE.match(line):
+                if first and HTTP_LINE.match(line):
                     client.abort()  # a browser's request: its body is never read
                     break
                 first = False
@@ -728,7 +486,7 @@ class LiveServer:
 
     async def _serve_ws(self, connection: ServerConnection) -> None:
         self._counter += 1
-        client = _WsClient(f"ws-{self._counter}", connection, asyncio.get_running_loop().time())
+        client = WsClient(f"ws-{self._counter}", connection, asyncio.get_running_loop().time())
         client.gate_key = connection
         self._connect(client)
         try:
@@ -742,10 +500,15 @@ class LiveServer:
             await self._disconnect(client)
 
     def _static(self, connection: ServerConnection, request: HttpRequest) -> Response | None:
-        refused = self._refuse(request)
+        path = request.path.split("?", 1)[0]
+        refused = console_refusal(
+            request,
+            port=self._console_port,
+            allow_origins=self.config.allow_origins,
+            websocket=path == WS_PATH,
+        )
         if refused is not None:
             return connection.respond(403, f"refused: {refused}\n")
-        path = request.path.split("?", 1)[0]
         if path == WS_PATH:
             return None
         if path == "/favicon.ico":
@@ -764,49 +527,3 @@ class LiveServer:
             ]
         )
         return Response(200, "OK", headers, body)
-
-    def _refuse(self, request: HttpRequest) -> str | None:
-        """Why an HTTP request to the console is refused (None: it is not).
-
-        ``Host`` must name this port by an IP address, ``localhost`` or an allowed
-        origin's host (a DNS name an attacker controls cannot rebind to it); a
-        WebSocket's ``Origin`` must be the console's own (``http://`` + ``Host``) or
-        allowed with ``--allow-origin``; a request without one is no browser's console.
-        """
-        host = request.headers.get("Host", "")
-        name, _, port = host.rpartition(":") if not host.endswith("]") else (host, "", "")
-        if not name:
-            name, port = port, ""
-        if port and port != str(self._console_port):
-            return f"Host {host!r} is not this console's port"
-        allowed = {_origin_host(origin) for origin in self.config.allow_origins}
-        if not (_is_address(name) or name == "localhost" or name in allowed):
-            return f"Host {host!r} is not an address of this console"
-        if request.path.split("?", 1)[0] != WS_PATH:
-            return None
-        origin = request.headers.get("Origin")
-        if origin is None or origin == "null":
-            return "a WebSocket needs the console's Origin"
-        if origin != f"http://{host}" and origin not in self.config.allow_origins:
-            return f"Origin {origin!r} is not allowed (see --allow-origin)"
-        return None
-
-
-def _is_address(name: str) -> bool:
-    try:
-        ipaddress.ip_address(name.strip("[]"))
-    except ValueError:
-        return False
-    return True
-
-
-def _origin_host(origin: str) -> str:
-    """``https://tablet.example:8443`` -> ``tablet.example``."""
-    rest = origin.split("://", 1)[-1]
-    if rest.startswith("["):
-        return rest.split("]", 1)[0] + "]"
-    return rest.split(":", 1)[0].split("/", 1)[0]
-
-
-def _url_host(host: str) -> str:
-    return f"[{host}]" if ":" in host else host

@@ -10,7 +10,7 @@ from collections.abc import Awaitable, Callable
 import pytest
 from live_helpers import ROOM
 
-from scenarios.live import server as live_server
+from scenarios.live import connections, server
 from scenarios.live.server import LiveServer, ServeConfig, listen
 from scenarios.live.session import LiveSession
 from scenarios.loader import load_scenario
@@ -28,19 +28,19 @@ def serve_with(
 ) -> list[dict]:
     """Run a live server on a free port with ``limits`` patched while ``client(port)`` runs;
     what the client returns."""
-    for name, value in limits.items():
-        monkeypatch.setattr(live_server, name, value)
+    for name, value in limits.items():  # where the limit is read
+        monkeypatch.setattr(server if hasattr(server, name) else connections, name, value)
     config = ServeConfig(tcp_port=0, http_port=None, token=token)
-    server = LiveServer(LiveSession(load_scenario(ROOM)), config)
+    live = LiveServer(LiveSession(load_scenario(ROOM)), config)
 
     async def main() -> list[dict]:
         listeners = listen(config)
-        running = asyncio.create_task(server.run(listeners))
+        running = asyncio.create_task(live.run(listeners))
         try:
             return await asyncio.wait_for(client(listeners.tcp.getsockname()[1]), WAIT_S)
         finally:
             await asyncio.sleep(0.05)  # the server has set up its stop event
-            server.stop()
+            live.stop()
             await running
 
     return asyncio.run(main())
