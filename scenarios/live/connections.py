@@ -315,7 +315,7 @@ def console_refusal(
 ) -> str | None:
     """Why an HTTP request to the console on ``port`` is refused (None: it is not).
 
-    ``Host`` must name this port by an IP address, ``localhost`` or an allowed
+    ``Host`` must name this port by an IP address or ``localhost``, or be an allowed
     origin's host (a DNS name an attacker controls cannot rebind to it); a
     WebSocket's ``Origin`` must be the console's own (``http://`` + ``Host``) or
     allowed with ``--allow-origin``; a request without one is no browser's console.
@@ -324,11 +324,11 @@ def console_refusal(
     name, _, given = host.rpartition(":") if not host.endswith("]") else (host, "", "")
     if not name:
         name, given = given, ""
-    if given and given != str(port):
-        return f"Host {host!r} is not this console's port"
-    allowed = {origin_host(origin) for origin in allow_origins}
-    if not (is_address(name) or name == "localhost" or name in allowed):
-        return f"Host {host!r} is not an address of this console"
+    if name not in {origin_host(origin) for origin in allow_origins}:  # a proxy: any port
+        if not (is_address(name) or name == "localhost"):
+            return f"Host {host!r} is not an address of this console"
+        if given and given != str(port):
+            return f"Host {host!r} is not this console's port"
     if not websocket:
         return None
     origin = request.headers.get("Origin")

@@ -122,7 +122,8 @@ def test_a_joystick_backlog_stops_within_a_tick_and_the_session_redrives(tmp_pat
 
 def test_foreign_origins_and_http_bodies_are_refused_and_change_nothing(tmp_path):
     recording = tmp_path / "foreign.mcap"
-    with served(recording) as live:
+    proxy = "https://tablet.example:8443"
+    with served(recording, "--allow-origin", proxy) as live:
         port = port_of(live.console)
         own = f"http://127.0.0.1:{port}"
         refused = {
@@ -139,6 +140,8 @@ def test_foreign_origins_and_http_bodies_are_refused_and_change_nothing(tmp_path
         page = f"GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n".encode()
         assert http_status(port, page).startswith("HTTP/1.1 403")
         assert http_status(port, upgrade(port, origin=own)).startswith("HTTP/1.1 101")
+        behind_proxy = upgrade(port, host="tablet.example:8443", origin=proxy)
+        assert http_status(port, behind_proxy).startswith("HTTP/1.1 101")  # --allow-origin
 
         # what a browser's fetch(..., {mode: "no-cors", method: "POST"}) sends to port 7070
         body = (
