@@ -11,18 +11,17 @@ this machine unless the --dds-* flags say otherwise (docs/ros2.md).
 from __future__ import annotations
 
 import argparse
-import asyncio
+import contextlib
 import sys
-from pathlib import Path
+from collections.abc import Iterator
 
-from oimi.cmd_run import print_result
-from oimi.cmd_serve import _announce as announce
 from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
+from oimi.cmd_serve import serve
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from scenarios.live.server import LiveServer, ServeConfig
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
+from scenarios.live.server import LiveServer
+from scenarios.live.session import LiveSession
+from scenarios.loader import LoadedScenario
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,32 +36,21 @@ def run(args: argparse.Namespace) -> int:
     from oimi.ros2.bridge import BridgeSession
     from oimi.ros2.dds import Node
 
-    loaded = load_scenario(args.scenario)
     network = network_from_args(args)
-    output = args.output or Path("out") / f"{args.scenario.stem}-bridge.mcap"
-    if args.duration_s is not None and args.duration_s <= 0:
-        print("oimi bridge: --duration-s must be positive", file=sys.stderr)
-        return 2
-    config = ServeConfig(
-        host=args.host,
-        tcp_port=None if args.no_tcp else args.port,
-        http_port=None if args.no_console else args.http_port,
-        token=args.token,
-        duration_s=args.duration_s,
-    )
-    with Node(network) as node:
-        session = BridgeSession(loaded, node, seed=args.seed, on_note=note)
-        server = LiveServer(session, config, on_ready=announce, on_note=note)
-        session.attach(server.guard)
-        with recorded(session, mcap=output, rrd=args.rrd):
+
+    @contextlib.contextmanager
+    def bridged(loaded: LoadedScenario) -> Iterator[BridgeSession]:
+        with Node(network) as node:
+            session = BridgeSession(loaded, node, seed=args.seed, on_note=note)
             try:
-                asyncio.run(server.run())
-            except OSError as error:
-                print(f"oimi bridge: cannot listen on {args.host}: {error}", file=sys.stderr)
-                return 2
+                yield session
             finally:
                 session.stand_still()
-    print(f"stopped after {server.ticks} ticks ({server.ticks * session.tick_ms / 1000:.1f} s)")
-    print_result(session.result())
-    print(f"recording: {output}", flush=True)
-    return 0
+
+    def attach(session: LiveSession, server: LiveServer) -> None:
+        assert isinstance(session, BridgeSession)
+        session.attach(server.guard)
+
+    return serve(
+        args, command="oimi bridge", open_session=bridged, suffix="-bridge", on_server=attach
+    )

@@ -1,5 +1,8 @@
 """Run a library scenario end to end, recorded to MCAP and Rerun, and say how to watch it.
 
+The demo owns its two files in --out (out/NAME.mcap, out/NAME.rrd) and replaces them on
+purpose each time, so `make demo` can run again; the replacement is made only once the
+new recording is complete (written as NAME.partial.*, then renamed).
 Exit 0 when every expectation holds, 1 when one fails, 2 on bad input (an unknown
 scenario name included).
 """
@@ -14,7 +17,7 @@ from oimi import console
 from oimi.cmd_run import print_result
 from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
-from scenarios.recording import recorded
+from scenarios.recording import check_outputs, recorded
 from scenarios.runner import Session, library_scenarios
 
 DEFAULT_SCENARIO: Final = "three_activity_session"
@@ -48,10 +51,10 @@ def run(args: argparse.Namespace) -> int:
     path = scenario_path(args.scenario)
     session = Session(load_scenario(path))
     out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
     mcap, rrd = out / f"{path.stem}.mcap", out / f"{path.stem}.rrd"
+    check_outputs((mcap, rrd), overwrite=True)
     progress = None if args.quiet else console.Progress(session.scenario.name, session.tick_ms)
-    with recorded(session, mcap=mcap, rrd=rrd):
+    with recorded(session, mcap=mcap, rrd=rrd, overwrite=True):
         try:
             result = session.run(progress=progress)
         finally:

@@ -1,5 +1,8 @@
 """Run a scenario: world, sensors and the robot's mind, recorded to MCAP (and Rerun).
 
+Every output (MCAP, Rerun, JUnit) is checked before anything is opened: an existing
+file is refused unless --overwrite. A recording is written as NAME.partial.mcap and
+renamed when closed, so a killed run leaves the partial file (oimi replay recovers it).
 Exit 0 when every expectation holds, 1 when one fails, 2 on bad input.
 """
 
@@ -14,7 +17,7 @@ from oimi.cmd_check import add_outside_paths_argument
 from scenarios.batch.spec import parse_param
 from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
-from scenarios.recording import recorded
+from scenarios.recording import check_outputs, recorded
 from scenarios.runner import RunResult, Session
 
 
@@ -33,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace existing output files (default: refuse)"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_outside_paths_argument(parser)
 
@@ -41,9 +47,10 @@ def run(args: argparse.Namespace) -> int:
     loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
     session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))
+    check_outputs((output, args.rrd, args.junit), overwrite=args.overwrite)
     progress = None if args.quiet else console.Progress(f"{session.scenario.name}", session.tick_ms)
     pace = console.Pacer(session.tick_ms) if args.realtime else None
-    with recorded(session, mcap=output, rrd=args.rrd):
+    with recorded(session, mcap=output, rrd=args.rrd, overwrite=args.overwrite):
         try:
             result = session.run(progress=progress, pace=pace)
         finally:

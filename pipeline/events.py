@@ -84,6 +84,17 @@ class OperatorCommands(Event):
     commands: tuple[OperatorCommand, ...]
 
 
+class LockRelease(enum.StrEnum):
+    """Why the joystick's safety lock was released (``JoystickInput.release``)."""
+
+    OPERATOR = "operator"
+    """The operator let go of the lock."""
+    HEARTBEAT = "heartbeat"
+    """The pad's client fell silent while holding the lock (no heartbeat)."""
+    DISCONNECTED = "disconnected"
+    """The pad's client disconnected while holding the lock."""
+
+
 class JoystickInput(Event):
     """The pad's state when it changed (Xbox 360 layout, see ``pipeline.act.joystick``)."""
 
@@ -95,6 +106,9 @@ class JoystickInput(Event):
     """Right stick, right positive, -1 to 1."""
     buttons: tuple[str, ...] = ()
     """Buttons held: ``LB``, ``RB``, ``A``, ``B``, ``X``, ``Y``, ``BACK``, ``START``."""
+    release: LockRelease | None = None
+    """Set on the input that releases a held lock, saying why (None: not a release, or a
+    scenario's scripted pad)."""
 
 
 # ------------------------------------------------------------------------ outputs

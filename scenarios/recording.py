@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import contextlib
+import datetime
+import os
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from recorder.mcap_sink import McapSink
+from recorder.errors import RecordingError
+from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from recorder.rerun_sink import RerunSink
 from recorder.scene import ObstacleGeometry, SceneGeometry
 from scenarios.runner import Session
@@ -42,40 +45,170 @@ def recording_id(scenario: Scenario) -> str:
     return f"{scenario.name}-seed{scenario.seed}"
 
 
+_Sink = McapSink | RerunSink
+
+
+class OutputError(RecordingError):
+    """An output path that cannot or may not be written (``source`` names it)."""
+
+
+def partial_path(path: Path) -> Path:
+    """Where a recording is written until it is closed: ``NAME.partial.mcap`` beside
+    ``NAME.mcap``. A killed session leaves this file, which replay recovers."""
+    return path.with_name(f"{path.stem}.partial{path.suffix}")
+
+
+def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) -> Path:
+    """``folder/NAME-2026-11-23T16-20-05.mcap`` (``-2``, ``-3``... when that is taken), so two
+    sessions never share a file; ``now`` is the wall clock, read by the caller."""
+    stem = f"{name}-{now.strftime('%Y-%m-%dT%H-%M-%S')}"
+    path = folder / f"{stem}{suffix}"
+    number = 1
+    while path.exists() or partial_path(path).exists():
+        number += 1
+        path = folder / f"{stem}-{number}{suffix}"
+    return path
+
+
+def check_outputs(paths: Iterable[Path | None], *, overwrite: bool) -> None:
+    """Refuse, before anything is opened, an output that exists (unless ``overwrite``), one
+    whose partial file exists (a killed session's, unless ``overwrite``), and one that
+    cannot be written (its folder is a file, or not writable); missing folders are made.
+    An :class:`OutputError` names the path."""
+    seen: set[Path] = set()
+    for path in paths:
+        if path is None:
+            continue
+        key = path.absolute()
+        if key in seen:
+            raise OutputError("given twice as an output", source=str(path))
+        seen.add(key)
+        if path.is_dir():
+            raise OutputError("is a folder, not a file", source=str(path))
+        partial = partial_path(path)
+        if not overwrite:
+            if path.exists() or path.is_symlink():
+                raise OutputError(
+                    "exists: refusing to replace a recording (pass --overwrite, or choose "
+                    "another name)",
+                    source=str(path),
+                )
+            if partial.exists():
+                raise OutputError(
+                    f"the unfinished recording {partial} exists (a killed session?): "
+                    "recover or move it first, or pass --overwrite",
+                    source=str(path),
+                )
+        folder = path.parent
+        ancestors = (folder, *folder.parents)
+        blocked = next((p for p in ancestors if p.exists() and not p.is_dir()), None)
+        if blocked is not None:
+            raise OutputError(f"{blocked} is a file, not a folder", source=str(path))
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise OutputError(
+                f"cannot create its folder: {error.strerror or error}", source=str(path)
+            ) from None
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise OutputError(f"cannot write in {folder}: permission denied", source=str(path))
+
+
+def _claim(path: Path, *, overwrite: bool) -> Path:
+    """Create ``path``'s partial file exclusively (empty); its path."""
+    partial = partial_path(path)
+    if overwrite:
+        partial.unlink(missing_ok=True)
+    try:
+        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+    except FileExistsError:
+        raise OutputError(
+            f"{partial} exists (another session writing?)", source=str(path)
+        ) from None
+    except OSError as error:
+        raise OutputError(f"cannot write: {error.strerror or error}", source=str(path)) from None
+    return partial
+
+
+def _finish(partial: Path, path: Path, *, overwrite: bool) -> None:
+    """Give a closed recording its name; without ``overwrite`` never over another file
+    (then the partial keeps it, and the error says where)."""
+    if overwrite:
+        os.replace(partial, path)
+        return
+    try:
+        os.link(partial, path)
+    except FileExistsError:
+        raise OutputError(
+            f"appeared while recording: the recording is kept as {partial}", source=str(path)
+        ) from None
+    except OSError:  # no hard links on this file system: check, then rename
+        if path.exists():
+            raise OutputError(
+                f"appeared while recording: the recording is kept as {partial}",
+                source=str(path),
+            ) from None
+        os.replace(partial, path)
+        return
+    partial.unlink()
+
+
 @contextlib.contextmanager
-def recorded(session: Session, *, mcap: Path | None, rrd: Path | None) -> Iterator[Session]:
+def recorded(
+    session: Session,
+    *,
+    mcap: Path | None,
+    rrd: Path | None,
+    overwrite: bool = True,
+    chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
+) -> Iterator[Session]:
     """Attach the MCAP (and Rerun) sinks to a session, and close them whatever happens.
 
+    Both outputs are checked (:func:`check_outputs`) before either is opened; each is
+    written to its :func:`partial_path`, created exclusively, and renamed to its name
+    once closed, so a killed session leaves ``NAME.partial.mcap`` and never a damaged
+    ``NAME.mcap``; without ``overwrite`` an existing file is refused, never replaced.
     The sinks open before the first tick, with the session's metadata and
     attachments at the start of the file; Ctrl-C or an error still closes them, and
-    a second Ctrl-C while they close is ignored.
+    a second Ctrl-C while they close is ignored. ``chunk_size_bytes`` bounds what a
+    killed session loses (the open chunk).
     """
-    closers: list[McapSink | RerunSink] = []
+    check_outputs((mcap, rrd), overwrite=overwrite)
+    claimed: list[tuple[Path, Path]] = []
+    opened: list[tuple[_Sink, Path, Path]] = []
+    started = False
+    scene = scene_of(session.scenario)
+    ident = recording_id(session.scenario)
     try:
-        if mcap is not None:
-            mcap.parent.mkdir(parents=True, exist_ok=True)
-            metadata = session.metadata()
-            metadata["oimi"]["recording_id"] = recording_id(session.scenario)
-            sink = McapSink(
-                mcap,
-                metadata=metadata,
-                attachments=session.attachments(),
-                scene=scene_of(session.scenario),
-            )
-            closers.append(sink)
+        for path in (mcap, rrd):
+            if path is not None:
+                claimed.append((path, _claim(path, overwrite=overwrite)))
+        for path, partial in claimed:
+            if path is mcap:
+                metadata = session.metadata()
+                metadata["oimi"]["recording_id"] = ident
+                sink: _Sink = McapSink(
+                    partial,
+                    metadata=metadata,
+                    attachments=session.attachments(),
+                    scene=scene,
+                    chunk_size_bytes=chunk_size_bytes,
+                )
+            else:
+                sink = RerunSink(partial, recording_id=ident, scene=scene)
+            opened.append((sink, partial, path))
             session.sink.add(sink)
-        if rrd is not None:
-            rrd.parent.mkdir(parents=True, exist_ok=True)
-            rerun = RerunSink(
-                rrd, recording_id=recording_id(session.scenario), scene=scene_of(session.scenario)
-            )
-            closers.append(rerun)
-            session.sink.add(rerun)
+        started = True
         yield session
     finally:
         with interrupts_held():
-            for closer in closers:
-                closer.close()
+            for sink, _, _ in opened:
+                sink.close()
+            for path, partial in claimed:
+                if started:
+                    _finish(partial, path, overwrite=overwrite)
+                else:  # it never recorded anything: withdraw the claim
+                    partial.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager

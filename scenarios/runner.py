@@ -15,8 +15,16 @@ from pathlib import Path
 
 import msgspec
 
+from pipeline.act.joystick import SAFETY_LOCK
 from pipeline.act.limits import RobotLimits
-from pipeline.events import JoystickInput, OperatorCommand, OperatorVerb, SafetyZone, Topic
+from pipeline.events import (
+    JoystickInput,
+    LockRelease,
+    OperatorCommand,
+    OperatorVerb,
+    SafetyZone,
+    Topic,
+)
 from pipeline.loop import Pipeline, PipelineConfig
 from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
 from pipeline.operator.generators import default_catalogue
@@ -134,6 +142,8 @@ class Session:
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
         self.schedule = self._schedule()
+        self._lock_held = False
+        """A scripted pad state held the safety lock (its release is the operator's)."""
         self._command_id = 0
 
     # ------------------------------------------------------------------- set-up
@@ -204,6 +214,9 @@ class Session:
                         )
                     )
                 case JoystickEvent():
+                    locked = SAFETY_LOCK in event.buttons
+                    released = self._lock_held and not locked
+                    self._lock_held = locked
                     joystick = JoystickInput(
                         tick=tick,
                         time_ms=time_ms,
@@ -211,6 +224,7 @@ class Session:
                         left_y=event.left_y,
                         right_x=event.right_x,
                         buttons=tuple(event.buttons),
+                        release=LockRelease.OPERATOR if released else None,
                     )
                 case TouchEvent():
                     self.sensors.touch(event, time_ms=time_ms)

@@ -275,6 +275,7 @@ def replay_rosbag(
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()
+    released: list[str] = []
     with recorded(session, mcap=output, rrd=None):
         for tick in range(ticks):
             now = inputs.pop(tick, _Inputs())
@@ -285,7 +286,11 @@ def replay_rosbag(
             for at_s, joy in now.joys:
                 guard.receive(BAG_OWNER, pad_of(joy), now_s=at_s)
             time_ms = tick * session.tick_ms
-            pad = guard.take(now_s=time_ms / 1000)
-            joystick = None if pad is None else pad.at(tick=tick, time_ms=time_ms)
+            taken = guard.take(now_s=time_ms / 1000)
+            joystick = None
+            if taken is not None:
+                joystick = taken.pad.at(tick=tick, time_ms=time_ms, release=taken.release)
+                if taken.release is not None:
+                    released.append(f"tick {tick}: safety lock released ({taken.release})")
             session.step(tick, commands=now.commands, joystick=joystick)
-    return session.result(), ticks, [*sensors.refused, *guard.released]
+    return session.result(), ticks, [*sensors.refused, *released]

@@ -178,7 +178,8 @@ class Actuator:
                 self._commands.append(
                     ActuatorCommand(channel=Channel.MOVE.value, source=Source.SAFETY, stop=True)
                 )
-                self._notes.append("joystick: safety lock released, robot stopped")
+                why = f" ({pad.release})" if pad.release is not None else ""
+                self._notes.append(f"joystick: safety lock released{why}, robot stopped")
                 self._refreeze(now_ms)
             elif not state.neutral:
                 self._notes.append("joystick: input ignored without the safety lock (LB)")

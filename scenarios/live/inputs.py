@@ -1,27 +1,35 @@
-"""Outside input for a live session: the joystick with its dead-man guard.
+"""Outside input for a live session: the joystick as a state, with its dead-man guard.
 
 The pad's states arrive whenever a client sends them (on change, plus a
-heartbeat while the safety lock is held); the session takes at most one per
-tick. :class:`JoystickGuard` keeps them in order, merges runs that differ only
-in the sticks (so no button press is lost and no backlog builds up), and
-releases the lock by itself when its owner falls silent for
-:data:`HEARTBEAT_TIMEOUT_S` or disconnects: a lost link stops the robot, never
-leaves it moving.
+heartbeat while the safety lock is held). :class:`JoystickGuard` keeps the pad
+as *state*, not a queue: each tick applies the latest state, however many came
+in since the last tick, so motion can never pile up behind the present. Button
+*presses* (edges) between two ticks survive: a button pressed and let go within
+one tick is held for that tick. The lock is the exception: letting go of it,
+falling silent for :data:`HEARTBEAT_TIMEOUT_S` or disconnecting releases it in
+the next tick, drops every pending press, and the input says why
+(:class:`~pipeline.events.LockRelease`).
 """
 
 from __future__ import annotations
 
-from collections import deque
 from typing import Final
 
 import msgspec
 
-from pipeline.events import JoystickInput
+from pipeline.events import JoystickInput, LockRelease
 
 HEARTBEAT_TIMEOUT_S: Final = 0.5
 """Silence after which a held safety lock counts as released."""
 
 LOCK: Final = "LB"
+
+RELEASE_TEXT: Final = {
+    LockRelease.OPERATOR: "the operator let go of the lock",
+    LockRelease.HEARTBEAT: f"no joystick heartbeat for {HEARTBEAT_TIMEOUT_S * 1000:.0f} ms",
+    LockRelease.DISCONNECTED: "the joystick's client disconnected",
+}
+"""Each release reason as the console and the log say it."""
 
 
 class Pad(msgspec.Struct, frozen=True, kw_only=True):
@@ -37,7 +45,7 @@ class Pad(msgspec.Struct, frozen=True, kw_only=True):
         """The safety lock (dead-man, ``LB``) is held."""
         return LOCK in self.buttons
 
-    def at(self, *, tick: int, time_ms: int) -> JoystickInput:
+    def at(self, *, tick: int, time_ms: int, release: LockRelease | None = None) -> JoystickInput:
         """This state as the joystick input of ``tick``."""
         return JoystickInput(
             tick=tick,
@@ -46,6 +54,7 @@ class Pad(msgspec.Struct, frozen=True, kw_only=True):
             left_y=self.left_y,
             right_x=self.right_x,
             buttons=self.buttons,
+            release=release,
         )
 
 
@@ -53,57 +62,82 @@ NEUTRAL: Final = Pad()
 """Sticks centred, nothing held: the lock released, the robot stopped."""
 
 
+class Taken(msgspec.Struct, frozen=True, kw_only=True):
+    """What the guard hands to one tick: the pad and, on a release, why."""
+
+    pad: Pad
+    release: LockRelease | None = None
+
+
 class JoystickGuard:
-    """The pad's states in arrival order, one per tick, with the dead-man rules.
+    """The pad's latest state, taken once per tick, with the dead-man rules.
 
     One pad drives at a time: the latest client that sent a state owns it.
-    Time (``now_s``) is the wall clock of the live session, handed in.
+    Time (``now_s``) is the wall clock of the live session, handed in. Memory is
+    constant: a state, the presses since the last tick and one release reason.
     """
 
     def __init__(self, *, timeout_s: float = HEARTBEAT_TIMEOUT_S) -> None:
         self.timeout_s = timeout_s
         self.owner: object | None = None
-        self._pending: deque[Pad] = deque()
+        self._latest = NEUTRAL
+        """The newest state received."""
         self._applied = NEUTRAL
+        """The state the last taken input gave the pipeline."""
+        self._presses: set[str] = set()
+        """Buttons (other than the lock) pressed since the last tick."""
+        self._release: LockRelease | None = None
+        """The lock was released since the last tick, and why."""
         self._heard_s = 0.0
-        self.released: list[str] = []
-        """Why the guard released the lock by itself (read and cleared by the caller)."""
 
     @property
     def latest(self) -> Pad:
-        """The newest state, queued or applied."""
-        return self._pending[-1] if self._pending else self._applied
+        """The newest state received."""
+        return self._latest
 
     def receive(self, owner: object, pad: Pad, *, now_s: float) -> None:
         """A client sent the pad's state (a change, or the same as a heartbeat)."""
         self.owner = owner
         self._heard_s = now_s
-        if pad == self.latest:
-            return
-        if self._pending and self._pending[-1].buttons == pad.buttons:
-            self._pending[-1] = pad  # only the sticks moved: the newest position wins
-        else:
-            self._pending.append(pad)
+        before = self._latest
+        self._latest = pad
+        if before.locked and not pad.locked:
+            self._let_go(LockRelease.OPERATOR)
+        elif pad.locked:
+            self._presses.update(b for b in pad.buttons if b != LOCK and b not in before.buttons)
 
     def lost(self, owner: object) -> None:
         """``owner`` disconnected: if it held the lock, release it."""
         if owner is self.owner:
             self.owner = None
-            self._release("the joystick's client disconnected")
+            if self._latest.locked:
+                self._latest = NEUTRAL
+                self._let_go(LockRelease.DISCONNECTED)
 
-    def take(self, *, now_s: float) -> Pad | None:
-        """The state to apply this tick, if any (after the heartbeat check)."""
-        if self.latest.locked and now_s - self._heard_s > self.timeout_s:
-            self._release(f"no joystick heartbeat for {self.timeout_s * 1000:.0f} ms")
-        if not self._pending:
+    def take(self, *, now_s: float) -> Taken | None:
+        """This tick's input (after the heartbeat check); None when nothing changed."""
+        if self._latest.locked and now_s - self._heard_s > self.timeout_s:
+            self._latest = NEUTRAL
+            self._let_go(LockRelease.HEARTBEAT)
+        release, self._release = self._release, None
+        if release is not None:
+            self._presses.clear()
+            if not self._applied.locked:
+                release = None  # the lock never reached the robot: nothing to release
+            else:
+                self._applied = NEUTRAL
+                return Taken(pad=NEUTRAL, release=release)
+        pad = self._latest
+        if self._presses:
+            buttons = {*pad.buttons, *self._presses}
+            pad = msgspec.structs.replace(pad, buttons=tuple(sorted(buttons)))
+            self._presses.clear()
+        if pad == self._applied:
             return None
-        self._applied = self._pending.popleft()
-        return self._applied
+        self._applied = pad
+        return Taken(pad=pad)
 
-    def _release(self, why: str) -> None:
-        if not self.latest.locked:
-            return
-        self._pending.clear()
-        if self._applied != NEUTRAL:
-            self._pending.append(NEUTRAL)
-        self.released.append(why)
+    def _let_go(self, why: LockRelease) -> None:
+        if self._release is None:
+            self._release = why
+        self._presses.clear()

@@ -214,7 +214,7 @@ class Reply(Message, tag="reply", kw_only=True):
     ok: bool
     reason: str = ""
     tick: int | None = None
-    """The tick at which an operator command was applied."""
+    """The tick at which an operator command was applied, or a joystick state will be."""
     catalogue: tuple[GeneratorInfo, ...] | None = None
     """For ``list``: every available activity with its options."""
     state: SessionState | None = None
@@ -226,11 +226,12 @@ class StateMessage(Message, tag="state", kw_only=True):
 
 
 class Hello(Message, tag="hello", kw_only=True):
-    """First message on every connection."""
+    """First message on every connection. On a guarded port the first says only that a
+    token is required; the full hello (scenario, tick, scene) follows the accepted ``auth``."""
 
     protocol: int = PROTOCOL_VERSION
-    scenario: str
-    tick_ms: int
+    scenario: str = ""
+    tick_ms: int = 0
     auth_required: bool = False
     scene: SceneGeometry | None = None
     """The arena and its furniture, for the live view."""
@@ -252,6 +253,9 @@ class WorldMessage(Message, tag="world", kw_only=True):
     log: tuple[LogEntry, ...] = ()
     """The latest warnings (rejected inputs, clamps, refusals), newest last."""
     joystick_engaged: bool = False
+    released: str = ""
+    """Why the safety lock was last released by the session (the operator let go, the
+    heartbeat was lost, the client disconnected); empty while engaged or never released."""
 
 
 AnyMessage = Reply | StateMessage | Hello | WorldMessage

@@ -6,6 +6,16 @@ operator commands and pad states, which the next tick applies, stamped with that
 tick (and so recorded as that tick's inputs). Replies go out after the tick.
 Clients never touch the session directly; a client that sends nonsense gets a
 refusal, one that stops reading is dropped, one that vanishes is forgotten.
+
+Closed by default (``docs/security.md``): a connection is *pending* until it is
+admitted (with a token: its ``auth`` accepted; without: its first request read)
+and learns nothing about the session before; pending connections are few
+(:data:`MAX_PENDING`, the oldest evicted for a new one, so a flood cannot keep
+the operator out) and short-lived (:data:`AUTH_TIMEOUT_S`); admitted ones are
+capped (:data:`MAX_CLIENTS`), idle ones closed (:data:`IDLE_TIMEOUT_S`) and each
+is rate-limited. Wrong tokens are answered ever later and cut off. The console's
+WebSocket takes only the console's own origin and ``Host``; the TCP port closes
+a connection that speaks HTTP.
 """
 
 from __future__ import annotations
@@ -15,8 +25,9 @@ import contextlib
 import hmac
 import importlib.resources
 import signal
+import sys
 from collections.abc import Callable
-from typing import Final
+from typing import Any, Final
 
 import msgspec
 from websockets.asyncio.server import ServerConnection, serve
@@ -27,7 +38,24 @@ from websockets.http11 import Response
 
 from pipeline.events import Level, LogEntry, OperatorCommand
 from scenarios.live import protocol
-from scenarios.live.inputs import JoystickGuard, Pad
+from scenarios.live.connections import (
+    HTTP_LINE,
+    Addresses,
+    Client,
+    ConsoleConnection,
+    Gate,
+    Listeners,
+    ServeConfig,
+    ServeError,
+    TcpClient,
+    WsClient,
+    console_refusal,
+    is_loopback,
+    listen,
+    quiet_logger,
+    url_host,
+)
+from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
 from scenarios.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
@@ -36,16 +64,21 @@ from scenarios.live.protocol import (
     Reply,
     StateMessage,
     decode_request,
-    encode_message,
 )
 from scenarios.live.view import LiveView
 from scenarios.recording import scene_of
 from scenarios.runner import Session
 
-OUT_QUEUE: Final = 256
-"""Messages waiting for a client; one that falls this far behind is dropped."""
-WRITE_TIMEOUT_S: Final = 5.0
-"""A client that takes longer than this to accept data is dropped."""
+__all__ = [
+    "Addresses",
+    "Listeners",
+    "LiveServer",
+    "ServeConfig",
+    "ServeError",
+    "is_loopback",
+    "listen",
+]
+
 FRAME_PERIOD_MS: Final = 100
 """The live view's frame period (10 Hz)."""
 MAX_LAG_S: Final = 1.0
@@ -59,124 +92,22 @@ WEB_FILES: Final = {
 }
 WS_PATH: Final = "/ws"
 
-
-class ServeConfig(msgspec.Struct, frozen=True, kw_only=True):
-    """Where and how long to serve."""
-
-    host: str = "127.0.0.1"
-    tcp_port: int | None = 7070
-    """The App Interface's port (0: any free one); None: no TCP interface."""
-    http_port: int | None = 8080
-    """The web console's port (0: any free one); None: no console."""
-    token: str | None = None
-    """When set, every client must send ``{"cmd": "auth", "token": ...}`` first."""
-    duration_s: float | None = None
-    """Stop after this much session time; None: run until stopped."""
-
-
-class Addresses(msgspec.Struct, frozen=True, kw_only=True):
-    """Where the server listens, once it does."""
-
-    tcp: tuple[str, int] | None = None
-    console: str | None = None
-    """The web console's URL."""
-
-
-class _Client:
-    """One connection: an outgoing queue drained by its own task (``pump``)."""
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-        self.queue: asyncio.Queue[bytes | None] = asyncio.Queue(OUT_QUEUE)
-        self.open = True
-        """Still taking messages; False once finishing or dropped."""
-        self.authed = False
-        self.subscribed = False
-        self.world = False
-        self.task: asyncio.Task[None] | None = None
-
-    def start(self) -> None:
-        self.task = asyncio.create_task(self._run_pump())
-
-    def send(self, message: protocol.Message) -> None:
-        """Queue a message; a client this far behind is dropped."""
-        if not self.open:
-            return
-        try:
-            self.queue.put_nowait(encode_message(message))
-        except asyncio.QueueFull:
-            self.abort()
-
-    def finish(self) -> None:
-        """Close once what is queued has been sent."""
-        if self.open:
-            self.open = False
-            try:
-                self.queue.put_nowait(None)
-            except asyncio.QueueFull:
-                self.abort()
-
-    def abort(self) -> None:
-        """Drop the connection now."""
-        self.open = False
-        self._drop()
-        if self.task is not None:
-            self.task.cancel()
-
-    async def wait(self) -> None:
-        """Until the pump has ended."""
-        if self.task is not None:
-            await asyncio.gather(self.task, return_exceptions=True)
-
-    async def _run_pump(self) -> None:
-        try:
-            while (data := await self.queue.get()) is not None:
-                await asyncio.wait_for(self._write(data), WRITE_TIMEOUT_S)
-        except (ConnectionError, ConnectionClosed, TimeoutError):
-            self.open = False
-            self._drop()
-        finally:
-            await self._close()
-
-    async def _write(self, data: bytes) -> None:
-        raise NotImplementedError
-
-    async def _close(self) -> None:
-        raise NotImplementedError
-
-    def _drop(self) -> None:
-        raise NotImplementedError
-
-
-class _TcpClient(_Client):
-    def __init__(self, name: str, writer: asyncio.StreamWriter) -> None:
-        super().__init__(name)
-        self.writer = writer
-
-    async def _write(self, data: bytes) -> None:
-        self.writer.write(data)
-        await self.writer.drain()
-
-    async def _close(self) -> None:
-        self.writer.close()
-
-    def _drop(self) -> None:
-        self.writer.transport.abort()
-
-
-class _WsClient(_Client):
-    def __init__(self, name: str, connection: ServerConnection) -> None:
-        super().__init__(name)
-        self.connection = connection
-
-    async def _write(self, data: bytes) -> None:
-        await self.connection.send(data[:-1].decode())
-
-    async def _close(self) -> None:
-        await self.connection.close()
-
-    def _drop(self) -> None:
-        self.connection.transport.abort()
+MAX_PENDING: Final = 64
+"""Connections not yet admitted (both ports); a new one evicts the oldest beyond this."""
+MAX_CLIENTS: Final = 16
+"""Admitted connections; one more is refused."""
+AUTH_TIMEOUT_S: Final = 5.0
+"""A pending connection is closed after this long (send ``auth`` or a request first)."""
+IDLE_TIMEOUT_S: Final = 300.0
+"""An admitted connection that sends nothing for this long is closed."""
+MAX_AUTH_FAILURES: Final = 3
+"""Wrong tokens on one connection before it is closed."""
+AUTH_DELAY_S: Final = 0.25
+"""The delay before answering an ``auth`` after one earlier failure from the same address;
+it doubles with each further failure, up to :data:`MAX_AUTH_DELAY_S` (reset by a success)."""
+MAX_AUTH_DELAY_S: Final = 4.0
+MAX_FAILING_ADDRESSES: Final = 4096
+"""Addresses whose failures are remembered (the oldest forgotten first)."""
 
 
 class LiveServer:
@@ -199,13 +130,20 @@ class LiveServer:
         self.guard = JoystickGuard()
         self.ticks = 0
         """Ticks run so far."""
-        self._clients: list[_Client] = []
+        self._clients: list[Client] = []
+        self._gate = Gate(MAX_PENDING)
         self._pending: list[OperatorCommand] = []
-        self._waiting: dict[int, tuple[_Client, protocol.Request]] = {}
+        self._waiting: dict[int, tuple[Client, protocol.Request]] = {}
         self._stop: asyncio.Event | None = None
         self._last_state = b""
         self._frame_every = max(1, FRAME_PERIOD_MS // session.tick_ms)
+        self._sweep_every = max(1, 1000 // session.tick_ms)
         self._counter = 0
+        self._released = ""
+        self._auth_failures: dict[str, int] = {}
+        """Wrong tokens per peer address since its last accepted one."""
+        self._console_port = 0
+        self._last_error_s = -1.0
 
     # ---------------------------------------------------------------- lifetime
 
@@ -214,35 +152,42 @@ class LiveServer:
         if self._stop is not None:
             self._stop.set()
 
-    async def run(self) -> int:
-        """Serve until stopped or ``duration_s`` has passed; the number of ticks run."""
+    async def run(self, listeners: Listeners | None = None) -> int:
+        """Serve until stopped or ``duration_s`` has passed; the number of ticks run.
+
+        ``listeners`` are the ports bound by :func:`listen` (bound here when None)."""
         loop = asyncio.get_running_loop()
+        loop.set_exception_handler(self._loop_error)
         self._stop = asyncio.Event()
         signals = (signal.SIGINT, signal.SIGTERM)
         for sig in signals:
             loop.add_signal_handler(sig, self.stop)
+        listeners = listeners or listen(self.config)
         tcp = web = None
         try:
-            host = self.config.host
             tcp_address = console = None
-            if self.config.tcp_port is not None:
+            if listeners.tcp is not None:
                 tcp = await asyncio.start_server(
-                    self._serve_tcp, host, self.config.tcp_port, limit=MAX_LINE_BYTES + 1
+                    self._serve_tcp, sock=listeners.tcp, limit=MAX_LINE_BYTES + 1
                 )
-                tcp_address = (host, tcp.sockets[0].getsockname()[1])
-            if self.config.http_port is not None:
+                tcp_address = (self.config.host, listeners.tcp.getsockname()[1])
+            if listeners.http is not None:
+                self._console_port = listeners.http.getsockname()[1]
+                gate = self._gate
+                connection_type = type("ConsoleConnection", (ConsoleConnection,), {"gate": gate})
                 web = await serve(
                     self._serve_ws,
-                    host,
-                    self.config.http_port,
+                    sock=listeners.http,
                     process_request=self._static,
                     max_size=MAX_LINE_BYTES,
                     ping_interval=2,
                     ping_timeout=2,
                     close_timeout=1,
+                    open_timeout=AUTH_TIMEOUT_S,
+                    logger=quiet_logger(),
+                    create_connection=connection_type,
                 )
-                port = next(iter(web.sockets)).getsockname()[1]
-                console = f"http://{host}:{port}/"
+                console = f"http://{url_host(self.config.host)}:{self._console_port}/"
             if self.on_ready is not None:
                 self.on_ready(Addresses(tcp=tcp_address, console=console))
             await self._tick_loop()
@@ -254,13 +199,26 @@ class LiveServer:
                 client.finish()
             if clients:
                 await asyncio.wait([asyncio.ensure_future(c.wait()) for c in clients], timeout=1)
+            self._gate.expire(float("inf"))
             if tcp is not None:
                 tcp.close()
             if web is not None:
                 web.close()
                 await web.wait_closed()
+            listeners.close()
             await asyncio.sleep(0)
         return self.ticks
+
+    def _loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """An error inside asyncio (out of file descriptors while accepting...): one line,
+        at most once a second, never a traceback."""
+        now = loop.time()
+        if now - self._last_error_s < 1.0:
+            return
+        self._last_error_s = now
+        error = context.get("exception")
+        detail = f": {error}" if error is not None else ""
+        print(f"note: {context.get('message', 'error')}{detail}", file=sys.stderr, flush=True)
 
     async def _tick_loop(self) -> None:
         loop = asyncio.get_running_loop()
@@ -271,7 +229,10 @@ class LiveServer:
         start = loop.time()
         assert self._stop is not None
         while not self._stop.is_set() and (last is None or self.ticks < last):
-            self._step(self.ticks, now_s=loop.time())
+            now = loop.time()
+            self._step(self.ticks, now_s=now)
+            if self.ticks % self._sweep_every == 0:
+                self._sweep(now)
             self.ticks += 1
             delay = start + self.ticks * tick_s - loop.time()
             if delay < -MAX_LAG_S:
@@ -284,16 +245,26 @@ class LiveServer:
             else:
                 await asyncio.sleep(0)
 
+    def _sweep(self, now_s: float) -> None:
+        """Close pending connections past their time and admitted ones idle too long."""
+        self._gate.expire(now_s - AUTH_TIMEOUT_S)
+        for client in self._clients:
+            if client.admitted and client.open and now_s - client.heard_s > IDLE_TIMEOUT_S:
+                client.send(Reply(id=None, ok=False, reason="idle too long: closing"))
+                client.finish()
+
     # ------------------------------------------------------------------- a tick
 
     def _step(self, tick: int, *, now_s: float) -> None:
         commands, self._pending = self._pending, []
-        pad = self.guard.take(now_s=now_s)
-        for why in self.guard.released:
-            self._note(f"safety lock released: {why}", level=Level.WARNING)
-        self.guard.released.clear()
+        taken = self.guard.take(now_s=now_s)
         time_ms = tick * self.session.tick_ms
-        joystick = None if pad is None else pad.at(tick=tick, time_ms=time_ms)
+        joystick = None
+        if taken is not None:
+            joystick = taken.pad.at(tick=tick, time_ms=time_ms, release=taken.release)
+            if taken.release is not None:
+                self._released = RELEASE_TEXT[taken.release]
+                self._note(f"safety lock released: {self._released}", level=Level.WARNING)
         self.session.step(tick, commands=commands, joystick=joystick)
         for command_id, reply in self.view.take_replies().items():
             waiting = self._waiting.pop(command_id, None)
@@ -327,7 +298,9 @@ class LiveServer:
         watchers = [c for c in self._clients if c.subscribed and c.world]
         if not watchers:
             return
-        frame = self.view.frame(joystick_engaged=self.session.pipeline.actuator.engaged)
+        frame = self.view.frame(
+            joystick_engaged=self.session.pipeline.actuator.engaged, released=self._released
+        )
         if frame is not None:
             for client in watchers:
                 client.send(frame)
@@ -339,28 +312,84 @@ class LiveServer:
 
     # ---------------------------------------------------------------- requests
 
-    def _on_line(self, client: _Client, line: bytes | str) -> None:
+    async def _on_line(self, client: Client, line: bytes | str) -> None:
         if not line.strip():
+            return
+        if not client.spend(asyncio.get_running_loop().time()):
+            client.send(Reply(id=None, ok=False, reason="too many requests: closing"))
+            client.finish()
             return
         try:
             request = decode_request(line)
         except ProtocolError as error:
             client.send(Reply(id=error.id, ok=False, reason=str(error)))
             return
-        self._handle(client, request)
+        if isinstance(request, protocol.Auth):
+            await self._authenticate(client, request)
+        elif client.admitted or (self.config.token is None and self._admit(client)):
+            self._handle(client, request)
+        elif self.config.token is not None:
+            client.send(
+                Reply(
+                    id=request.id,
+                    ok=False,
+                    reason='unauthorised: send {"cmd": "auth", "token": ...} first',
+                )
+            )
 
-    def _handle(self, client: _Client, request: protocol.AnyRequest) -> None:
+    def _admit(self, client: Client) -> bool:
+        """Let a pending client in when there is room; refuse and close it when not."""
+        self._gate.leave(client.gate_key)
+        if sum(c.admitted for c in self._clients) >= MAX_CLIENTS:
+            client.send(Reply(id=None, ok=False, reason=f"too many clients ({MAX_CLIENTS})"))
+            client.finish()
+            return False
+        client.admitted = True
+        return True
+
+    async def _authenticate(self, client: Client, request: protocol.Auth) -> None:
+        """Check a token: each earlier failure from the same address delays the answer
+        (doubling), and the connection closes at its :data:`MAX_AUTH_FAILURES`-th."""
+        token = self.config.token
+        if token is None or client.admitted:
+            client.send(Reply(id=request.id, ok=True, reason="authorised"))
+            if not client.admitted:
+                self._admit(client)
+            return
+        earlier = self._auth_failures.get(client.address, 0)
+        if earlier:
+            await asyncio.sleep(min(AUTH_DELAY_S * 2 ** (earlier - 1), MAX_AUTH_DELAY_S))
+            if not client.open:
+                return
+        if hmac.compare_digest(request.token.encode(), token.encode()):
+            self._auth_failures.pop(client.address, None)
+            if self._admit(client):
+                client.send(Reply(id=request.id, ok=True, reason="authorised"))
+                client.send(self._hello())
+            return
+        self._auth_failures.pop(client.address, None)
+        self._auth_failures[client.address] = earlier + 1  # the newest last
+        if len(self._auth_failures) > MAX_FAILING_ADDRESSES:
+            del self._auth_failures[next(iter(self._auth_failures))]
+        client.failures += 1
+        if client.failures >= MAX_AUTH_FAILURES:
+            client.send(Reply(id=request.id, ok=False, reason="wrong token: closing"))
+            client.finish()
+            return
+        delay = min(AUTH_DELAY_S * 2**earlier, MAX_AUTH_DELAY_S)
+        client.send(
+            Reply(
+                id=request.id,
+                ok=False,
+                reason=f"wrong token ({client.failures} of {MAX_AUTH_FAILURES}); "
+                f"the next answer comes after {delay:g} s",
+            )
+        )
+
+    def _handle(self, client: Client, request: protocol.AnyRequest) -> None:
         def reply(ok: bool, reason: str = "", **extra: object) -> None:
             client.send(Reply(id=request.id, ok=ok, reason=reason, **extra))  # type: ignore[arg-type]
 
-        token = self.config.token
-        if isinstance(request, protocol.Auth):
-            if token is None or hmac.compare_digest(request.token.encode(), token.encode()):
-                client.authed = True
-                return reply(True, "authorised")
-            return reply(False, "wrong token")
-        if token is not None and not client.authed:
-            return reply(False, 'unauthorised: send {"cmd": "auth", "token": ...} first')
         verb = OPERATOR_REQUESTS.get(type(request))
         if verb is not None:
             command = self.session.command(
@@ -371,7 +400,7 @@ class LiveServer:
             )
             self._pending.append(command)
             self._waiting[command.id] = (client, request)
-            return None
+            return
         match request:
             case protocol.Subscribe():
                 client.subscribed, client.world = True, request.world
@@ -390,12 +419,12 @@ class LiveServer:
                     buttons=request.buttons,
                 )
                 self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
-                reply(True)
-        return None
+                reply(True, tick=self.ticks)
 
     # -------------------------------------------------------------- transports
 
     def _hello(self) -> Hello:
+        """The session's hello: only that a token is needed, until it has been given."""
         return Hello(
             scenario=self.session.scenario.name,
             tick_ms=self.session.tick_ms,
@@ -403,28 +432,37 @@ class LiveServer:
             scene=scene_of(self.session.scenario),
         )
 
-    def _connect(self, client: _Client) -> None:
+    def _connect(self, client: Client) -> None:
         self._clients.append(client)
         client.start()
-        client.send(self._hello())
+        if self.config.token is None:
+            client.send(self._hello())
+        else:
+            client.send(Hello(auth_required=True))
 
-    async def _disconnect(self, client: _Client) -> None:
+    async def _disconnect(self, client: Client) -> None:
         if client in self._clients:
             self._clients.remove(client)
+        self._gate.leave(client.gate_key)
         self.guard.lost(client)
         client.finish()
         await client.wait()
 
     async def _serve_tcp(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._counter += 1
-        client = _TcpClient(f"tcp-{self._counter}", writer)
+        now = asyncio.get_running_loop().time()
+        client = TcpClient(f"tcp-{self._counter}", writer, now)
+        self._gate.enter(client, now)
         self._connect(client)
+        first = True
         try:
             while client.open:
                 try:
                     line = await reader.readuntil(b"\n")
                 except asyncio.IncompleteReadError as end:
-                    self._on_line(client, end.partial)
+                    if first and HTTP_LINE.match(end.partial):
+                        break
+                    await self._on_line(client, end.partial)
                     break
                 except asyncio.LimitOverrunError:
                     client.send(
@@ -436,7 +474,11 @@ class LiveServer:
                     )
                     client.finish()
                     break
-                self._on_line(client, line)
+                if first and HTTP_LINE.match(line):
+                    client.abort()  # a browser's request: its body is never read
+                    break
+                first = False
+                await self._on_line(client, line)
         except ConnectionError:
             pass
         finally:
@@ -444,11 +486,12 @@ class LiveServer:
 
     async def _serve_ws(self, connection: ServerConnection) -> None:
         self._counter += 1
-        client = _WsClient(f"ws-{self._counter}", connection)
+        client = WsClient(f"ws-{self._counter}", connection, asyncio.get_running_loop().time())
+        client.gate_key = connection
         self._connect(client)
         try:
             async for message in connection:
-                self._on_line(client, message)
+                await self._on_line(client, message)
                 if not client.open:
                     break
         except ConnectionClosed:
@@ -458,6 +501,14 @@ class LiveServer:
 
     def _static(self, connection: ServerConnection, request: HttpRequest) -> Response | None:
         path = request.path.split("?", 1)[0]
+        refused = console_refusal(
+            request,
+            port=self._console_port,
+            allow_origins=self.config.allow_origins,
+            websocket=path == WS_PATH,
+        )
+        if refused is not None:
+            return connection.respond(403, f"refused: {refused}\n")
         if path == WS_PATH:
             return None
         if path == "/favicon.ico":

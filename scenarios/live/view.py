@@ -86,7 +86,7 @@ class LiveView:
             block=self.block,
         )
 
-    def frame(self, *, joystick_engaged: bool) -> WorldMessage | None:
+    def frame(self, *, joystick_engaged: bool, released: str = "") -> WorldMessage | None:
         """The live view now (None before the first tick)."""
         world = self.world
         if world is None:
@@ -104,4 +104,5 @@ class LiveView:
             fired=tuple(sorted(r for r, at in self._fired.items() if at > since)),
             log=tuple(self._log),
             joystick_engaged=joystick_engaged,
+            released="" if joystick_engaged else released,
         )

@@ -1,4 +1,5 @@
-"""Crash safety of `oimi run`: SIGKILL leaves a recoverable prefix, Ctrl-C a finished file."""
+"""Crash safety of `oimi run`: SIGKILL leaves a recoverable prefix named as such
+(NAME.partial.mcap), Ctrl-C a finished file under its own name."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from oimi.cli import main
 from pipeline.events import Topic
 from recorder.errors import RecordingError
 from recorder.reader import open_recording
+from scenarios.recording import partial_path
 
 REPO = Path(__file__).resolve().parents[2]
 LONG_SCENARIO = """\
@@ -93,13 +95,16 @@ def world_ticks(path: Path) -> list[int]:
 def test_a_killed_run_leaves_a_prefix_that_is_recovered_and_reported(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    process, output = start_run(tmp_path)
+    process, final = start_run(tmp_path)
+    output = partial_path(final)
+    assert output.name == "long.partial.mcap"
     try:
         wait_for_messages(process, output)
     finally:
         process.send_signal(signal.SIGKILL)
         process.communicate()
     assert process.returncode == -signal.SIGKILL
+    assert not final.exists(), "only the partial file, named as such"
 
     recording = open_recording(output)
     assert recording.recovery is not None
@@ -122,7 +127,7 @@ def test_ctrl_c_stops_the_run_with_130_and_a_finished_file(tmp_path: Path) -> No
     rrd = tmp_path / "long.rrd"
     process, output = start_run(tmp_path, "--rrd", str(rrd))
     try:
-        wait_for_messages(process, output)
+        wait_for_messages(process, partial_path(output))
         process.send_signal(signal.SIGINT)
         _, err = process.communicate(timeout=WAIT_LIMIT_S)
     finally:
@@ -132,6 +137,7 @@ def test_ctrl_c_stops_the_run_with_130_and_a_finished_file(tmp_path: Path) -> No
     assert process.returncode == 130, err
     assert b"interrupted" in err
     assert b"Traceback" not in err
+    assert not partial_path(output).exists() and not partial_path(rrd).exists()
 
     with open(output, "rb") as f:
         summary = make_reader(f).get_summary()

@@ -75,6 +75,11 @@ def test_demo_writes_mcap_and_rrd_and_says_how_to_open_them(tmp_path: Path) -> N
     assert f"oimi view {rrd}" in done.stdout
     assert "Foxglove" in done.stdout
     assert "0 failed" in done.stdout
+    first = mcap.read_bytes()
+    again = oimi("demo", "-q", "--out", tmp_path / "out")  # `make demo` twice: replaced on purpose
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert mcap.read_bytes() == first
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [mcap.name, rrd.name]
 
 
 def test_demo_rejects_an_unknown_scenario_with_the_choices(tmp_path: Path) -> None:

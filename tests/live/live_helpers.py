@@ -6,6 +6,7 @@ import contextlib
 import json
 import os
 import re
+import resource
 import signal
 import socket
 import subprocess
@@ -41,8 +42,16 @@ class Served:
 
 
 @contextlib.contextmanager
-def served(recording: Path, *extra: str, scenario: Path = ROOM) -> Iterator[Served]:
-    """``oimi serve`` on free ports of 127.0.0.1; stopped (SIGINT) on leaving."""
+def served(
+    recording: Path, *extra: str, scenario: Path = ROOM, max_files: int | None = None
+) -> Iterator[Served]:
+    """``oimi serve`` on free ports of 127.0.0.1; stopped (SIGINT) on leaving.
+    ``max_files`` lowers the server's open-file limit (RLIMIT_NOFILE)."""
+
+    def limit() -> None:
+        if max_files is not None:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (max_files, max_files))
+
     process = subprocess.Popen(
         [
             sys.executable,
@@ -63,6 +72,7 @@ def served(recording: Path, *extra: str, scenario: Path = ROOM) -> Iterator[Serv
         stderr=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        preexec_fn=limit,
     )
     tcp = console = None
     head = ""
@@ -151,3 +161,36 @@ class LineClient:
 def states(state: dict) -> dict[str, str]:
     """Activity name -> state."""
     return {a["name"]: a["state"] for a in state["activities"]}
+
+
+def http_status(port: int, request: bytes, timeout_s: float = 5.0) -> str:
+    """Send a raw HTTP request to the console's port; the response's status line."""
+    with socket.create_connection(("127.0.0.1", port), timeout=timeout_s) as sock:
+        sock.sendall(request)
+        head = b""
+        while b"\r\n" not in head:
+            chunk = sock.recv(4096)
+            if not chunk:
+                break
+            head += chunk
+    return head.split(b"\r\n", 1)[0].decode()
+
+
+def upgrade(port: int, *, host: str | None = None, origin: str | None = None) -> bytes:
+    """A WebSocket upgrade request for the console's ``/ws``."""
+    lines = [
+        "GET /ws HTTP/1.1",
+        f"Host: {host or f'127.0.0.1:{port}'}",
+        "Upgrade: websocket",
+        "Connection: Upgrade",
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==",
+        "Sec-WebSocket-Version: 13",
+    ]
+    if origin is not None:
+        lines.append(f"Origin: {origin}")
+    return ("\r\n".join(lines) + "\r\n\r\n").encode()
+
+
+def port_of(console: str) -> int:
+    """The port of the console's URL."""
+    return int(console.rstrip("/").rsplit(":", 1)[1])

@@ -80,9 +80,10 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
     page = browser_page
     recording = tmp_path / "console.mcap"
     screenshot = Path(os.environ.get("OIMI_CONSOLE_SCREENSHOT", tmp_path / "console.png"))
-    with served(recording) as live:
-        page.goto(live.console)
+    with served(recording, "--token", "t0ken") as live:  # the console sends it from its URL
+        page.goto(f"{live.console}?token=t0ken")
         expect(page.locator("body")).to_have_attribute("data-link", "up")
+        expect(page.locator("#scenario")).to_have_text("live_room")  # the hello after auth
         command = page.locator("#command")
         expect(command).to_have_attribute("data-button", "get_ready")
 
@@ -130,13 +131,14 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
         page.mouse.down()
         expect(page.locator("#engaged")).to_contain_text("engaged")
         page.mouse.up()
-        expect(page.locator("#engaged")).to_have_text("released")
+        expect(page.locator("#engaged")).to_have_text("released: the operator let go of the lock")
         live.stop()
     assert live.returncode == 0, live.errors
 
     rec = open_recording(recording)
     pads = [m.decoded() for m in rec.iter_messages(topics=[Topic.JOYSTICK])]
     assert [p.buttons for p in pads if isinstance(p, JoystickInput)][-2:] == [("LB",), ()]
+    assert pads[-1].release == "operator"  # type: ignore[union-attr]
     verbs = [
         c.verb
         for m in rec.iter_messages(topics=[Topic.OPERATOR_COMMANDS])

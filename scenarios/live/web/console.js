@@ -7,6 +7,7 @@ const $ = (id) => document.getElementById(id);
 const LABELS = { get_ready: "Get Ready", loading: "Loading…", start: "Start", stop: "Stop" };
 const STATE_LABELS = { current: "current", completed: "completed", not_yet_completed: "not yet completed" };
 const HEARTBEAT_MS = 200;
+const KEEPALIVE_MS = 30000; // the server closes a connection silent for 300 s
 
 let ws = null;
 let nextId = 1;
@@ -72,9 +73,9 @@ function say(text, refused) {
 
 function receive(msg) {
   switch (msg.type) {
-    case "hello":
-      scene = msg.scene;
-      $("scenario").textContent = msg.scenario;
+    case "hello": // on a guarded port the first hello is bare; the full one follows auth
+      if (msg.scene) scene = msg.scene;
+      if (msg.scenario) $("scenario").textContent = msg.scenario;
       break;
     case "reply": {
       const callback = pending.get(msg.id);
@@ -367,7 +368,9 @@ function drawWorld() {
   $("led-text").textContent = frame.led.map((v) => v.toFixed(2)).join(", ");
   $("audio").textContent = frame.audio || "–";
   $("fired").textContent = (frame.fired || []).join(", ") || "–";
-  $("engaged").textContent = frame.joystick_engaged ? "engaged (operator drives)" : "released";
+  $("engaged").textContent = frame.joystick_engaged
+    ? "engaged (operator drives)"
+    : frame.released ? `released: ${frame.released}` : "released";
   const log = $("log");
   log.replaceChildren();
   for (const entry of frame.log || []) {
@@ -501,5 +504,6 @@ function poll() {
   sendPad();
 }
 setInterval(poll, 50);
+setInterval(() => request({ cmd: "state" }), KEEPALIVE_MS);
 
 connect();
