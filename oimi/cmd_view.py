@@ -112,7 +112,7 @@ def write_rrd(source: Path, target: Path) -> None:
         return
     recording = mcap_to_rrd(source, target)
     if recording.recovery is not None:
-        print(f"oimi view: {source}: damaged recording, {recording.recovery}", file=sys.stderr)
+        print(f"{source}: {recording.recovery}; converted up to it", file=sys.stderr)
 
 
 def display_problem(*, web: bool, environ: Mapping[str, str], platform: str) -> str | None:

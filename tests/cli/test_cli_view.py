@@ -81,8 +81,9 @@ def test_a_truncated_mcap_converts_its_prefix_and_says_how_much_was_recovered(
     damaged.write_bytes(data[: len(data) - 2000])  # the summary and the last chunk's end
     assert main(["view", str(damaged), "--save", str(tmp_path / "d.rrd")]) == 0
     err = capsys.readouterr().err
-    assert f"oimi view: {damaged}: damaged recording, recovered: " in err
-    assert "because the file ends" in err
+    assert err.startswith(f"{damaged}: damaged at byte ")
+    assert "(the file ends inside a " in err
+    assert "messages before it; converted up to it" in err
     assert "/world/robot" in entities(tmp_path / "d.rrd")
 
 
