@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import console
+from oimi.paths import check_output
 from scenarios.batch.spec import parse_param
 from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
@@ -36,6 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.junit is not None:
+        check_output(args.junit)
     loaded = load_scenario(args.scenario)
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
     session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))

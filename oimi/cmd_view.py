@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Final
 
+from oimi.paths import check_output
 from recorder.errors import RecordingError
 from recorder.rerun_sink import mcap_to_rrd
 
@@ -75,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     source: Path = args.recording
     _check_readable(source)
     if args.save is not None:
+        check_output(args.save)
         write_rrd(source, args.save)
         print(f"rerun: {args.save}")
         return EXIT_OK
