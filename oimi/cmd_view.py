@@ -23,6 +23,7 @@ from typing import Final
 from oimi.paths import check_output
 from recorder.errors import RecordingError
 from recorder.rerun_sink import mcap_to_rrd
+from recorder.rrd import check_rrd
 
 EXIT_OK, EXIT_FAILED = 0, 1
 BIND_ADDRESS: Final = "127.0.0.1"
@@ -75,6 +76,8 @@ def _port(text: str) -> int:
 def run(args: argparse.Namespace) -> int:
     source: Path = args.recording
     _check_readable(source)
+    if source.suffix.lower() == ".rrd":
+        check_rrd(source)
     if args.save is not None:
         check_output(args.save)
         write_rrd(source, args.save)
