@@ -4,7 +4,6 @@ error on a huge line shows a window around the column, never the whole line."""
 from __future__ import annotations
 
 import re
-import time
 from pathlib import Path
 
 import pytest
@@ -40,14 +39,13 @@ def test_a_condition_nested_to_the_limit_parses_and_one_deeper_is_refused_at_its
     assert err.startswith(f"{tmp_path / 's.txt'}:4:{column}: parentheses in CND(...) nest deeper")
 
 
-def test_forty_thousand_levels_are_refused_at_once(
+def test_forty_thousand_levels_are_refused_at_the_limit(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    depth = 40_000
-    start = time.perf_counter()
+    depth = 40_000  # took 29 s to parse before the limit
     code, err = check(tmp_path, jump("(" * depth + "{TRUE}" + ")" * depth), capsys)
-    assert code == 2 and "nest deeper than" in err
-    assert time.perf_counter() - start < 5  # was 29 s: a generous bound, not a benchmark
+    assert code == 2
+    assert f":4:{len('[b##blk_jump: CND(') + MAX_NESTING + 1}: parentheses in CND" in err
 
 
 @pytest.mark.parametrize(
