@@ -17,11 +17,12 @@ import msgspec
 import zstandard
 from mcap.exceptions import EndOfFile, InvalidMagic, McapError
 from mcap.reader import SeekingReader
+from mcap.records import AttachmentIndex
 
 from pipeline.events import TOPIC_TYPES, Event, Topic
 from pipeline.messages import FORMAT_VERSION
 from recorder.errors import RecordingError
-from recorder.scan import ChunkScan, Damage, RecoveryReport
+from recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
 from recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
 
 _READ_ERRORS: Final = (
@@ -211,7 +212,7 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         return Recording(
             path,
             metadata={m.name: dict(m.metadata) for m in reader.iter_metadata()},
-            attachments={a.name: a.data for a in reader.iter_attachments()},
+            attachments=_attachments(stream, summary.attachment_indexes),
             summary={c.topic: counts.get(c.id, 0) for c in summary.channels.values()},
             recovery=None,
         )
@@ -219,6 +220,20 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         return None
     finally:
         stream.seek(0)
+
+
+def _attachments(stream: IO[bytes], indexes: list[AttachmentIndex]) -> dict[str, bytes]:
+    """The attachments the summary points at, each record's lengths and CRC checked
+    (mcap's ``iter_attachments`` checks neither); ValueError when one is damaged."""
+    size = os.fstat(stream.fileno()).st_size
+    found = {}
+    for index in indexes:
+        if not 9 <= index.length <= size - index.offset:
+            raise ValueError(f"attachment index of {index.name!r} points past the end")
+        stream.seek(index.offset + 9)  # after the record's opcode and length
+        record = attachment(stream.read(index.length - 9))
+        found[record.name] = record.data
+    return found
 
 
 def _read_streamed(stream: IO[bytes], path: str) -> Recording:

@@ -105,6 +105,15 @@ def _parse(kind: type, body: bytes | memoryview):
         raise ValueError(f"bad {kind.__name__.lower()} record: {error}") from None
 
 
+def attachment(body: bytes) -> Attachment:
+    """An attachment record's body, its lengths and CRC checked (ValueError if damaged)."""
+    record = _parse(Attachment, body)
+    (crc,) = struct.unpack_from("<I", body, len(body) - 4)  # of the record before it
+    if crc and zlib.crc32(memoryview(body)[:-4]) != crc:
+        raise ValueError(f"attachment {record.name!r}: CRC mismatch")
+    return record
+
+
 class ChunkScan:
     """Streams the messages of the ``wanted`` topics in file order.
 
@@ -204,10 +213,7 @@ class ChunkScan:
             record = _parse(Metadata, body)
             self.metadata[record.name] = dict(record.metadata)
         elif self.keep_records and opcode == _ATTACHMENT:
-            record = _parse(Attachment, body)
-            (crc,) = struct.unpack_from("<I", body, len(body) - 4)  # of the record before it
-            if crc and zlib.crc32(memoryview(body)[:-4]) != crc:
-                raise ValueError(f"attachment {record.name!r}: CRC mismatch")
+            record = attachment(body)
             self.attachments[record.name] = record.data
         return []
 
