@@ -283,7 +283,7 @@ class ChunkScan:
             if size > most:
                 raise ValueError(
                     f"uncompressed size {size} is more than {len(data)} compressed bytes can"
-                    f" hold ({most})"
+                    f" hold, at most {most}"
                 )
             declared = zstandard.frame_content_size(data)
             if declared >= 0 and declared != size:
