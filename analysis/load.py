@@ -242,9 +242,18 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
     @property
     def tick_ms(self) -> int:
         """The tick length: from the recorded configuration, else 20 ms."""
-        scenario = self.metadata.get("scenario", {})
-        hz = int(scenario.get("tick_hz", "50") or 50)
-        return 1000 // hz
+        return 1000 // _tick_hz(self.metadata, self.path)
+
+
+def _tick_hz(metadata: dict[str, dict[str, str]], path: str) -> int:
+    """The recorded tick rate (50 when not recorded); RecordingError when it is not a
+    rate of 1 to 1000 Hz (metadata records carry no CRC: a damaged byte shows here)."""
+    text = metadata.get("scenario", {}).get("tick_hz", "") or "50"
+    if not text.isdigit() or not 1 <= int(text) <= 1000:
+        raise RecordingError(
+            f"scenario metadata: tick_hz {text!r} is not 1 to 1000 Hz", source=path
+        )
+    return int(text)
 
 
 def load_session(
@@ -264,6 +273,7 @@ def load_session(
         scan = ChunkScan(stream, frozenset(t.value for t in wanted))
         for topic, _, _, data in scan.messages():
             payloads[Topic(topic)].append(data)
+    _tick_hz(recording.metadata, name)
     recovery = recording.recovery or scan.report()
     if recovery is not None and not any(payloads.values()):
         raise RecordingError(f"nothing recoverable: {recovery}", source=name)

@@ -62,9 +62,15 @@ def sample(tmp_path_factory: pytest.TempPathFactory) -> Sample:
 @st.composite
 def damage(draw: st.DrawFn, sample: Sample) -> bytes:
     data = bytearray(sample.data)
-    kind = draw(st.sampled_from(["cut", "flip", "length", "u32"]))
+    kind = draw(st.sampled_from(["cut", "flip", "length", "u32", "metadata"]))
     if kind == "cut":
         return bytes(data[: draw(st.integers(0, len(data) - 1))])
+    if kind == "metadata":  # metadata records carry no CRC: a changed byte reads as a value
+        start = draw(st.sampled_from([s for s in sample.records if data[s] == 0x0C]))
+        (length,) = struct.unpack_from("<Q", data, start + 1)
+        at = start + 9 + draw(st.integers(0, length - 1))
+        data[at] = draw(st.sampled_from(b"0129.-xe\x00\xff\"'"))
+        return bytes(data)
     if kind == "flip":
         at = draw(st.integers(0, len(data) - 1))
         data[at] ^= 1 << draw(st.integers(0, 7))
