@@ -61,7 +61,7 @@ def damaged(draw: st.DrawFn, text: str) -> str:
             depth = draw(st.sampled_from([2, 63, 64, 65, 500, 5000]))
             text = text[:at] + "(" * depth + text[at:] + ")" * draw(st.sampled_from([0, depth]))
         else:
-            text = text[:at] + draw(st.sampled_from("x([\"")) * 20_000 + text[at:]
+            text = text[:at] + draw(st.sampled_from('x(["')) * 20_000 + text[at:]
     return text
 
 
