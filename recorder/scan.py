@@ -119,11 +119,12 @@ class ChunkScan:
 
     After iteration, :meth:`report` is None for a complete file, else says where
     the damage is and how much was read; ``good_byte`` is where the last complete
-    record ended, ``count`` the messages (of every topic) read before it and
-    ``counts`` those per topic. With ``keep_records`` the metadata and
-    attachments are kept too (``metadata``, ``attachments``) and the summary
-    section is walked up to the footer (a cut summary is damage); without, the
-    scan ends with the data section.
+    record ended and ``count`` the messages (of every topic) read before it.
+    With ``keep_records`` (opening a file without a usable summary) the
+    metadata, attachments and message counts per topic are kept too
+    (``metadata``, ``attachments``, ``counts``) and the summary section is walked
+    up to the footer (a cut summary is damage); without, the scan ends with the
+    data section.
     """
 
     def __init__(
@@ -206,7 +207,7 @@ class ChunkScan:
             self._channel(body)
         elif opcode == _MESSAGE:
             found: list[Scanned] = []
-            self._message(memoryview(body), found)
+            self._message(body, 0, len(body), found)
             self.count += 1
             return found
         elif self.keep_records and opcode == _METADATA:
@@ -222,16 +223,19 @@ class ChunkScan:
         self.channels[record.id] = record.topic
         self.counts.setdefault(record.topic, 0)
 
-    def _message(self, record: memoryview, found: list[Scanned]) -> None:
-        if len(record) < _MESSAGE_HEADER.size:
-            raise ValueError(f"a message record of {len(record)} bytes is shorter than its header")
-        channel, sequence, log_time, _ = _MESSAGE_HEADER.unpack_from(record)
+    def _message(self, data: bytes, start: int, end: int, found: list[Scanned]) -> None:
+        """The message record ``data[start:end]``: its payload kept when its topic is wanted."""
+        if end - start < _MESSAGE_HEADER.size:
+            raise ValueError(f"a message record of {end - start} bytes is shorter than its header")
+        channel, sequence, log_time, _ = _MESSAGE_HEADER.unpack_from(data, start)
         topic = self.channels.get(channel)
         if topic is None:
             raise ValueError(f"a message on channel {channel}, which no channel record declares")
-        self.counts[topic] += 1
+        if self.keep_records:
+            self.counts[topic] += 1
         if topic in self.wanted:
-            found.append(Scanned(topic, sequence, log_time, bytes(record[_MESSAGE_HEADER.size :])))
+            payload = data[start + _MESSAGE_HEADER.size : end]
+            found.append(Scanned(topic, sequence, log_time, payload))
 
     def _chunk(self, body: bytes) -> list[Scanned]:
         if len(body) < _CHUNK_HEADER.size + _U64.size:
@@ -249,8 +253,8 @@ class ChunkScan:
                 f"records length {records_length} does not match the {len(body) - at} bytes"
                 " left in the chunk"
             )
-        data = memoryview(self._decompress(body[at:], compression, size, crc))
-        header, end = _RECORD_HEADER, len(data)
+        data = self._decompress(body[at:], compression, size, crc)
+        header, end, message = _RECORD_HEADER, len(data), self._message
         found: list[Scanned] = []
         offset, count = 0, 0
         counts = dict(self.counts)
@@ -268,7 +272,7 @@ class ChunkScan:
                 offset = start + length
                 if opcode == _MESSAGE:
                     count += 1
-                    self._message(data[start:offset], found)
+                    message(data, start, offset, found)
                 elif opcode == _CHANNEL:
                     self._channel(data[start:offset])
         except ValueError:
