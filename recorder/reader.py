@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import struct
+import zlib
 from collections.abc import Iterable, Iterator
 from functools import cache
 from typing import IO, Final
@@ -191,6 +192,14 @@ def open_recording(path: str | os.PathLike[str]) -> Recording:
         if size == 0:
             raise RecordingError("empty file, not an MCAP recording", source=name)
         recording = _read_indexed(stream, name) or _read_streamed(stream, name)
+        damage = None if recording.recovery else _summary_damage(stream)
+    if damage is not None:
+        recording.recovery = RecoveryReport(
+            messages=sum(recording.summary.values()),
+            stopped_at_byte=damage.at,
+            file_size=size,
+            reason=damage.what,
+        )
     _check_version(recording)
     return recording
 
@@ -206,7 +215,7 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         return None
     try:
         summary = reader.get_summary()
-        if summary is None or summary.statistics is None:
+        if summary is None or summary.statistics is None or _summary_damage(stream):
             return None
         counts = summary.statistics.channel_message_counts
         return Recording(
@@ -220,6 +229,34 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         return None
     finally:
         stream.seek(0)
+
+
+_FOOTER_TAIL: Final = 9 + 8 + 8 + 4 + 8
+"""A file's last bytes: the footer record (opcode, length, summary start, summary offset
+start, summary CRC) and the closing magic."""
+
+
+def _summary_damage(stream: IO[bytes]) -> Damage | None:
+    """Damage when the summary section does not match its CRC in the footer (mcap's reader
+    does not check it: counts and indexes read from a changed summary would be believed);
+    None when it matches or the file has no footer (the scan reports that)."""
+    size = os.fstat(stream.fileno()).st_size
+    if size < _FOOTER_TAIL + 8:
+        return None
+    stream.seek(size - _FOOTER_TAIL)
+    footer = stream.read(_FOOTER_TAIL)
+    if footer[0] != 0x02:
+        return None
+    summary_start, _, crc = struct.unpack_from("<QQI", footer, 9)
+    if crc == 0:  # not computed by the writer
+        return None
+    at = size - _FOOTER_TAIL
+    if summary_start and 8 <= summary_start <= at:
+        stream.seek(summary_start)
+        if zlib.crc32(footer[:25], zlib.crc32(stream.read(at - summary_start))) == crc:
+            return None
+        at = summary_start
+    return Damage(at, "summary: CRC mismatch, so its counts and indexes are not used")
 
 
 def _attachments(stream: IO[bytes], indexes: list[AttachmentIndex]) -> dict[str, bytes]:

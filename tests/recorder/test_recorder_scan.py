@@ -11,6 +11,7 @@ import pytest
 import zstandard
 from recorder_synthetic import SCENE, session
 
+from pipeline.events import Topic
 from recorder.errors import RecordingError
 from recorder.mcap_sink import McapSink
 from recorder.reader import open_recording
@@ -143,3 +144,17 @@ def test_a_string_length_past_its_record_is_damage_not_a_read(whole: bytes, tmp_
         " metadata record: a field of 4294967295 bytes runs past the end of its record"
         f" ({length - 4} bytes left)); recovered: 0 messages before it"
     )
+
+
+def test_a_changed_summary_is_not_believed_and_is_reported(whole: bytes, tmp_path: Path) -> None:
+    data = bytearray(whole)
+    statistics = first(data, 0x0B)
+    data[statistics + 9 : statistics + 17] = struct.pack("<Q", 10**12)  # the message count
+    recording, messages = reopen(tmp_path, data)
+    ours = sum(recording.summary[t.value] for t in Topic)  # counted, not the changed count
+    assert ours == len(messages) == len(session(20))
+    assert recording.recovery is not None
+    assert recording.recovery.reason == (
+        "summary: CRC mismatch, so its counts and indexes are not used"
+    )
+    assert recording.recovery.stopped_at_byte == first(data, 0x0F) + 9 + 4  # after data end
