@@ -5,8 +5,9 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 DEMO   ?= scenarios/library/greeting.toml
 OUT    ?= out
+FUZZ   ?= 20
 
-.PHONY: env demo test lint golden bench clean
+.PHONY: env demo test fuzz lint golden bench clean
 
 env: $(STAMP)
 
@@ -23,6 +24,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
+
+# The fuzz suite (also part of `test`) with FUZZ times as many examples per property.
+fuzz: $(STAMP)
+	OIMI_FUZZ_EXAMPLES=$(FUZZ) $(BIN)/python -m pytest tests/fuzz
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

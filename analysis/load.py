@@ -20,6 +20,7 @@ import pyarrow as pa
 import pyarrow.json as pa_json
 
 from pipeline.events import TOPIC_TYPES, Topic
+from recorder.errors import RecordingError
 from recorder.reader import RecoveryReport, open_recording
 from recorder.scan import ChunkScan
 
@@ -241,9 +242,18 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
     @property
     def tick_ms(self) -> int:
         """The tick length: from the recorded configuration, else 20 ms."""
-        scenario = self.metadata.get("scenario", {})
-        hz = int(scenario.get("tick_hz", "50") or 50)
-        return 1000 // hz
+        return 1000 // _tick_hz(self.metadata, self.path)
+
+
+def _tick_hz(metadata: dict[str, dict[str, str]], path: str) -> int:
+    """The recorded tick rate (50 when not recorded); RecordingError when it is not a
+    rate of 1 to 1000 Hz (metadata records carry no CRC: a damaged byte shows here)."""
+    text = metadata.get("scenario", {}).get("tick_hz", "") or "50"
+    if not text.isdigit() or not 1 <= int(text) <= 1000:
+        raise RecordingError(
+            f"scenario metadata: tick_hz {text!r} is not 1 to 1000 Hz", source=path
+        )
+    return int(text)
 
 
 def load_session(
@@ -263,23 +273,24 @@ def load_session(
         scan = ChunkScan(stream, frozenset(t.value for t in wanted))
         for topic, _, _, data in scan.messages():
             payloads[Topic(topic)].append(data)
-    recovery = recording.recovery
-    if recovery is None and scan.error is not None:
-        recovery = RecoveryReport(
-            messages=scan.count,
-            stopped_at_byte=scan.good_byte,
-            file_size=os.path.getsize(name),
-            reason=f"the record after it is damaged: {scan.error or type(scan.error).__name__}",
-        )
+    _tick_hz(recording.metadata, name)
+    recovery = recording.recovery or scan.report()
+    if recovery is not None and not any(payloads.values()):
+        raise RecordingError(f"nothing recoverable: {recovery}", source=name)
     if recovery is not None:
         warnings.warn(
-            f"{name}: damaged recording analysed in part; {recovery}; the rest is skipped",
+            f"{name}: {recovery}; analysed in part, the rest is skipped",
             AnalysisWarning,
             stacklevel=2,
         )
     tables: dict[str, pl.DataFrame] = {}
     for topic in wanted:
-        tables.update(payloads_to_tables(topic, payloads[topic]))
+        try:
+            tables.update(payloads_to_tables(topic, payloads[topic]))
+        except pa.ArrowInvalid as error:  # a damaged payload in a chunk without a CRC
+            raise RecordingError(
+                f"{topic.value}: a message does not decode: {error}", source=name
+            ) from None
     oimi = recording.metadata.get("oimi", {})
     session_id = oimi.get("recording_id") or os.path.splitext(os.path.basename(name))[0]
     return SessionData(

@@ -18,6 +18,7 @@ from analysis.dataset import build_dataset, recordings, safe_name
 from analysis.load import AnalysisWarning, SessionData
 from analysis.metrics import SessionMetrics
 from analysis.report import transposed, write_comparison_report, write_session_report
+from oimi.paths import check_output
 
 SESSION_TABLES = (
     "activities",
@@ -52,6 +53,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.out is not None:
+        check_output(args.out, folder=True)
     files = recordings(args.paths)
     single = len(files) == 1
     reports: dict[str, str] = {}

@@ -21,6 +21,7 @@ import polars as pl
 
 from oimi import console
 from oimi.cmd_check import add_outside_paths_argument
+from oimi.paths import check_output
 from recorder.errors import RecordingError
 from replay.redrive import redrive
 from scenarios.batch import results
@@ -82,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         return run_replay(args)
     if not args.inputs:
         raise SpecError("give batch spec files, scenario files or folders", source="oimi batch")
-    out_dir = args.out.resolve()
+    out_dir = check_output(args.out, folder=True).resolve()
     tasks = collect_tasks(args, out_dir)
     done: dict[int, ResultRow] = {}
     if args.resume:
@@ -246,6 +247,7 @@ def replay_recording(path: str) -> ReplayRow:
 def run_replay(args: argparse.Namespace) -> int:
     """Redrive every ``*.mcap`` of a folder on the same executors; 1 if any diverges."""
     folder: Path = args.replay
+    out_dir = check_output(args.out, folder=True)
     paths = sorted(folder.glob("*.mcap"))
     if not paths:
         raise SpecError("no recordings (*.mcap) in this folder", source=str(folder))
@@ -256,7 +258,6 @@ def run_replay(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{'ok' if row.ok else 'DIVERGED'} {row.recording}", file=sys.stderr)
     ordered = [rows[i] for i in range(len(paths))]
-    out_dir: Path = args.out
     out_dir.mkdir(parents=True, exist_ok=True)
     table = out_dir / REPLAY_RESULTS
     pl.DataFrame([msgspec.structs.asdict(row) for row in ordered]).write_csv(table)

@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from oimi.cmd_check import report, report_error
+from oimi.paths import check_output, output_error
 from pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
 from pipeline.think.conditions import compile_condition
 
@@ -27,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     source = Path(args.script)
+    if args.output is not None:
+        check_output(args.output)
     try:
         data = source.read_bytes()
     except OSError as error:
@@ -49,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         write_atomically(Path(args.output), text)
     except OSError as error:
-        report(f"{args.output}: cannot write the file: {error.strerror}")
+        report(str(output_error(args.output, error)))
         return EXIT_BAD_INPUT
     return EXIT_OK
 

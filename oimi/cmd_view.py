@@ -20,8 +20,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Final
 
+from oimi.paths import check_output
 from recorder.errors import RecordingError
 from recorder.rerun_sink import mcap_to_rrd
+from recorder.rrd import check_rrd
 
 EXIT_OK, EXIT_FAILED = 0, 1
 BIND_ADDRESS: Final = "127.0.0.1"
@@ -74,7 +76,10 @@ def _port(text: str) -> int:
 def run(args: argparse.Namespace) -> int:
     source: Path = args.recording
     _check_readable(source)
+    if source.suffix.lower() == ".rrd":
+        check_rrd(source)
     if args.save is not None:
+        check_output(args.save)
         write_rrd(source, args.save)
         print(f"rerun: {args.save}")
         return EXIT_OK
@@ -112,7 +117,7 @@ def write_rrd(source: Path, target: Path) -> None:
         return
     recording = mcap_to_rrd(source, target)
     if recording.recovery is not None:
-        print(f"oimi view: {source}: damaged recording, {recording.recovery}", file=sys.stderr)
+        print(f"{source}: {recording.recovery}; converted up to it", file=sys.stderr)
 
 
 def display_problem(*, web: bool, environ: Mapping[str, str], platform: str) -> str | None:

@@ -2,11 +2,25 @@
 
 from __future__ import annotations
 
+import re
+from typing import Final
+
+WORD_CHARS: Final = 100
+"""Longest word (a run without spaces) a message quotes in full; a longer one, such as
+an unexpected token on a huge line, keeps its start and end around ``…``."""
+_LONG_WORD: Final = re.compile(rf"\S{{{WORD_CHARS + 1},}}")
+
+
+def _cut(match: re.Match[str]) -> str:
+    word = match.group(0)
+    return word[: WORD_CHARS * 3 // 4] + "…" + word[-(WORD_CHARS // 4) :]
+
 
 class LocatedError(Exception):
     """A user-input error with the place it was found (line and column count from 1)."""
 
     def __init__(self, message: str, *, source: str = "<input>", line: int = 0, column: int = 0):
+        message = _LONG_WORD.sub(_cut, message)
         super().__init__(message)
         self.message = message
         self.source = source

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import struct
+import zlib
 from collections.abc import Iterable, Iterator
 from functools import cache
 from typing import IO, Final
@@ -17,34 +18,48 @@ import msgspec
 import zstandard
 from mcap.exceptions import EndOfFile, InvalidMagic, McapError
 from mcap.reader import SeekingReader
-from mcap.records import Attachment, Channel, Message, Metadata
-from mcap.stream_reader import StreamReader
+from mcap.records import AttachmentIndex
 
 from pipeline.events import TOPIC_TYPES, Event, Topic
 from pipeline.messages import FORMAT_VERSION
 from recorder.errors import RecordingError
-from recorder.scan import ChunkScan
+from recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
 from recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
 
-_READ_ERRORS: Final = (McapError, ValueError, struct.error, zstandard.ZstdError, EOFError, KeyError)
-"""What a damaged file makes mcap raise (``EndOfFile``, CRC mismatch, bad lengths...)."""
+_READ_ERRORS: Final = (
+    McapError,
+    ValueError,
+    OverflowError,
+    struct.error,
+    zstandard.ZstdError,
+    EOFError,
+    KeyError,
+)
+"""What a damaged summary makes mcap's indexed reader raise (``EndOfFile``, CRC mismatch,
+bad offsets...): the file is then read record by record instead."""
 
 
-class RecoveryReport(msgspec.Struct, frozen=True, kw_only=True):
-    """How much of a damaged recording could be read, and why reading stopped."""
+class _Bounded:
+    """A file for mcap's indexed reader: a read longer than what is left of the file
+    raises ``EndOfFile`` at once instead of allocating a damaged length's bytes."""
 
-    messages: int
-    """Messages read (all channels) before the damage."""
-    stopped_at_byte: int
-    """End of the last complete record read."""
-    file_size: int
-    reason: str
+    def __init__(self, stream: IO[bytes]) -> None:
+        self.stream = stream
+        self.size = os.fstat(stream.fileno()).st_size
 
-    def __str__(self) -> str:
-        return (
-            f"recovered: {self.messages} messages, stopped at byte {self.stopped_at_byte}"
-            f" of {self.file_size} because {self.reason}"
-        )
+    def read(self, size: int = -1) -> bytes:
+        if size > self.size - self.stream.tell():
+            raise EndOfFile()
+        return self.stream.read(size)
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self.stream.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self.stream.tell()
+
+    def seekable(self) -> bool:
+        return True
 
 
 class _Stamp(msgspec.Struct):
@@ -77,7 +92,7 @@ class RecordedMessage(msgspec.Struct, frozen=True, kw_only=True):
         """The payload as its topic's Struct (``pipeline.events.TOPIC_TYPES``)."""
         try:
             return _decoder(self.topic).decode(self.payload_bytes)
-        except msgspec.ValidationError as error:
+        except msgspec.DecodeError as error:
             raise RecordingError(
                 f"{self.topic} message {self.sequence} (tick {self.tick}): {error}"
             ) from None
@@ -119,26 +134,28 @@ class Recording:
         """
         wanted = _wanted_topics(topics, self.path)
         with _open(self.path) as stream:
-            size = os.fstat(stream.fileno()).st_size
             scan = ChunkScan(stream, frozenset(t.value for t in wanted))
             try:
                 for topic, sequence, log_time_ns, data in scan.messages():
+                    try:
+                        tick = _stamp_decoder.decode(data).tick
+                    except msgspec.DecodeError as error:
+                        scan.damage = Damage(
+                            scan.good_byte,
+                            f"chunk: {topic} message {sequence} is not a recorded event: {error}",
+                        )
+                        break
                     yield RecordedMessage(
                         topic=Topic(topic),
-                        tick=_stamp_decoder.decode(data).tick,
+                        tick=tick,
                         time_ns=log_time_ns,
                         sequence=sequence,
                         payload_bytes=data,
                     )
             except ValueError as error:  # bad magic: open_recording has refused such files
                 raise RecordingError(str(error), source=self.path) from None
-            if scan.error is not None:
-                self.recovery = RecoveryReport(
-                    messages=scan.count,
-                    stopped_at_byte=scan.good_byte,
-                    file_size=size,
-                    reason=_reason(scan.error, scan.good_byte, size),
-                )
+            if scan.damage is not None:
+                self.recovery = scan.report()
 
 
 _TOPIC_NAMES: Final = frozenset(t.value for t in Topic)
@@ -163,45 +180,6 @@ def _open(path: str) -> IO[bytes]:
         raise RecordingError(f"cannot read: {error.strerror}", source=path) from None
 
 
-class _Scan:
-    """Streams a file's records, turning damage into a report instead of an exception."""
-
-    def __init__(self, stream: IO[bytes], path: str) -> None:
-        self.stream = stream
-        self.path = path
-        self.size = os.fstat(stream.fileno()).st_size
-        self.report: RecoveryReport | None = None
-        self.messages = 0
-
-    def records(self) -> Iterator[object]:
-        reader = StreamReader(self.stream, validate_crcs=True)
-        good = 0
-        try:
-            for record in reader.records:
-                if isinstance(record, Message):
-                    self.messages += 1
-                yield record
-                good = self.stream.tell()
-        except InvalidMagic:
-            raise RecordingError("not an MCAP file (bad magic bytes)", source=self.path) from None
-        except _READ_ERRORS as error:
-            self.report = RecoveryReport(
-                messages=self.messages,
-                stopped_at_byte=good,
-                file_size=self.size,
-                reason=_reason(error, good, self.size),
-            )
-
-
-def _reason(error: Exception, good: int, size: int) -> str:
-    if isinstance(error, EndOfFile | EOFError | struct.error):
-        if good >= size:
-            return "the file ends without its summary and footer (the writer did not finish)"
-        return f"the file ends inside a record (truncated {size - good} bytes after it)"
-    text = str(error) or type(error).__name__
-    return f"the record after it is damaged: {text}"
-
-
 def open_recording(path: str | os.PathLike[str]) -> Recording:
     """Open an oimi MCAP recording: metadata, attachments and counts are read now.
 
@@ -214,6 +192,14 @@ def open_recording(path: str | os.PathLike[str]) -> Recording:
         if size == 0:
             raise RecordingError("empty file, not an MCAP recording", source=name)
         recording = _read_indexed(stream, name) or _read_streamed(stream, name)
+        damage = None if recording.recovery else _summary_damage(stream)
+    if damage is not None:
+        recording.recovery = RecoveryReport(
+            messages=sum(recording.summary.values()),
+            stopped_at_byte=damage.at,
+            file_size=size,
+            reason=damage.what,
+        )
     _check_version(recording)
     return recording
 
@@ -221,7 +207,7 @@ def open_recording(path: str | os.PathLike[str]) -> Recording:
 def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
     """The fast way, through the summary section; None when the file has none usable."""
     try:
-        reader = SeekingReader(stream, validate_crcs=True)
+        reader = SeekingReader(_Bounded(stream), validate_crcs=True)
     except InvalidMagic:
         raise RecordingError("not an MCAP file (bad magic bytes)", source=path) from None
     except (*_READ_ERRORS, OSError):
@@ -229,13 +215,13 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         return None
     try:
         summary = reader.get_summary()
-        if summary is None or summary.statistics is None:
+        if summary is None or summary.statistics is None or _summary_damage(stream):
             return None
         counts = summary.statistics.channel_message_counts
         return Recording(
             path,
             metadata={m.name: dict(m.metadata) for m in reader.iter_metadata()},
-            attachments={a.name: a.data for a in reader.iter_attachments()},
+            attachments=_attachments(stream, summary.attachment_indexes),
             summary={c.topic: counts.get(c.id, 0) for c in summary.channels.values()},
             recovery=None,
         )
@@ -245,27 +231,65 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
         stream.seek(0)
 
 
+_FOOTER_TAIL: Final = 9 + 8 + 8 + 4 + 8
+"""A file's last bytes: the footer record (opcode, length, summary start, summary offset
+start, summary CRC) and the closing magic."""
+
+
+def _summary_damage(stream: IO[bytes]) -> Damage | None:
+    """Damage when the summary section does not match its CRC in the footer (mcap's reader
+    does not check it: counts and indexes read from a changed summary would be believed);
+    None when it matches or the file has no footer (the scan reports that)."""
+    size = os.fstat(stream.fileno()).st_size
+    if size < _FOOTER_TAIL + 8:
+        return None
+    stream.seek(size - _FOOTER_TAIL)
+    footer = stream.read(_FOOTER_TAIL)
+    if footer[0] != 0x02:
+        return None
+    summary_start, _, crc = struct.unpack_from("<QQI", footer, 9)
+    if crc == 0:  # not computed by the writer
+        return None
+    at = size - _FOOTER_TAIL
+    if summary_start and 8 <= summary_start <= at:
+        stream.seek(summary_start)
+        if zlib.crc32(footer[:25], zlib.crc32(stream.read(at - summary_start))) == crc:
+            return None
+        at = summary_start
+    return Damage(at, "summary: CRC mismatch, so its counts and indexes are not used")
+
+
+def _attachments(stream: IO[bytes], indexes: list[AttachmentIndex]) -> dict[str, bytes]:
+    """The attachments the summary points at, each record's lengths and CRC checked
+    (mcap's ``iter_attachments`` checks neither); ValueError when one is damaged."""
+    size = os.fstat(stream.fileno()).st_size
+    found = {}
+    for index in indexes:
+        if not 9 <= index.length <= size - index.offset:
+            raise ValueError(f"attachment index of {index.name!r} points past the end")
+        stream.seek(index.offset + 9)  # after the record's opcode and length
+        record = attachment(stream.read(index.length - 9))
+        found[record.name] = record.data
+    return found
+
+
 def _read_streamed(stream: IO[bytes], path: str) -> Recording:
     """One pass over every record: for files without a (readable) summary."""
-    metadata: dict[str, dict[str, str]] = {}
-    attachments: dict[str, bytes] = {}
-    topics: dict[int, str] = {}
-    counts: dict[str, int] = {}
-    scan = _Scan(stream, path)
-    for record in scan.records():
-        if isinstance(record, Metadata):
-            metadata[record.name] = dict(record.metadata)
-        elif isinstance(record, Attachment):
-            attachments[record.name] = record.data
-        elif isinstance(record, Channel):
-            topics[record.id] = record.topic
-            counts.setdefault(record.topic, 0)
-        elif isinstance(record, Message) and record.channel_id in topics:
-            counts[topics[record.channel_id]] += 1
-    if scan.report is not None and not metadata and scan.messages == 0:
-        raise RecordingError(f"unreadable MCAP file: {scan.report.reason}", source=path)
+    scan = ChunkScan(stream, frozenset(), keep_records=True)
+    try:
+        for _ in scan.messages():
+            pass
+    except ValueError as error:  # bad magic
+        raise RecordingError(str(error), source=path) from None
+    report = scan.report()
+    if report is not None and not scan.metadata and scan.count == 0:
+        raise RecordingError(f"unreadable MCAP file: {report}", source=path)
     return Recording(
-        path, metadata=metadata, attachments=attachments, summary=counts, recovery=scan.report
+        path,
+        metadata=scan.metadata,
+        attachments=scan.attachments,
+        summary=scan.counts,
+        recovery=report,
     )
 
 

@@ -201,8 +201,8 @@ class Comparator:
             self._fetch()
         if self._exhausted and self.recording.recovery is not None:
             raise RecordingError(
-                f"the recording is damaged ({self.recording.recovery}); the replay matched"
-                f" every message before tick {tick}, where the readable part ends",
+                f"{self.recording.recovery}; the replay matched every message before tick"
+                f" {tick}, where the readable part ends",
                 source=self.recording.path,
             )
         if self.ticks is not None:

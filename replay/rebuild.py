@@ -31,7 +31,7 @@ ACTIVITY_PREFIX: Final = "activities/"
 def _safe_name(name: str, *, source: str) -> str:
     """An attachment's file name, refusing anything that would leave the folder."""
     path = PurePosixPath(name)
-    if len(path.parts) != 1 or path.name in ("", ".", ".."):
+    if len(path.parts) != 1 or path.name in ("", ".", "..") or "\0" in name or "\\" in name:
         raise RecordingError(f"attachment name {name!r} is not a plain file name", source=source)
     return path.name
 

@@ -11,6 +11,7 @@ import difflib
 import functools
 import json
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final, NoReturn
@@ -45,10 +46,46 @@ LED_FIELDS: Final = ("r", "g", "b", "turnas", "wait_t", "duration")
 AUDIO_FIELDS: Final = ("track_path", "wait_t", "duration")
 
 
+MAX_NESTING: Final = 64
+"""Deepest nesting of parentheses inside ``CND(...)``. The condition language itself
+nests one call deep; the limit keeps the parse linear (lark's tree builder copies a
+nested group's tokens once per level)."""
+
+
+class _NestingLimit:
+    """A post-lexer refusing a condition nested deeper than ``MAX_NESTING``, before the
+    parser builds it (its ``LPAR``/``RPAR`` occur only inside ``CND(...)``)."""
+
+    always_accept: tuple[str, ...] = ()
+
+    def process(self, stream: Iterator[Token]) -> Iterator[Token]:
+        depth = 0
+        for token in stream:
+            if token.type == "LPAR":
+                depth += 1
+                if depth > MAX_NESTING:
+                    raise _TooDeep(token)
+            elif token.type == "RPAR" and depth:
+                depth -= 1
+            yield token
+
+
+class _TooDeep(Exception):
+    def __init__(self, token: Token) -> None:
+        super().__init__(token)
+        self.token = token
+
+
 @functools.cache
 def _parser() -> Lark:
     grammar = Path(__file__).with_name("dsl.lark").read_text(encoding="utf-8")
-    return Lark(grammar, parser="lalr", lexer="contextual", maybe_placeholders=False)
+    return Lark(
+        grammar,
+        parser="lalr",
+        lexer="contextual",
+        maybe_placeholders=False,
+        postlex=_NestingLimit(),
+    )
 
 
 # ------------------------------------------------------------------------- public
@@ -67,6 +104,15 @@ def parse_dsl(text: str | bytes, *, source: str) -> ParsedScript:
         tree = _parser().parse(text)
     except UnexpectedInput as error:
         raise _syntax_error(error, text, source, lines) from None
+    except _TooDeep as error:
+        line, column = _pos(error.token)
+        raise ScriptError(
+            f"parentheses in CND(...) nest deeper than {MAX_NESTING} levels",
+            source=source,
+            line=line,
+            column=column,
+            context=lines.context(line, column),
+        ) from None
     try:
         items = _Items(source, lines).transform(tree).children
     except VisitError as error:

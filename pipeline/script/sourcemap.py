@@ -30,6 +30,10 @@ def child_path(parent: str, key: str) -> str:
     return f"{parent}{joiner}{key}"
 
 
+CONTEXT_CHARS: Final = 120
+"""Longest piece of a source line shown under an error."""
+
+
 class LineIndex:
     """Turns character offsets of a text into (line, column), both from 1."""
 
@@ -45,13 +49,20 @@ class LineIndex:
         return self._starts[line - 1] + column - 1
 
     def context(self, line: int, column: int) -> str:
-        """The source line and a caret under ``column``."""
+        """The source line and a caret under ``column``; a long line is cut to a window of
+        ``CONTEXT_CHARS`` around the column, each cut shown by ``…``."""
         if not 1 <= line <= len(self._starts):
             return ""
-        end = self.text.find("\n", self._starts[line - 1])
-        text = self.text[self._starts[line - 1] : end if end >= 0 else len(self.text)]
-        caret = "".join("\t" if char == "\t" else " " for char in text[: column - 1]) + "^"
-        return f"{text.rstrip()}\n{caret}"
+        start = self._starts[line - 1]
+        end = self.text.find("\n", start)
+        end = len(self.text) if end < 0 else end
+        first = max(start, min(start + column - 1 - CONTEXT_CHARS // 2, end - CONTEXT_CHARS))
+        last = min(end, first + CONTEXT_CHARS)
+        head, tail = ("…" if first > start else ""), ("…" if last < end else "")
+        text = head + self.text[first:last].rstrip() + tail
+        before = self.text[first : start + column - 1]
+        caret = " " * len(head) + "".join("\t" if char == "\t" else " " for char in before)
+        return f"{text}\n{caret}^"
 
 
 class SourceMap:

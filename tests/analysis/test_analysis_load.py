@@ -82,7 +82,8 @@ def test_a_truncated_recording_is_loaded_up_to_the_damage_with_a_warning(
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(whole[: len(whole) * 6 // 10])
     with pytest.warns(
-        AnalysisWarning, match=r"cut\.mcap: damaged recording .*recovered: \d+ messages"
+        AnalysisWarning,
+        match=r"cut\.mcap: damaged at byte \d+ .*recovered: \d+ messages before it; analysed in",
     ):
         data = load_session(cut)
     assert data.recovery is not None

@@ -119,7 +119,8 @@ def test_a_killed_run_leaves_a_prefix_that_is_recovered_and_reported(
 
     assert main(["view", str(output), "--save", str(tmp_path / "killed.rrd")]) == 0
     err = capsys.readouterr().err
-    assert f"{output}: damaged recording, recovered: {recording.recovery.messages} messages" in err
+    assert f"{output}: damaged at byte {recording.recovery.stopped_at_byte} of " in err
+    assert f"recovered: {recording.recovery.messages} messages before it" in err
     assert (tmp_path / "killed.rrd").stat().st_size > 0
 
 

@@ -81,9 +81,32 @@ def test_a_truncated_mcap_converts_its_prefix_and_says_how_much_was_recovered(
     damaged.write_bytes(data[: len(data) - 2000])  # the summary and the last chunk's end
     assert main(["view", str(damaged), "--save", str(tmp_path / "d.rrd")]) == 0
     err = capsys.readouterr().err
-    assert f"oimi view: {damaged}: damaged recording, recovered: " in err
-    assert "because the file ends" in err
+    assert err.startswith(f"{damaged}: damaged at byte ")
+    assert "(the file ends inside a " in err
+    assert "messages before it; converted up to it" in err
     assert "/world/robot" in entities(tmp_path / "d.rrd")
+
+
+@pytest.mark.parametrize("cut", ["garbage", "truncated", "flipped"])
+def test_a_bad_rrd_is_refused_with_exit_2_and_nothing_is_copied(
+    mcap: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], cut: str
+) -> None:
+    good = tmp_path / "good.rrd"
+    assert main(["view", str(mcap), "--save", str(good)]) == 0
+    data = bytearray(good.read_bytes())
+    if cut == "garbage":
+        data = bytearray(b"not a Rerun recording at all" * 10)
+    elif cut == "truncated":
+        data = data[: len(data) // 2]
+    else:
+        data[len(data) // 3 : len(data) // 3 + 8] = b"\xff" * 8
+    bad = tmp_path / "bad.rrd"
+    bad.write_bytes(bytes(data))
+    capsys.readouterr()
+    assert main(["view", str(bad), "--save", str(tmp_path / "copy.rrd")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{bad}: damaged or not a Rerun recording ("), err
+    assert not (tmp_path / "copy.rrd").exists()
 
 
 @pytest.mark.parametrize(

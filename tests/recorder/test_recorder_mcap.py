@@ -195,9 +195,12 @@ def test_truncated_file_recovers_the_complete_chunks_with_a_report(tmp_path: Pat
     recording = open_recording(cut)
     assert recording.recovery is not None
     assert str(recording.recovery).startswith(
-        f"recovered: {recording.recovery.messages} messages, stopped at byte "
+        f"damaged at byte {recording.recovery.stopped_at_byte} of {len(cut.read_bytes())}"
+        " (the file ends inside a chunk record, which declares "
     )
-    assert "because the file ends inside a record" in str(recording.recovery)
+    assert str(recording.recovery).endswith(
+        f"; recovered: {recording.recovery.messages} messages before it"
+    )
     got = [m.decoded() for m in recording.iter_messages()]
     expected = [e for _, _, e in session(40)]
     assert 0 < len(got) < len(expected)
