@@ -269,18 +269,39 @@ def _tick(
             "changes": [{"path": "velocity", "old": old, "new": velocity}],
         }
         out.write(DECISIONS, time_ns, decision)
-    move = {"channel": "move", "source": "script", "v_x": velocity[0], "v_y": velocity[1]}
-    led = {"channel": "led", "source": "script", "r": 1.0 if stop else 0.2, "g": 0.6, "b": 0.1}
+    led = [1.0, 0.2, 0.1] if stop else [0.2, 0.6, 1.0]
     command = {
         "tick": tick,
         "time_ms": time_ms,
-        "commands": [move | {"v_theta": 0.0, "stop": stop}, led | {"turnas": 1, "stop": False}],
+        "commands": [
+            _command("move", v_x=velocity[0], v_y=velocity[1], stop=stop),
+            _command("led", r=led[0], g=led[1], b=led[2]),
+            _command("audio", track_path="" if stop else "come_play.wav", stop=stop),
+        ],
         "block": {
             "type": "instruction",
             "move": [{"v_x": velocity[0], "v_y": velocity[1], "v_theta": 0.0, "duration": 20}],
-            "led": [{"r": led["r"], "g": 0.6, "b": 0.1, "turnas": 1, "duration": 20}],
-            "audioout": [],
+            "led": [{"r": led[0], "g": led[1], "b": led[2], "turnas": 1, "duration": 20}],
+            "audioout": [] if stop else [{"track_path": "come_play.wav", "duration": 1500}],
         },
         "odometry": odometry,
     }
     out.write(COMMANDS, time_ns, command)
+
+
+def _command(channel: str, **fields: Any) -> dict[str, Any]:
+    """One actuator command with every field, as oimi records it."""
+    return {
+        "channel": channel,
+        "source": "script",
+        "v_x": 0.0,
+        "v_y": 0.0,
+        "v_theta": 0.0,
+        "r": 0.0,
+        "g": 0.0,
+        "b": 0.0,
+        "track_path": "",
+        "stop": False,
+        "clamped": False,
+        "requested": None,
+    } | fields
