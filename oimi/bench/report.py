@@ -21,10 +21,12 @@ def header() -> str:
 
 
 def format_row(case: Case) -> str:
+    """A table row; a floor of the run case above it is marked ``↳``."""
+    name = f"↳ {case.name}" if case.name.startswith("floor:") else case.name
     against = f"{case.against_value:,.0f}" if case.against_value else "-"
     ratio = f"{case.ratio:.2f}" if case.ratio is not None else "-"
     return (
-        f"| {case.name:<38} | {case.value:>12,.2f} | {case.unit:<13} | {case.against or '-':<38} "
+        f"| {name:<38} | {case.value:>12,.2f} | {case.unit:<13} | {case.against or '-':<38} "
         f"| {against:>12} | {ratio:>5} | {case.target} |"
     )
 

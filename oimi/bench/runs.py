@@ -166,7 +166,7 @@ def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list
             floor_rate = ticks / median([f["seconds"][part] for f in floors])
             rows.append(
                 Case(
-                    name=f"  {label}",
+                    name=label,
                     value=floor_rate,
                     unit="ticks/s",
                     against=name,
