@@ -81,13 +81,25 @@ def peak_memory_mb() -> float:
     raise RuntimeError(f"no VmHWM in {STATUS}")
 
 
-def bench_session(ticks: int):
-    """A session of the bench scenario stretched to ``ticks`` ticks."""
+def bench_session(ticks: int, *, extra_children: int = 0):
+    """A session of the bench scenario stretched to ``ticks`` ticks, with ``extra_children``
+    copies of its children (same behaviours, new ids, spread over the open floor)."""
     from scenarios.loader import load_scenario
     from scenarios.runner import Session
 
     loaded = load_scenario(BENCH_SCENARIO)
+    scenario = loaded.scenario
+    children = [h for h in scenario.humans if h.role == "child"]
+    spots = [(x + 0.5, y + 0.5) for y in range(1, 5) for x in range(1, 6) if (x, y) != (3, 2)]
+    if extra_children > len(spots):
+        raise ValueError(f"at most {len(spots)} extra children fit, not {extra_children}")
+    copies = [
+        msgspec.structs.replace(children[i % len(children)], id=f"extra{i}", x_m=x, y_m=y)
+        for i, (x, y) in enumerate(spots[:extra_children])
+    ]
     scenario = msgspec.structs.replace(
-        loaded.scenario, duration_s=ticks * loaded.scenario.tick_ms / 1000
+        scenario,
+        duration_s=ticks * scenario.tick_ms / 1000,
+        humans=[*scenario.humans, *copies],
     )
     return Session(msgspec.structs.replace(loaded, scenario=scenario))

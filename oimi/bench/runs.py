@@ -22,6 +22,8 @@ from oimi.bench.reference import reference_loop
 BLOCK_TICKS: Final = 1_000
 """The task floor records this many ticks, untimed, before timing their writes."""
 TICK_S: Final = 0.02
+CROWD_EXTRA_CHILDREN: Final = 9
+"""The cost-per-person case adds this many children to the scenario's three people."""
 
 
 def _paths(folder: str, name: str, rerun: bool) -> tuple[Path, Path | None]:
@@ -37,11 +39,11 @@ def message_count(mcap: Path) -> int:
         return make_reader(stream).get_summary().statistics.message_count
 
 
-def run_case(ticks: int, folder: str, rerun: bool) -> dict[str, Any]:
+def run_case(ticks: int, folder: str, rerun: bool, extra_children: int = 0) -> dict[str, Any]:
     """In a child: one recorded run, timed from its first tick until its files are closed."""
     from scenarios.recording import recorded
 
-    session = bench_session(ticks)
+    session = bench_session(ticks, extra_children=extra_children)
     mcap, rrd = _paths(folder, "run", rerun)
     with recorded(session, mcap=mcap, rrd=rrd):
         start = time.perf_counter()
@@ -188,4 +190,25 @@ def bench_memory(short_ticks: int, long_ticks: int, folder: str) -> Case:
         unit="x peak memory",
         target="<= 1.5x",
         extra={"short_mb": short, "long_mb": long},
+    )
+
+
+def bench_crowd(ticks: int, repetitions: int, folder: str) -> Case:
+    """What each person costs: recorded runs with the scenario's 3 people and with
+    ``CROWD_EXTRA_CHILDREN`` more children, interleaved; the slope per person and tick."""
+    few, many = [], []
+    for _ in range(repetitions):
+        few.append(in_child(run_case, ticks, folder, False)["seconds"])
+        many.append(in_child(run_case, ticks, folder, False, CROWD_EXTRA_CHILDREN)["seconds"])
+    slope_s = (median(many) - median(few)) / ticks / CROWD_EXTRA_CHILDREN
+    return Case(
+        name=f"cost per person (3 vs {3 + CROWD_EXTRA_CHILDREN} people)",
+        value=slope_s * 1e6,
+        unit="us/tick",
+        target="<= 5 us per person per tick",
+        extra={
+            "ticks": ticks,
+            "few_ticks_per_s": ticks / median(few),
+            "many_ticks_per_s": ticks / median(many),
+        },
     )

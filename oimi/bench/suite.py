@@ -11,11 +11,13 @@ from oimi.bench.measure import Case
 from oimi.bench.pipeline_cases import bench_conditions, bench_latency
 from oimi.bench.recordings import bench_analyse, bench_replay
 from oimi.bench.report import format_row, header, write_results
-from oimi.bench.runs import bench_memory, bench_run
+from oimi.bench.runs import bench_crowd, bench_memory, bench_run
 
 FULL_TICKS: Final = 180_000
 """One hour at 50 Hz."""
 QUICK_TICKS: Final = 1_000
+CROWD_TICKS: Final = 30_000
+"""Ticks of each run of the cost-per-person case (ten minutes at 50 Hz)."""
 MEMORY_SHORT_TICKS: Final = 3_000
 """One minute at 50 Hz: the reference of the flat-memory check (``--quick``: its ticks)."""
 
@@ -49,6 +51,7 @@ def run_suite(
         add(bench_analyse(recording, repetitions))
         add(bench_conditions(repetitions))
         add(bench_latency())
+        add([bench_crowd(min(ticks, CROWD_TICKS), repetitions, folder)])
         short_ticks = min(ticks, MEMORY_SHORT_TICKS)
         add([bench_memory(short_ticks, max(ticks, 2 * short_ticks), folder)])
     write_results(out, cases, quick=quick, ticks=ticks, repetitions=repetitions)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from oimi.bench.measure import beside, in_child, peak_memory_mb
+from oimi.bench.measure import bench_session, beside, in_child, peak_memory_mb
 
 MB = 1024 * 1024
 
@@ -29,3 +29,13 @@ def test_a_case_beside_another_figure_has_their_ratio() -> None:
     case = beside("run", 50.0, "ticks/s", "reference loop", 200.0)
     assert case.ratio == 0.25
     assert beside("run", 50.0, "ticks/s", "reference loop", 0.0).ratio is None
+
+
+def test_the_crowded_bench_session_adds_children_who_move() -> None:
+    few, many = bench_session(50), bench_session(50, extra_children=9)
+    assert len(many.scenario.humans) == len(few.scenario.humans) + 9 == 12
+    assert len({h.id for h in many.scenario.humans}) == 12
+    start = {h.id: (h.x_m, h.y_m) for h in many.scenario.humans}
+    many.run()
+    moved = [who for who, x, y in many.world.human_positions() if (x, y) != start[who]]
+    assert len(moved) >= 9, "the added children wander like the scenario's own"

@@ -18,6 +18,7 @@ CASES = {
     "evaluate a condition",
     "latency joystick -> command",
     "latency operator stop -> command",
+    "cost per person (3 vs 12 people)",
     "memory (2000 vs 1000 ticks)",
 }
 FLOORS = {
