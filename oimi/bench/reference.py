@@ -6,9 +6,9 @@ compiled with lark into closures over that map, sets the robot's velocity from t
 steps its one pymunk body, then encodes 6 messages (the 3 updates, 2 rule decisions, 1
 actuator command) with msgspec and writes them with ``mcap``'s ``Writer.add_message`` to
 a zstd MCAP. Payloads are shaped like oimi's own messages, with changing numbers, so
-they are as large and as compressible as the real ones. oimi's recorded run does more
-(the world, sensing, the rule chain, the reader, the map and Foxglove views), so the
-ratio of a run to this loop says how much each tick of oimi costs beyond a naive loop.
+they are about as large and as compressible as the real ones (a test compares them).
+oimi's recorded run does more (the world, sensing, the rule chain, the reader, the map
+and Foxglove views): the ratio of a run to this loop says what that costs.
 """
 
 from __future__ import annotations
@@ -55,8 +55,9 @@ CONDITIONS: Final = {
     " or Human/therapist.poses.positiontheta < -2.5",
 }
 RULECODES: Final = {name: code for code, name in enumerate(CONDITIONS)}
-SAFETY: Final = ("ada_too_close", "ben_too_close", "therapist_near", "too_fast", "near_wall")
-"""The first decision's conditions; any of them true stops the robot. The rest: engagement."""
+SAFETY: Final = ("ada_too_close", "ben_too_close", "therapist_near", "too_fast")
+"""The first decision's conditions; any of them true stops the robot. The rest: engagement
+(near a wall the robot heads for the middle of the room, otherwise for the nearest child)."""
 _OPERATORS: Final = {
     "<": operator.lt,
     "<=": operator.le,
@@ -244,6 +245,9 @@ def _tick(
         fired[name] += result
     child = min(PEOPLE[:2], key=lambda h: world[h]["poses"]["positionrho"])
     theta = world[child]["poses"]["positiontheta"]
+    if results["near_wall"]:
+        x, y = robot.position
+        theta = math.atan2(ARENA_M[1] / 2 - y, ARENA_M[0] / 2 - x)
     stop = any(results[name] for name in SAFETY)
     old = list(robot.velocity)
     velocity = [0.0, 0.0] if stop else [SPEED_MPS * math.cos(theta), SPEED_MPS * math.sin(theta)]
