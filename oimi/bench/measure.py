@@ -60,6 +60,21 @@ def timed(work: Callable[[], Any]) -> tuple[float, Any]:
     return time.perf_counter() - start, result
 
 
+def interleaved(repetitions: int, *works: Callable[[], Any]) -> list[list[tuple[float, Any]]]:
+    """Each of ``works`` timed once per repetition, in turn (ABAB...); per work, its
+    ``(seconds, result)`` of every repetition."""
+    timings: list[list[tuple[float, Any]]] = [[] for _ in works]
+    for _ in range(repetitions):
+        for work, times in zip(works, timings, strict=True):
+            times.append(timed(work))
+    return timings
+
+
+def per_second(count: float, timings: list[tuple[float, Any]]) -> float:
+    """The median rate of ``count`` things done in each of ``timings``' seconds."""
+    return median([count / seconds for seconds, _ in timings])
+
+
 def in_child(function: Callable[..., Any], *args: Any) -> Any:
     """``function(*args)`` in a fresh interpreter (spawned): its memory and caches are its own."""
     context = multiprocessing.get_context("spawn")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Final
 
-from oimi.bench.measure import Case, bench_session, beside, median, timed
+from oimi.bench.measure import Case, bench_session, beside, interleaved, per_second
 
 COMPILED: Final = 200
 """Condition texts compiled per repetition (the rule library's, over and over)."""
@@ -30,22 +30,24 @@ def bench_conditions(repetitions: int) -> list[Case]:
         return any(h.positionrho < 0.8 for h in world.humans)
 
     loops = range(EVALUATIONS)
-    compile_rates, evaluations, predicates = [], [], []
-    for _ in range(repetitions):
-        seconds, _ = timed(lambda: [compile_condition(t) for _ in range(rounds) for t in texts])
-        compile_rates.append(rounds * len(texts) / seconds)
-        seconds, _ = timed(lambda: [condition.evaluate(world, now_ms=0) for _ in loops])
-        evaluations.append(EVALUATIONS / seconds)
-        seconds, _ = timed(lambda: [by_hand() for _ in loops])
-        predicates.append(EVALUATIONS / seconds)
+    compiles, evaluations, predicates = interleaved(
+        repetitions,
+        lambda: [compile_condition(t) for _ in range(rounds) for t in texts],
+        lambda: [condition.evaluate(world, now_ms=0) for _ in loops],
+        lambda: [by_hand() for _ in loops],
+    )
     return [
-        Case(name="compile conditions", value=median(compile_rates), unit="conditions/s"),
+        Case(
+            name="compile conditions",
+            value=per_second(rounds * len(texts), compiles),
+            unit="conditions/s",
+        ),
         beside(
             "evaluate a condition",
-            median(evaluations),
+            per_second(EVALUATIONS, evaluations),
             "evaluations/s",
             "floor: a hand-written predicate",
-            median(predicates),
+            per_second(EVALUATIONS, predicates),
         ),
     ]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from oimi.bench.measure import Case, beside, median, timed
+from oimi.bench.measure import Case, beside, interleaved, per_second
 
 
 def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> list[Case]:
@@ -15,20 +15,16 @@ def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> l
     def decode_all() -> int:
         return sum(1 for m in open_recording(recording).iter_messages() if m.decoded())
 
-    rates, floors = [], []
-    for _ in range(repetitions):
-        seconds, report = timed(lambda: redrive(recording))
-        rates.append(report.ticks / seconds)
-        seconds, _ = timed(decode_all)
-        floors.append(report.ticks / seconds)
-    rate = median(rates)
+    cases, floors = interleaved(repetitions, lambda: redrive(recording), decode_all)
+    ticks = cases[0][1].ticks
+    rate = per_second(ticks, cases)
     return [
         beside(
             "replay redrive",
             rate,
             "ticks/s",
             "floor: read and decode every message",
-            median(floors),
+            per_second(ticks, floors),
             target=f">= 3x the run ({3 * run_ticks_per_s:,.0f} ticks/s)",
             extra={"run_ticks_per_s": run_ticks_per_s, "vs_run": rate / run_ticks_per_s},
         )
@@ -56,19 +52,15 @@ def bench_analyse(recording: Path, repetitions: int) -> list[Case]:
             if topic in Topic.__members__.values():
                 pl.read_ndjson(BytesIO(b"\n".join(items)), schema=topic_schema(Topic(topic)))
 
-    rates, baselines = [], []
-    for _ in range(repetitions):
-        seconds, data = timed(lambda: load_session(recording))
-        rates.append(data.rows / seconds)
-        seconds, _ = timed(baseline)
-        baselines.append(data.rows / seconds)
+    cases, baselines = interleaved(repetitions, lambda: load_session(recording), baseline)
+    rows = cases[0][1].rows
     return [
         beside(
             "analyse (load into polars)",
-            median(rates),
+            per_second(rows, cases),
             "rows/s",
             "baseline: read_ndjson of every topic",
-            median(baselines),
+            per_second(rows, baselines),
             target=">= 300,000 rows/s",
         )
     ]

@@ -11,12 +11,21 @@ pipeline can remove.
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any, Final
 
 import msgspec
 
-from oimi.bench.measure import Case, bench_session, beside, in_child, median, peak_memory_mb
+from oimi.bench.measure import (
+    Case,
+    bench_session,
+    beside,
+    in_child,
+    interleaved,
+    median,
+    peak_memory_mb,
+)
 from oimi.bench.reference import reference_loop
 
 BLOCK_TICKS: Final = 1_000
@@ -124,6 +133,13 @@ def _sinks_of(fanout: Any) -> list[Any]:
     return sinks
 
 
+def _in_turn(repetitions: int, *calls: tuple[Any, ...]) -> list[list[Any]]:
+    """Each ``(function, *args)`` run in a fresh process once per repetition, in turn; per
+    call, what it returned each time (it times itself)."""
+    timings = interleaved(repetitions, *(partial(in_child, *call) for call in calls))
+    return [[result for _, result in times] for times in timings]
+
+
 FLOORS: Final = {
     "McapSink": "floor: its events -> MCAP sink",
     "RerunSink": "floor: its events -> Rerun sink",
@@ -133,11 +149,12 @@ FLOORS: Final = {
 
 def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list[Case]:
     """The run case, its reference loop and its task floors, interleaved; medians."""
-    runs, references, floors = [], [], []
-    for _ in range(repetitions):
-        runs.append(in_child(run_case, ticks, folder, rerun))
-        references.append(in_child(reference_loop, ticks, Path(folder) / "reference.mcap"))
-        floors.append(in_child(task_floor, ticks, folder, rerun))
+    runs, references, floors = _in_turn(
+        repetitions,
+        (run_case, ticks, folder, rerun),
+        (reference_loop, ticks, Path(folder) / "reference.mcap"),
+        (task_floor, ticks, folder, rerun),
+    )
     rate = ticks / median([r["seconds"] for r in runs])
     name = "run + MCAP + Rerun" if rerun else "run + MCAP"
     minutes = ticks * TICK_S / 60
@@ -196,10 +213,14 @@ def bench_memory(short_ticks: int, long_ticks: int, folder: str) -> Case:
 def bench_crowd(ticks: int, repetitions: int, folder: str) -> Case:
     """What each person costs: recorded runs with the scenario's 3 people and with
     ``CROWD_EXTRA_CHILDREN`` more children, interleaved; the slope per person and tick."""
-    few, many = [], []
-    for _ in range(repetitions):
-        few.append(in_child(run_case, ticks, folder, False)["seconds"])
-        many.append(in_child(run_case, ticks, folder, False, CROWD_EXTRA_CHILDREN)["seconds"])
+    few, many = (
+        [run["seconds"] for run in runs]
+        for runs in _in_turn(
+            repetitions,
+            (run_case, ticks, folder, False),
+            (run_case, ticks, folder, False, CROWD_EXTRA_CHILDREN),
+        )
+    )
     slope_s = (median(many) - median(few)) / ticks / CROWD_EXTRA_CHILDREN
     return Case(
         name=f"cost per person (3 vs {3 + CROWD_EXTRA_CHILDREN} people)",

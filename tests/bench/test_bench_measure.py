@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from oimi.bench.measure import bench_session, beside, in_child, peak_memory_mb
+from oimi.bench.measure import bench_session, beside, in_child, interleaved, peak_memory_mb
 
 MB = 1024 * 1024
 
@@ -39,3 +39,11 @@ def test_the_crowded_bench_session_adds_children_who_move() -> None:
     many.run()
     moved = [who for who, x, y in many.world.human_positions() if (x, y) != start[who]]
     assert len(moved) >= 9, "the added children wander like the scenario's own"
+
+
+def test_interleaved_works_run_in_turn_and_keep_their_results() -> None:
+    order: list[str] = []
+    first, second = interleaved(3, lambda: order.append("a") or 1, lambda: order.append("b") or 2)
+    assert order == ["a", "b", "a", "b", "a", "b"]
+    assert [result for _, result in first] == [1, 1, 1]
+    assert [result for _, result in second] == [2, 2, 2]
