@@ -177,6 +177,10 @@ def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list
             "rrd_mb_per_min": last["rrd_bytes"] / 1e6 / minutes,
             "reference_messages_per_tick": sum(reference.messages.values()) / ticks,
             "reference_mcap_mb_per_min": reference.file_bytes / 1e6 / minutes,
+            "floor_wrote_the_runs_messages": float(
+                all(f["messages"] == last["messages"] for f in floors)
+            ),
+            "floor_world_matched_the_runs": float(all(f["world_matches"] for f in floors)),
         },
     )
     rows = [case]

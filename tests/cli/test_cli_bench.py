@@ -44,7 +44,9 @@ def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Pat
         assert {c["name"] for c in following} == floors, name
         assert all(c["against"] == name and c["ratio"] > 0 for c in following)
         assert by_name[name]["against"] == "reference loop"
-        assert by_name[name]["extra"]["reference_messages_per_tick"] == 6
+        extra = by_name[name]["extra"]
+        assert extra["reference_messages_per_tick"] == 6
+        assert extra["floor_wrote_the_runs_messages"] == extra["floor_world_matched_the_runs"] == 1
     run = by_name["run + MCAP"]
     assert results["headline"]["ratio"] == run["ratio"] == run["value"] / run["against_value"]
     assert by_name["analyse (load into polars)"]["against"].startswith("baseline")
