@@ -17,14 +17,21 @@ def _positive(text: str) -> int:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="short runs (a smoke test for CI)")
-    parser.add_argument("--repetitions", type=_positive, default=3, help="repetitions per case")
+    parser.add_argument(
+        "--repetitions", type=_positive, default=3, metavar="N", help="repetitions per case"
+    )
     parser.add_argument(
         "--ticks",
         type=_positive,
+        metavar="N",
         help=f"ticks per run case (default {FULL_TICKS:,}, one hour; --quick {QUICK_TICKS:,})",
     )
     parser.add_argument(
-        "--out", type=Path, default=Path("bench.json"), help="results file (make bench: docs/)"
+        "--out",
+        type=Path,
+        default=Path("bench.json"),
+        metavar="FILE",
+        help="results file (default bench.json; make bench writes docs/bench.json)",
     )
 
 
