@@ -186,111 +186,100 @@ def _room() -> tuple[pymunk.Space, pymunk.Body]:
 def reference_loop(ticks: int, path: Path) -> ReferenceReport:
     """Run the loop for ``ticks`` ticks writing ``path``. Timed: the loop and finishing the
     file; not timed: compiling the conditions, generating the inputs, building the room."""
-    conditions = compile_conditions()
     inputs = sensor_inputs()
-    space, robot = _room()
-    fired = dict.fromkeys(conditions, 0)
     with path.open("wb") as stream:
-        out = _Recorder(stream)
+        loop = _Loop(_Recorder(stream))
 
-        def loop() -> None:
-            world: Map = {}
+        def run() -> None:
             for tick in range(ticks):
-                _tick(
-                    tick,
-                    inputs[tick % INPUT_CYCLE_TICKS],
-                    world,
-                    conditions,
-                    fired,
-                    space,
-                    robot,
-                    out,
-                )
-            out.writer.finish()
+                loop.tick(tick, inputs[tick % INPUT_CYCLE_TICKS])
+            loop.out.writer.finish()
 
-        seconds, _ = timed(loop)
-    x, y = robot.position
+        seconds, _ = timed(run)
+    x, y = loop.robot.position
     return ReferenceReport(
         ticks=ticks,
         seconds=seconds,
-        messages=out.messages,
-        payload_bytes=out.payload_bytes,
+        messages=loop.out.messages,
+        payload_bytes=loop.out.payload_bytes,
         file_bytes=path.stat().st_size,
-        fired=fired,
+        fired=loop.fired,
         final_position_m=(x, y),
     )
 
 
-def _tick(
-    tick: int,
-    raw_updates: list[bytes],
-    world: Map,
-    conditions: dict[str, Condition],
-    fired: dict[str, int],
-    space: pymunk.Space,
-    robot: pymunk.Body,
-    out: _Recorder,
-) -> None:
-    """Sense (decode into the map), think (conditions), act (velocity, step), record."""
-    time_ms = tick * TICK_MS
-    time_ns = time_ms * 1_000_000
-    updates = []
-    for raw in raw_updates:
-        update = msgspec.json.decode(raw)
-        fields = msgspec.json.decode(update["jsonmsg"])
-        world.setdefault(update["objectid"], {})[update["attributename"]] = fields
-        updates.append(update)
-    results = {name: condition(world) for name, condition in conditions.items()}
-    for name, result in results.items():
-        fired[name] += result
-    child = min(PEOPLE[:2], key=lambda h: world[h]["poses"]["positionrho"])
-    theta = world[child]["poses"]["positiontheta"]
-    if results["near_wall"]:
-        x, y = robot.position
-        theta = math.atan2(ARENA_M[1] / 2 - y, ARENA_M[0] / 2 - x)
-    stop = any(results[name] for name in SAFETY)
-    old = list(robot.velocity)
-    velocity = [0.0, 0.0] if stop else [SPEED_MPS * math.cos(theta), SPEED_MPS * math.sin(theta)]
-    robot.velocity = velocity
-    space.step(TICK_MS / 1000)
-    x, y = robot.position
-    odometry = {"x": x, "y": y, "speed": abs(robot.velocity)}
-    world[ROBOT] = {"odometry": odometry}
-    for update in updates:
-        update["tick"], update["time_ms"] = tick, time_ms
-        out.write(UPDATES, time_ns, update)
-    engagement = [name for name in results if name not in SAFETY]
-    for rule, names in (("safety", SAFETY), ("engagement", engagement)):
-        decision = {
+class _Loop:
+    """The loop's state: the dict map, the compiled conditions, the room, the recorder."""
+
+    def __init__(self, out: _Recorder) -> None:
+        self.out = out
+        self.conditions = compile_conditions()
+        self.fired = dict.fromkeys(self.conditions, 0)
+        self.space, self.robot = _room()
+        self.world: Map = {}
+
+    def tick(self, tick: int, raw_updates: list[bytes]) -> None:
+        """Sense (decode into the map), think (conditions), act (velocity, step), record."""
+        time_ms = tick * TICK_MS
+        time_ns = time_ms * 1_000_000
+        updates = []
+        for raw in raw_updates:
+            update = msgspec.json.decode(raw)
+            fields = msgspec.json.decode(update["jsonmsg"])
+            self.world.setdefault(update["objectid"], {})[update["attributename"]] = fields
+            updates.append(update)
+        results = {name: condition(self.world) for name, condition in self.conditions.items()}
+        for name, result in results.items():
+            self.fired[name] += result
+        child = min(PEOPLE[:2], key=lambda h: self.world[h]["poses"]["positionrho"])
+        theta = self.world[child]["poses"]["positiontheta"]
+        if results["near_wall"]:
+            x, y = self.robot.position
+            theta = math.atan2(ARENA_M[1] / 2 - y, ARENA_M[0] / 2 - x)
+        stop = any(results[name] for name in SAFETY)
+        old = list(self.robot.velocity)
+        speed = 0.0 if stop else SPEED_MPS
+        velocity = [speed * math.cos(theta), speed * math.sin(theta)]
+        self.robot.velocity = velocity
+        self.space.step(TICK_MS / 1000)
+        x, y = self.robot.position
+        odometry = {"x": x, "y": y, "speed": abs(self.robot.velocity)}
+        self.world[ROBOT] = {"odometry": odometry}
+        for update in updates:
+            update["tick"], update["time_ms"] = tick, time_ms
+            self.out.write(UPDATES, time_ns, update)
+        engagement = [name for name in results if name not in SAFETY]
+        for rule, names in (("safety", SAFETY), ("engagement", engagement)):
+            decision = {
+                "tick": tick,
+                "time_ms": time_ms,
+                "rule": rule,
+                "fired": any(results[name] for name in names),
+                "conditions": [
+                    {"rulecode": RULECODES[name], "result": results[name]} for name in names
+                ],
+                "bindings": {"?child": child},
+                "changes": [{"path": "velocity", "old": old, "new": velocity}],
+            }
+            self.out.write(DECISIONS, time_ns, decision)
+        led = [1.0, 0.2, 0.1] if stop else [0.2, 0.6, 1.0]
+        command = {
             "tick": tick,
             "time_ms": time_ms,
-            "rule": rule,
-            "fired": any(results[name] for name in names),
-            "conditions": [
-                {"rulecode": RULECODES[name], "result": results[name]} for name in names
+            "commands": [
+                _command("move", v_x=velocity[0], v_y=velocity[1], stop=stop),
+                _command("led", r=led[0], g=led[1], b=led[2]),
+                _command("audio", track_path="" if stop else "come_play.wav", stop=stop),
             ],
-            "bindings": {"?child": child},
-            "changes": [{"path": "velocity", "old": old, "new": velocity}],
+            "block": {
+                "type": "instruction",
+                "move": [{"v_x": velocity[0], "v_y": velocity[1], "v_theta": 0.0, "duration": 20}],
+                "led": [{"r": led[0], "g": led[1], "b": led[2], "turnas": 1, "duration": 20}],
+                "audioout": [] if stop else [{"track_path": "come_play.wav", "duration": 1500}],
+            },
+            "odometry": odometry,
         }
-        out.write(DECISIONS, time_ns, decision)
-    led = [1.0, 0.2, 0.1] if stop else [0.2, 0.6, 1.0]
-    command = {
-        "tick": tick,
-        "time_ms": time_ms,
-        "commands": [
-            _command("move", v_x=velocity[0], v_y=velocity[1], stop=stop),
-            _command("led", r=led[0], g=led[1], b=led[2]),
-            _command("audio", track_path="" if stop else "come_play.wav", stop=stop),
-        ],
-        "block": {
-            "type": "instruction",
-            "move": [{"v_x": velocity[0], "v_y": velocity[1], "v_theta": 0.0, "duration": 20}],
-            "led": [{"r": led[0], "g": led[1], "b": led[2], "turnas": 1, "duration": 20}],
-            "audioout": [] if stop else [{"track_path": "come_play.wav", "duration": 1500}],
-        },
-        "odometry": odometry,
-    }
-    out.write(COMMANDS, time_ns, command)
+        self.out.write(COMMANDS, time_ns, command)
 
 
 def _command(channel: str, **fields: Any) -> dict[str, Any]:
