@@ -36,7 +36,7 @@ golden: $(STAMP)
 	$(BIN)/python -m replay.golden --regenerate
 
 bench: $(STAMP)
-	$(BIN)/python -m oimi bench
+	$(BIN)/python -m oimi bench --out docs/bench.json
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache

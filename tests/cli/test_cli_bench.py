@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from oimi.cli import main
 
 CASES = {
@@ -16,17 +18,49 @@ CASES = {
     "evaluate a condition",
     "latency joystick -> command",
     "latency operator stop -> command",
+    "cost per person (3 vs 12 people)",
+    "memory (2000 vs 1000 ticks)",
+}
+FLOORS = {
+    "run + MCAP": {"floor: its events -> MCAP sink", "floor: its world, no pipeline"},
+    "run + MCAP + Rerun": {
+        "floor: its events -> MCAP sink",
+        "floor: its events -> Rerun sink",
+        "floor: its world, no pipeline",
+    },
 }
 
 
 def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Path, capsys) -> None:
-    out = tmp_path / "bench.json"
+    out = tmp_path / "docs" / "bench.json"
     assert main(["bench", "--quick", "--repetitions", "1", "--out", str(out)]) == 0
     results = json.loads(out.read_text())
-    cases = {c["name"]: c for c in results["cases"]}
-    assert set(cases) >= CASES
-    for name in CASES - {"latency joystick -> command", "latency operator stop -> command"}:
-        assert cases[name]["value"] > 0, name
-    assert cases["latency joystick -> command"]["value"] == 0, "an input acts in its own tick"
-    assert 0 <= cases["latency operator stop -> command"]["value"] <= 1
-    assert "| run + MCAP " in capsys.readouterr().out
+    cases = [c for c in results["cases"] if not c["name"].startswith("floor:")]
+    assert {c["name"] for c in cases} == CASES
+    by_name = {c["name"]: c for c in cases}
+    for name, floors in FLOORS.items():
+        index = results["cases"].index(by_name[name])
+        following = results["cases"][index + 1 : index + 1 + len(floors)]
+        assert {c["name"] for c in following} == floors, name
+        assert all(c["against"] == name and c["ratio"] > 0 for c in following)
+        assert by_name[name]["against"] == "reference loop"
+        extra = by_name[name]["extra"]
+        assert extra["reference_messages_per_tick"] == 6
+        assert extra["floor_wrote_the_runs_messages"] == extra["floor_world_matched_the_runs"] == 1
+    run = by_name["run + MCAP"]
+    assert results["headline"]["ratio"] == run["ratio"] == run["value"] / run["against_value"]
+    assert by_name["analyse (load into polars)"]["against"].startswith("baseline")
+    assert by_name["latency joystick -> command"]["value"] == 0, "an input acts in its own tick"
+    assert 0 <= by_name["latency operator stop -> command"]["value"] <= 1
+    memory = by_name["memory (2000 vs 1000 ticks)"]["extra"]
+    assert memory["short_mb"] > 0 and memory["long_mb"] > 0
+    printed = capsys.readouterr().out
+    assert "| run + MCAP " in printed and "| ↳ floor: its world, no pipeline " in printed
+
+
+@pytest.mark.parametrize("flag", ["--ticks", "--repetitions"])
+def test_a_count_below_one_is_refused(flag: str, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bench", flag, "0"])
+    assert exit_info.value.code == 2
+    assert "must be at least 1, got 0" in capsys.readouterr().err

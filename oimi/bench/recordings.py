@@ -1,0 +1,66 @@
+"""Cases on a recording: redriving the pipeline from it, and loading it for analysis."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from oimi.bench.measure import Case, beside, interleaved, per_second
+
+
+def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> list[Case]:
+    """Redrive beside its floor: reading and decoding every message of the recording."""
+    from recorder.reader import open_recording
+    from replay.redrive import redrive
+
+    def decode_all() -> int:
+        return sum(1 for m in open_recording(recording).iter_messages() if m.decoded())
+
+    cases, floors = interleaved(repetitions, lambda: redrive(recording), decode_all)
+    ticks = cases[0][1].ticks
+    rate = per_second(ticks, cases)
+    return [
+        beside(
+            "replay redrive",
+            rate,
+            "ticks/s",
+            "floor: read and decode every message",
+            per_second(ticks, floors),
+            target=f">= 3x the run ({3 * run_ticks_per_s:,.0f} ticks/s)",
+            extra={"run_ticks_per_s": run_ticks_per_s, "vs_run": rate / run_ticks_per_s},
+        )
+    ]
+
+
+def bench_analyse(recording: Path, repetitions: int) -> list[Case]:
+    """Loading a session into polars beside a *baseline*: ``polars.read_ndjson`` of each
+    topic. The baseline parses every topic, ``/map`` included, which the loader skips, so
+    it is slower than the case: a simpler way to the same tables, not a lower bound."""
+    from io import BytesIO
+
+    import polars as pl
+    from mcap.reader import make_reader
+
+    from analysis.load import load_session, topic_schema
+    from pipeline.events import Topic
+
+    def baseline() -> None:
+        payloads: dict[str, list[bytes]] = {}
+        with recording.open("rb") as stream:
+            for _, channel, message in make_reader(stream).iter_messages():
+                payloads.setdefault(channel.topic, []).append(message.data)
+        for topic, items in payloads.items():
+            if topic in Topic.__members__.values():
+                pl.read_ndjson(BytesIO(b"\n".join(items)), schema=topic_schema(Topic(topic)))
+
+    cases, baselines = interleaved(repetitions, lambda: load_session(recording), baseline)
+    rows = cases[0][1].rows
+    return [
+        beside(
+            "analyse (load into polars)",
+            per_second(rows, cases),
+            "rows/s",
+            "baseline: read_ndjson of every topic",
+            per_second(rows, baselines),
+            target=">= 300,000 rows/s",
+        )
+    ]
