@@ -57,6 +57,12 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     max_speed_mps: float
     contacts: int
     rejected_inputs: int
+    min_surface_distance_m: dict[str, float] = {}
+    """Closest surface-to-surface distance per human (``pipeline.proximity``), m."""
+    contact_episodes: int = 0
+    robot_initiated_contacts: int = 0
+    max_closing_speed_mps: float = 0.0
+    """The fastest a gap closed at the start of a contact episode, m/s."""
 
 
 class RunResult(msgspec.Struct, frozen=True, kw_only=True):
@@ -255,6 +261,10 @@ class Session:
             max_speed_mps=round(t.max_speed_mps, 4),
             contacts=t.contacts,
             rejected_inputs=len(t.rejections),
+            min_surface_distance_m={h: round(d, 4) for h, d in t.proximity.closest_m.items()},
+            contact_episodes=len(episodes := t.contact_episodes()),
+            robot_initiated_contacts=sum(e.initiator == "robot" for e in episodes),
+            max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
 

@@ -370,6 +370,21 @@ class ActivityState(ExpectSpec, tag="activity_state", kw_only=True):
     """When to check; None: at the end."""
 
 
+class NoRobotInitiatedContact(ExpectSpec, tag="no_robot_initiated_contact", kw_only=True):
+    """No contact episode that the robot initiated (``pipeline.proximity``)."""
+
+    human: str | None = None
+    """None: every human."""
+
+
+class ClosingSpeedAtContact(ExpectSpec, tag="closing_speed_at_contact", kw_only=True):
+    """Every contact episode closed the gap at ``at_most_mps`` or less (``pipeline.proximity``)."""
+
+    human: str | None = None
+    """None: every human."""
+    at_most_mps: float
+
+
 Expectation = (
     GoalReached
     | ActivityCompleted
@@ -379,6 +394,8 @@ Expectation = (
     | NoRejectedInputs
     | RobotInArena
     | ActivityState
+    | NoRobotInitiatedContact
+    | ClosingSpeedAtContact
 )
 
 
