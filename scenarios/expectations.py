@@ -46,6 +46,9 @@ class Verdict(msgspec.Struct, frozen=True, kw_only=True):
 class Tracker:
     """A sink that keeps only the figures the expectations and the summary need."""
 
+    TOPICS = (Topic.WORLD_STATE, Topic.RULE_DECISIONS, Topic.READER_PROGRESS, Topic.LOG)
+    """The topics :meth:`record` reads (what a replayed check needs)."""
+
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.min_distance_m: dict[str, float] = {h.id: math.inf for h in scenario.humans}
