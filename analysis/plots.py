@@ -60,7 +60,9 @@ def samples(data: SessionData) -> pl.DataFrame:
 
 
 def _bar(axes, start_ms: float, seconds: float, y: float, colour: str, alpha: float = 0.9) -> None:
-    axes.broken_barh([(start_ms / 1000, max(seconds, 0.1))], (y - 0.3, 0.6), color=colour, alpha=alpha)
+    axes.broken_barh(
+        [(start_ms / 1000, max(seconds, 0.1))], (y - 0.3, 0.6), color=colour, alpha=alpha
+    )
 
 
 def trajectories(data: SessionData, metrics: SessionMetrics) -> Figure:
@@ -97,7 +99,9 @@ def trajectories(data: SessionData, metrics: SessionMetrics) -> Figure:
     starts = metrics["contacts"].select(time_ms="started_ms").sort("time_ms")
     if robot.height and starts.height:
         placed = starts.join_asof(robot, on="time_ms", strategy="nearest")
-        axes.plot(placed["x_m"], placed["y_m"], "X", color="#d1495b", ms=9, ls="none", label="contact")
+        axes.plot(
+            placed["x_m"], placed["y_m"], "X", color="#d1495b", ms=9, ls="none", label="contact"
+        )
     axes.set_aspect("equal")
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
@@ -140,11 +144,20 @@ def timeline(data: SessionData, metrics: SessionMetrics) -> Figure:
         colour = OUTCOME_COLOURS.get(row["outcome"], "#999999")
         used[f"activity {row['outcome']}"] = colour
         seconds = (row["ended_ms"] - row["started_ms"]) / 1000
-        _bar(axes, row["started_ms"], seconds, rows.index(row["activity"]), colour, 0.55 if row["idle"] else 0.9)
+        _bar(
+            axes,
+            row["started_ms"],
+            seconds,
+            rows.index(row["activity"]),
+            colour,
+            0.55 if row["idle"] else 0.9,
+        )
     for row in metrics["contacts"].iter_rows(named=True):
         colour = INITIATOR_COLOURS[row["initiator"]]
         used[f"contact, {row['initiator']}-initiated"] = colour
-        _bar(axes, row["started_ms"], row["duration"].total_seconds(), rows.index("contacts"), colour)
+        _bar(
+            axes, row["started_ms"], row["duration"].total_seconds(), rows.index("contacts"), colour
+        )
     for row in metrics["safety_interventions"].iter_rows(named=True):
         used["safety intervention"] = SAFETY_COLOUR
         y = rows.index("safety interventions")
@@ -188,11 +201,15 @@ def distance(data: SessionData, metrics: SessionMetrics) -> Figure:
     bottom = min(float(frame["surface_distance_m"].min() or 0.0), 0.0) - 0.1
     for name, low, high in ZONES_M[:4]:
         label = "contact (touching)" if name == "contact" else f"{name} ({low}–{high} m)"
-        axes.axhspan(max(low, bottom), min(high, top), color=ZONE_COLOURS[name], alpha=0.6, label=label)
+        axes.axhspan(
+            max(low, bottom), min(high, top), color=ZONE_COLOURS[name], alpha=0.6, label=label
+        )
     for (human,), rows in frame.group_by("id", maintain_order=True):
         axes.plot(rows["time_ms"] / 1000, rows["surface_distance_m"], lw=1.5, label=str(human))
     for row in metrics["contacts"].iter_rows(named=True):
-        axes.axvline(row["started_ms"] / 1000, color=INITIATOR_COLOURS[row["initiator"]], lw=0.8, ls="--")
+        axes.axvline(
+            row["started_ms"] / 1000, color=INITIATOR_COLOURS[row["initiator"]], lw=0.8, ls="--"
+        )
     axes.set_ylim(bottom, top)
     axes.set_xlim(0, end_ms(data) / 1000)
     axes.set_xlabel("session time (s)")
@@ -254,7 +271,9 @@ def comparison_plot(groups: pl.DataFrame, metric: str, parameter: str) -> Figure
         mean = rows[f"{metric} mean"]
         low = (mean - rows[f"{metric} min"]).to_list()
         high = (rows[f"{metric} max"] - mean).to_list()
-        axes.errorbar(xs, mean.to_list(), yerr=[low, high], marker="o", capsize=4, label=str(scenario))
+        axes.errorbar(
+            xs, mean.to_list(), yerr=[low, high], marker="o", capsize=4, label=str(scenario)
+        )
         if numbers.null_count():
             axes.set_xticks(xs, rows[parameter].cast(pl.String).to_list())
     axes.set_xlabel(parameter)

@@ -22,7 +22,10 @@ HTML_ROWS: Final = 50
 """Rows of a table shown in the HTML page (the files hold them all)."""
 
 GLOSSARY: Final[dict[str, tuple[str, str]]] = {
-    "run": ("", "The run's one name: scenario, parameter values and seed (SCENARIO-KEY=VALUE-sSEED)."),
+    "run": (
+        "",
+        "The run's one name: scenario, parameter values and seed (SCENARIO-KEY=VALUE-sSEED).",
+    ),
     "session_id": ("", "The recording's id (scenario and seed)."),
     "scenario": ("", "The scenario that was run."),
     "params": ("", "Parameter values changed from the scenario file (empty: none)."),
@@ -38,18 +41,45 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
     "goals_reached": ("", "Goals of the activities that were reached."),
     "goals_failed": ("", "Goals that failed."),
     "goals_interrupted": ("", "Goals cut short by an interruption."),
-    "contacts": ("", "Contact episodes: the robot and a person touching, from first touch to separation (gaps under 0.2 s merged)."),
-    "robot_initiated_contacts": ("", "Contacts in which the robot moved towards the person faster than the person moved towards it, just before touching."),
-    "max_closing_speed_mps": ("m/s", "The fastest a gap closed just before a contact (robot's and person's speeds towards each other, summed)."),
+    "contacts": (
+        "",
+        "Contact episodes: the robot and a person touching, from first touch to separation (gaps under 0.2 s merged).",
+    ),
+    "robot_initiated_contacts": (
+        "",
+        "Contacts in which the robot moved towards the person faster than the person moved towards it, just before touching.",
+    ),
+    "max_closing_speed_mps": (
+        "m/s",
+        "The fastest a gap closed just before a contact (robot's and person's speeds towards each other, summed).",
+    ),
     "contact_s": ("s", "Total time in contact (all people)."),
     "closest_human": ("", "The person who came closest to the robot."),
-    "min_surface_distance_m": ("m", "The smallest gap between the robot's and a person's body (surface to surface; 0 = touching, negative = pressed together)."),
-    "intimate_s": ("s", "Time people spent in the intimate zone (gap under 0.45 m, not touching), summed over people."),
-    "personal_s": ("s", "Time people spent in the personal zone (gap 0.45–1.2 m), summed over people."),
-    "safety_interventions": ("", "Times the safety supervisor slowed or stopped the robot (from /safety; 0 when the recording has none)."),
+    "min_surface_distance_m": (
+        "m",
+        "The smallest gap between the robot's and a person's body (surface to surface; 0 = touching, negative = pressed together).",
+    ),
+    "intimate_s": (
+        "s",
+        "Time people spent in the intimate zone (gap under 0.45 m, not touching), summed over people.",
+    ),
+    "personal_s": (
+        "s",
+        "Time people spent in the personal zone (gap 0.45–1.2 m), summed over people.",
+    ),
+    "safety_interventions": (
+        "",
+        "Times the safety supervisor slowed or stopped the robot (from /safety; 0 when the recording has none).",
+    ),
     "safety_intervention_s": ("s", "Total time the safety supervisor was limiting the robot."),
-    "rule_episodes": ("", "Rule firing episodes (a rule starting to fire until it stops), housekeeping rules not counted."),
-    "joystick_takeovers": ("", "Times the operator held the joystick's safety lock (LB) to drive the robot."),
+    "rule_episodes": (
+        "",
+        "Rule firing episodes (a rule starting to fire until it stops), housekeeping rules not counted.",
+    ),
+    "joystick_takeovers": (
+        "",
+        "Times the operator held the joystick's safety lock (LB) to drive the robot.",
+    ),
     "joystick_s": ("s", "Total time under joystick control."),
     "operator_commands": ("", "Commands the operator gave (add, start, pause...)."),
     "distance_m": ("m", "Distance the robot travelled."),
@@ -150,7 +180,9 @@ def write_table(frame: pl.DataFrame, folder: Path, name: str) -> list[Path]:
     return [parquet, csv]
 
 
-def html_table(frame: pl.DataFrame, *, rows: int = HTML_ROWS, links: dict[str, str] | None = None) -> str:
+def html_table(
+    frame: pl.DataFrame, *, rows: int = HTML_ROWS, links: dict[str, str] | None = None
+) -> str:
     """An HTML table of the first ``rows`` rows, values made readable, headers explained."""
     if frame.height == 0:
         return '<p class="small">none</p>'
@@ -168,7 +200,11 @@ def html_table(frame: pl.DataFrame, *, rows: int = HTML_ROWS, links: dict[str, s
             cls = ' class="s"' if isinstance(value, str) else ""
             cells.append(f"<td{cls}>{text}</td>")
         body.append(f"<tr>{''.join(cells)}</tr>")
-    more = f"<p class='small'>({frame.height - rows} more rows in the table files)</p>" if frame.height > rows else ""
+    more = (
+        f"<p class='small'>({frame.height - rows} more rows in the table files)</p>"
+        if frame.height > rows
+        else ""
+    )
     return f"<div class='wide'><table><tr>{head}</tr>{''.join(body)}</table></div>{more}"
 
 
@@ -188,7 +224,9 @@ def glossary(columns: Sequence[str]) -> str:
     return f"<table><tr><th>metric</th><th>unit</th><th>meaning</th></tr>{items}</table>"
 
 
-def page(title: str, sections: Sequence[tuple[str, str]], *, lead: str = "", warning: str = "") -> str:
+def page(
+    title: str, sections: Sequence[tuple[str, str]], *, lead: str = "", warning: str = ""
+) -> str:
     warn = f'<p class="warn">{html.escape(warning)}</p>' if warning else ""
     parts = "".join(f"<h2>{html.escape(h)}</h2>{body}" for h, body in sections)
     return (
@@ -240,15 +278,23 @@ def session_html(data: SessionData, metrics: SessionMetrics) -> str:
         ("Key figures", f"<div class='cards'>{cards}</div>"),
         ("Expectations", verdict_table(metrics["expectations"])),
         ("Timeline", image(plots["timeline"], "timeline")),
-        ("Closeness", image(plots["distance"], "distance") + image(plots["trajectories"], "trajectories")),
+        (
+            "Closeness",
+            image(plots["distance"], "distance") + image(plots["trajectories"], "trajectories"),
+        ),
         ("Rules", image(plots["rules"], "rules")),
     ]
     sections += [(title, html_table(metrics[name])) for title, name in SESSION_SECTIONS]
     every = transposed(metrics.summary)
-    sections += [("All figures", html_table(every, rows=200)), ("Glossary", glossary(metrics.summary.columns))]
+    sections += [
+        ("All figures", html_table(every, rows=200)),
+        ("Glossary", glossary(metrics.summary.columns)),
+    ]
     warning = f"Damaged recording: {data.recovery}" if data.recovery is not None else ""
     lead = f"<p class='small'>Recording {html.escape(os.path.basename(data.path))}</p>"
-    return page(f"Session {summary.get('run') or data.session_id}", sections, lead=lead, warning=warning)
+    return page(
+        f"Session {summary.get('run') or data.session_id}", sections, lead=lead, warning=warning
+    )
 
 
 def transposed(summary: pl.DataFrame) -> pl.DataFrame:
@@ -273,7 +319,9 @@ def write_session_report(data: SessionData, metrics: SessionMetrics, folder: Pat
 # ------------------------------------------------------------------- comparison
 
 
-def write_comparison_report(comparison: pl.DataFrame, folder: Path, *, links: dict[str, str]) -> Path:
+def write_comparison_report(
+    comparison: pl.DataFrame, folder: Path, *, links: dict[str, str]
+) -> Path:
     """``comparison.parquet/csv``, ``groups.parquet/csv`` and an ``index.html``: groups of
     scenario × parameters (aggregates over seeds), a plot per metric and swept parameter,
     then every run linking its page (paths relative to the page)."""
@@ -290,7 +338,10 @@ def write_comparison_report(comparison: pl.DataFrame, folder: Path, *, links: di
     shown = [c for c in groups.columns if not c.endswith(" spread")]
     sections = [
         ("Groups: scenario × parameters, across seeds", html_table(groups.select(shown), rows=500)),
-        ("Metrics against each swept parameter", figures or "<p class='small'>No parameter was swept.</p>"),
+        (
+            "Metrics against each swept parameter",
+            figures or "<p class='small'>No parameter was swept.</p>",
+        ),
         ("Every run", html_table(comparison.drop("path", strict=False), rows=1000, links=links)),
         ("Glossary", glossary(["pass rate", "runs", *comparison.columns])),
     ]
@@ -299,5 +350,7 @@ def write_comparison_report(comparison: pl.DataFrame, folder: Path, *, links: di
         " its seeds; pass rate is the share of seeds whose run met every expectation.</p>"
     )
     index = folder / "index.html"
-    index.write_text(page(f"Comparison of {comparison.height} runs", sections, lead=lead), encoding="utf-8")
+    index.write_text(
+        page(f"Comparison of {comparison.height} runs", sections, lead=lead), encoding="utf-8"
+    )
     return index

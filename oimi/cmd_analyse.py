@@ -110,12 +110,12 @@ def _table_config() -> pl.Config:
     return pl.Config(
         tbl_rows=40,
         tbl_cols=-1,
-        tbl_width_chars=160,
+        tbl_width_chars=240,
         tbl_hide_dataframe_shape=True,
         tbl_hide_column_data_types=True,
         tbl_formatting="ASCII_MARKDOWN",
         float_precision=3,
-        fmt_str_lengths=40,
+        fmt_str_lengths=60,
     )
 
 

@@ -1,0 +1,60 @@
+"""Contact episodes on recorded sessions whose contacts are known (tests/analysis/scenarios)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from analysis.load import load_session
+from analysis.metrics import session_metrics
+from scenarios.loader import load_scenario
+from scenarios.runner import Session
+
+SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+
+
+def _contacts(mcap: Path):
+    metrics = session_metrics(load_session(mcap, stream=True))
+    return metrics["contacts"], metrics.summary.row(0, named=True)
+
+
+def test_the_robot_driven_into_a_standing_child_initiates_the_contact(contact_mcaps) -> None:
+    contacts, summary = _contacts(contact_mcaps["scripted_collision"])
+    assert contacts.height == 1
+    (contact,) = contacts.rows(named=True)
+    assert contact["human"] == "child"
+    assert contact["initiator"] == "robot"
+    # 0.95 m of gap at 0.4 m/s from 1.0 s (and a short speed ramp): touching near 3.4-3.6 s
+    assert 3_300 <= contact["started_ms"] <= 3_700
+    assert contact["robot_speed_mps"] == pytest.approx(0.4, abs=0.02)
+    assert contact["person_speed_mps"] == pytest.approx(0.0, abs=0.02)
+    assert contact["closing_speed_mps"] == pytest.approx(0.4, abs=0.03)
+    assert -0.05 <= contact["min_surface_distance_m"] <= 0.0
+    assert summary["robot_initiated_contacts"] == 1
+    assert summary["min_surface_distance_m"] <= 0.0
+
+
+def test_a_child_walking_into_a_standing_robot_initiates_the_contact(contact_mcaps) -> None:
+    contacts, summary = _contacts(contact_mcaps["child_walks_into_robot"])
+    assert contacts.height == 1
+    (contact,) = contacts.rows(named=True)
+    assert contact["initiator"] == "person"
+    # 2.45 m of gap at 0.5 m/s: touching at 4.9 s
+    assert contact["started_ms"] == pytest.approx(4_900, abs=60)
+    assert contact["robot_speed_mps"] == pytest.approx(0.0, abs=0.02)
+    assert contact["person_speed_mps"] == pytest.approx(0.5, abs=0.02)
+    assert contact["closing_speed_mps"] == pytest.approx(0.5, abs=0.02)
+    assert summary["robot_initiated_contacts"] == 0
+    assert summary["contacts"] == 1
+
+
+@pytest.mark.parametrize(
+    ("name", "passed"),
+    [("scripted_collision", [False, False]), ("child_walks_into_robot", [True, True])],
+)
+def test_oimi_run_checks_contacts_with_the_same_definitions(name: str, passed: list[bool]) -> None:
+    result = Session(load_scenario(SCENARIOS / f"{name}.toml")).run()
+    assert [v.ok for v in result.verdicts] == passed
+    assert result.summary.contact_episodes == 1
+    assert result.summary.robot_initiated_contacts == (name == "scripted_collision")
