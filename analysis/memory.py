@@ -42,13 +42,13 @@ class MemoryFigure(msgspec.Struct, frozen=True, kw_only=True):
 def add_safety_channel(sink: McapSink) -> None:
     """Registers ``/safety`` on a sink (the supervisor's topic, which ``Topic`` may lack)."""
     if Topic.__members__.get("SAFETY") is None:
-        sink._register("/safety", "oimi.SafetyIntervention", SAFETY_SCHEMA)  # noqa: SLF001
+        sink._register("/safety", "oimi.SafetyIntervention", SAFETY_SCHEMA)
 
 
 def write_safety(sink: McapSink, time_ms: int, **fields: object) -> None:
     """One ``/safety`` message (``SafetyIntervention`` as JSON) at ``time_ms``."""
     message = {"tick": time_ms // TICK_MS, "time_ms": time_ms, **fields}
-    sink._add("/safety", time_ms * 1_000_000, json.dumps(message).encode())  # noqa: SLF001
+    sink._add("/safety", time_ms * 1_000_000, json.dumps(message).encode())
 
 
 def synthetic_recording(path: Path, *, minutes: float) -> int:

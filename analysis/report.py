@@ -43,25 +43,30 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
     "goals_interrupted": ("", "Goals cut short by an interruption."),
     "contacts": (
         "",
-        "Contact episodes: the robot and a person touching, from first touch to separation (gaps under 0.2 s merged).",
+        "Contact episodes: the robot and a person touching, from first touch to separation (gaps"
+        " under 0.2 s merged).",
     ),
     "robot_initiated_contacts": (
         "",
-        "Contacts in which the robot moved towards the person faster than the person moved towards it, just before touching.",
+        "Contacts in which the robot moved towards the person faster than the person moved"
+        " towards it, just before touching.",
     ),
     "max_closing_speed_mps": (
         "m/s",
-        "The fastest a gap closed just before a contact (robot's and person's speeds towards each other, summed).",
+        "The fastest a gap closed just before a contact (robot's and person's speeds towards"
+        " each other, summed).",
     ),
     "contact_s": ("s", "Total time in contact (all people)."),
     "closest_human": ("", "The person who came closest to the robot."),
     "min_surface_distance_m": (
         "m",
-        "The smallest gap between the robot's and a person's body (surface to surface; 0 = touching, negative = pressed together).",
+        "The smallest gap between the robot's and a person's body (surface to surface; 0 ="
+        " touching, negative = pressed together).",
     ),
     "intimate_s": (
         "s",
-        "Time people spent in the intimate zone (gap under 0.45 m, not touching), summed over people.",
+        "Time people spent in the intimate zone (gap under 0.45 m, not touching), summed over"
+        " people.",
     ),
     "personal_s": (
         "s",
@@ -69,12 +74,14 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
     ),
     "safety_interventions": (
         "",
-        "Times the safety supervisor slowed or stopped the robot (from /safety; 0 when the recording has none).",
+        "Times the safety supervisor slowed or stopped the robot (from /safety; 0 when the"
+        " recording has none).",
     ),
     "safety_intervention_s": ("s", "Total time the safety supervisor was limiting the robot."),
     "rule_episodes": (
         "",
-        "Rule firing episodes (a rule starting to fire until it stops), housekeeping rules not counted.",
+        "Rule firing episodes (a rule starting to fire until it stops), housekeeping rules not"
+        " counted.",
     ),
     "joystick_takeovers": (
         "",
@@ -98,7 +105,7 @@ body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1180px
 h1 { font-size: 1.5em; } h2 { font-size: 1.15em; border-bottom: 1px solid #ccc; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.5em 0 1.2em; font-size: 0.85em; }
 th, td { border: 1px solid #d4d4d4; padding: 3px 8px; text-align: right; vertical-align: top; }
-th { background: #f1f1f1; } td.s { text-align: left; }
+th { background: #f1f1f1; text-align: left; } td.s { text-align: left; }
 img { max-width: 100%; margin: 0.4em 0; }
 .ok { color: #2b7a0b; font-weight: bold; } .fail { color: #b3261e; font-weight: bold; }
 .warn { color: #b3261e; } .cards { display: flex; flex-wrap: wrap; gap: 0.6em; }
@@ -216,7 +223,8 @@ def image(data: bytes, alt: str) -> str:
 
 def glossary(columns: Sequence[str]) -> str:
     items = "".join(
-        f"<tr><td class='s'>{html.escape(label(c))}</td><td class='s'>{html.escape(GLOSSARY[c][0])}</td>"
+        f"<tr><td class='s'>{html.escape(label(c))}</td><td"
+        f" class='s'>{html.escape(GLOSSARY[c][0])}</td>"
         f"<td class='s'>{html.escape(GLOSSARY[c][1])}</td></tr>"
         for c in dict.fromkeys(columns)
         if c in GLOSSARY
@@ -241,7 +249,10 @@ def page(
 
 def verdict_table(verdicts: pl.DataFrame) -> str:
     if verdicts.height == 0:
-        return '<p class="small">The scenario has no expectations (or the recording has no scenario attached).</p>'
+        return (
+            '<p class="small">The scenario has no expectations'
+            " (or the recording has no scenario attached).</p>"
+        )
     rows = "".join(
         f"<tr><td class='{'ok' if ok else 'fail'}'>{'PASS' if ok else 'FAIL'}</td>"
         f"<td class='s'>{html.escape(name)}</td><td class='s'>{html.escape(detail)}</td></tr>"
@@ -346,7 +357,8 @@ def write_comparison_report(
         ("Glossary", glossary(["pass rate", "runs", *comparison.columns])),
     ]
     lead = (
-        "<p class='small'>Each group's figures: mean ± spread (standard deviation), min and max over"
+        "<p class='small'>Each group's figures: mean ± spread (standard deviation), min and max"
+        " over"
         " its seeds; pass rate is the share of seeds whose run met every expectation.</p>"
     )
     index = folder / "index.html"

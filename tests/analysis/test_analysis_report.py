@@ -1,10 +1,9 @@
 from __future__ import annotations
 
-from pathlib import Path
-
 import base64
 import io
 import re
+from pathlib import Path
 
 import matplotlib.image
 import polars as pl

@@ -3,6 +3,7 @@ recording by topic name (and no episodes when a recording has no such topic)."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 from analysis.load import load_session
@@ -103,4 +104,4 @@ def test_plot_samples_stay_bounded_however_long_the_session() -> None:
         samples.update(_world(tick))
     assert MAX_SAMPLES // 2 <= len(samples.ticks) <= MAX_SAMPLES
     times = [rows[0][0] for rows in samples.ticks]
-    assert len({b - a for a, b in zip(times, times[1:], strict=False)}) == 1  # evenly thinned
+    assert len({b - a for a, b in itertools.pairwise(times)}) == 1  # evenly thinned
