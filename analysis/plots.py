@@ -269,8 +269,8 @@ def comparison_plot(groups: pl.DataFrame, metric: str, parameter: str) -> Figure
         numbers = rows[parameter].cast(pl.Float64, strict=False)
         xs = numbers.to_list() if numbers.null_count() == 0 else list(range(rows.height))
         mean = rows[f"{metric} mean"]
-        low = (mean - rows[f"{metric} min"]).to_list()
-        high = (rows[f"{metric} max"] - mean).to_list()
+        low = (mean - rows[f"{metric} min"]).clip(lower_bound=0.0).fill_null(0.0).to_list()
+        high = (rows[f"{metric} max"] - mean).clip(lower_bound=0.0).fill_null(0.0).to_list()
         axes.errorbar(
             xs, mean.to_list(), yerr=[low, high], marker="o", capsize=4, label=str(scenario)
         )

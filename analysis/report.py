@@ -336,6 +336,14 @@ def write_comparison_report(
     """``comparison.parquet/csv``, ``groups.parquet/csv`` and an ``index.html``: groups of
     scenario × parameters (aggregates over seeds), a plot per metric and swept parameter,
     then every run linking its page (paths relative to the page)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if "path" in comparison.columns:  # recordings relative to the page, wherever it was made
+        here = folder.resolve()
+        comparison = comparison.with_columns(
+            pl.col("path").map_elements(
+                lambda p: os.path.relpath(Path(p).resolve(), here), return_dtype=pl.String
+            )
+        )
     write_table(comparison, folder, "comparison")
     groups = group_runs(comparison)
     write_table(groups, folder, "groups")
