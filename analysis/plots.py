@@ -276,9 +276,9 @@ def comparison_plot(groups: pl.DataFrame, metric: str, parameter: str) -> Figure
         )
         if numbers.null_count():
             axes.set_xticks(xs, rows[parameter].cast(pl.String).to_list())
-    axes.set_xlabel(parameter)
+    axes.set_xlabel(parameter.removeprefix("param:"))
     axes.set_ylabel(metric)
-    axes.set_title(f"{metric} by {parameter}\n(mean over seeds; bars: min to max)", fontsize=9)
+    axes.set_title(f"{metric}\n(mean over seeds; bars: min to max)", fontsize=9)
     axes.legend(fontsize=7)
     figure.tight_layout()
     return figure

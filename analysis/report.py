@@ -94,7 +94,7 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
     "mean_speed_mps": ("m/s", "The robot's average speed (standing still included)."),
     "clamps": ("", "Movement commands cut down to the robot's limits."),
     "rejected_inputs": ("", "Inputs refused as invalid (sensor updates, commands)."),
-    "pass rate": ("%", "Share of the seeds whose run met every expectation."),
+    "pass": ("%", "Share of the seeds whose run met every expectation."),
     "runs": ("", "Runs (seeds) in the group."),
 }
 """Metric -> (unit, meaning), shown on every page."""
@@ -161,7 +161,7 @@ def readable(value: object, column: str = "") -> str:
             return human_duration(value)
         if unit == "%":
             return f"{value:.0f} %"
-        text = f"{value:.2f}".rstrip("0").rstrip(".") if abs(value) < 1000 else f"{value:,.0f}"
+        text = _plain(value) if abs(value) < 1000 else f"{value:,.0f}"
         return f"{text} {unit}".strip()
     return str(value)
 
@@ -330,6 +330,44 @@ def write_session_report(data: SessionData, metrics: SessionMetrics, folder: Pat
 # ------------------------------------------------------------------- comparison
 
 
+GROUP_TABLE: Final = (
+    "contacts",
+    "robot_initiated_contacts",
+    "max_closing_speed_mps",
+    "min_surface_distance_m",
+    "intimate_s",
+    "safety_interventions",
+    "goals_reached",
+)
+"""The aggregates shown on the comparison page (``groups.csv`` holds them all)."""
+
+
+def _plain(value: float) -> str:
+    """Two decimals at most, no trailing zeros, no ``-0``."""
+    text = f"{value:.2f}".rstrip("0").rstrip(".")
+    return "0" if text == "-0" else text
+
+
+def group_cells(groups: pl.DataFrame) -> pl.DataFrame:
+    """The groups as a person reads them: one cell per metric, ``mean ± spread (min–max)``."""
+    keys = [c for c in groups.columns if c.startswith("param:")] or ["params"]
+    cells = {
+        metric: [
+            f"{readable(m, metric)} ± {_plain(sd)} ({_plain(lo)}–{_plain(hi)})"
+            if m is not None
+            else "–"
+            for m, sd, lo, hi in groups.select(
+                f"{metric} mean", f"{metric} spread", f"{metric} min", f"{metric} max"
+            ).iter_rows()
+        ]
+        for metric in GROUP_TABLE
+        if f"{metric} mean" in groups.columns
+    }
+    rate = [pl.col("pass rate").alias("pass")] if "pass rate" in groups.columns else []
+    head = groups.select("scenario", *keys, "runs", "seeds", *rate)
+    return head.with_columns(pl.Series(k, v, dtype=pl.String) for k, v in cells.items())
+
+
 def write_comparison_report(
     comparison: pl.DataFrame, folder: Path, *, links: dict[str, str]
 ) -> Path:
@@ -354,15 +392,14 @@ def write_comparison_report(
         for metric in AGGREGATED
         if f"{metric} mean" in groups.columns
     )
-    shown = [c for c in groups.columns if not c.endswith(" spread")]
     sections = [
-        ("Groups: scenario × parameters, across seeds", html_table(groups.select(shown), rows=500)),
+        ("Groups: scenario × parameters, across seeds", html_table(group_cells(groups), rows=500)),
         (
             "Metrics against each swept parameter",
             figures or "<p class='small'>No parameter was swept.</p>",
         ),
         ("Every run", html_table(comparison.drop("path", strict=False), rows=1000, links=links)),
-        ("Glossary", glossary(["pass rate", "runs", *comparison.columns])),
+        ("Glossary", glossary(["pass", "runs", *comparison.columns])),
     ]
     lead = (
         "<p class='small'>Each group's figures: mean ± spread (standard deviation), min and max"

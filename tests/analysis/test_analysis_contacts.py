@@ -8,6 +8,7 @@ import pytest
 
 from analysis.load import load_session
 from analysis.metrics import session_metrics
+from scenarios.humans import PACE
 from scenarios.loader import load_scenario
 from scenarios.runner import Session
 
@@ -40,11 +41,12 @@ def test_a_child_walking_into_a_standing_robot_initiates_the_contact(contact_mca
     assert contacts.height == 1
     (contact,) = contacts.rows(named=True)
     assert contact["initiator"] == "person"
-    # 2.45 m of gap at 0.5 m/s: touching at 4.9 s
-    assert contact["started_ms"] == pytest.approx(4_900, abs=60)
+    # 0.5 m/s times the child's seeded pace; 2.45 m of gap closed at that speed
+    speed = contact["person_speed_mps"]
+    assert 0.5 * PACE[0] - 1e-6 <= speed <= 0.5 * PACE[1] + 1e-6
+    assert contact["started_ms"] == pytest.approx(2.45 / speed * 1000, abs=60)
     assert contact["robot_speed_mps"] == pytest.approx(0.0, abs=0.02)
-    assert contact["person_speed_mps"] == pytest.approx(0.5, abs=0.02)
-    assert contact["closing_speed_mps"] == pytest.approx(0.5, abs=0.02)
+    assert contact["closing_speed_mps"] == pytest.approx(speed, abs=0.02)
     assert summary["robot_initiated_contacts"] == 0
     assert summary["contacts"] == 1
 

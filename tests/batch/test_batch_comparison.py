@@ -47,9 +47,9 @@ def test_a_sweep_is_compared_by_scenario_and_parameters(tmp_path: Path, capsys) 
     for metric in ("min_surface_distance_m", "contacts", "max_speed_mps"):
         assert {f"{metric} {a}" for a in ("mean", "spread", "min", "max")} <= set(groups.columns)
     first = groups.row(0, named=True)
-    seeds = comparison.filter(
-        (pl.col("scenario") == "alpha") & (pl.col(f"param:{PARAM}") == 0.2)
-    )["min_surface_distance_m"]
+    seeds = comparison.filter((pl.col("scenario") == "alpha") & (pl.col(f"param:{PARAM}") == 0.2))[
+        "min_surface_distance_m"
+    ]
     assert first["min_surface_distance_m mean"] == seeds.mean()
     assert first["min_surface_distance_m min"] == seeds.min()
     # the seeds matter: the wandering child goes elsewhere on each
