@@ -91,55 +91,67 @@ class RuleEpisodes:
         )
 
 
+class Intervention(msgspec.Struct, kw_only=True):
+    """One safety intervention being gathered from its ``/safety`` messages."""
+
+    started_ms: int
+    ended_ms: int | None = None
+    source: str
+    zones: list[str]
+    humans: list[str]
+    min_surface_distance_m: float | None
+    requested_mps: float
+    allowed_mps: float
+    changes: int = 0
+
+
 class SafetyEpisodes:
     """The supervisor's interventions, each from its ``start`` to its ``end`` message."""
 
     def __init__(self) -> None:
-        self.rows: list[dict[str, object]] = []
-        self._open: dict[str, object] | None = None
+        self.episodes: list[Intervention] = []
+        self._open: Intervention | None = None
 
     def update(self, r: SafetyRecord) -> None:
         requested = math.hypot(r.requested[0], r.requested[1])
-        allowed = math.hypot(r.allowed[0], r.allowed[1])
-        if r.phase == "start" or self._open is None:
-            self._open = {
-                "started_ms": r.time_ms,
-                "ended_ms": None,
-                "source": r.source,
-                "zones": [r.zone],
-                "humans": [r.human] if r.human else [],
-                "min_surface_distance_m": r.surface_distance_m,
-                "requested_mps": requested,
-                "allowed_mps": allowed,
-                "changes": 0,
-            }
-            self.rows.append(self._open)
+        o = self._open
+        if r.phase == "start" or o is None:
+            o = self._open = Intervention(
+                started_ms=r.time_ms,
+                source=r.source,
+                zones=[r.zone],
+                humans=[r.human] if r.human else [],
+                min_surface_distance_m=r.surface_distance_m,
+                requested_mps=requested,
+                allowed_mps=math.hypot(r.allowed[0], r.allowed[1]),
+            )
+            self.episodes.append(o)
         else:
-            o = self._open
-            o["changes"] = int(o["changes"]) + (r.phase == "change")  # type: ignore[call-overload]
-            if r.zone and r.zone not in o["zones"]:  # type: ignore[operator]
-                o["zones"].append(r.zone)  # type: ignore[attr-defined]
-            if r.human and r.human not in o["humans"]:  # type: ignore[operator]
-                o["humans"].append(r.human)  # type: ignore[attr-defined]
+            o.changes += r.phase == "change"
+            if r.zone and r.zone not in o.zones:
+                o.zones.append(r.zone)
+            if r.human and r.human not in o.humans:
+                o.humans.append(r.human)
             if r.surface_distance_m is not None:
-                low = o["min_surface_distance_m"]
-                o["min_surface_distance_m"] = (
-                    r.surface_distance_m if low is None else min(low, r.surface_distance_m)  # type: ignore[call-overload]
+                low = o.min_surface_distance_m
+                o.min_surface_distance_m = (
+                    min(low, r.surface_distance_m) if low is not None else r.surface_distance_m
                 )
-            o["requested_mps"] = max(o["requested_mps"], requested)  # type: ignore[call-overload]
+            o.requested_mps = max(o.requested_mps, requested)
         if r.phase == "end":
-            self._open["ended_ms"] = r.time_ms
+            o.ended_ms = r.time_ms
             self._open = None
 
     def frame(self, end_ms: int) -> pl.DataFrame:
+        """One row per intervention (one still open ends at ``end_ms``)."""
         rows = [
             {
-                **row,
-                "ended_ms": row["ended_ms"] if row["ended_ms"] is not None else end_ms,
-                "zones": " → ".join(row["zones"]),  # type: ignore[arg-type]
-                "humans": ", ".join(row["humans"]),  # type: ignore[arg-type]
+                **msgspec.structs.asdict(e),
+                "ended_ms": e.ended_ms if e.ended_ms is not None else end_ms,
+                "zones": " → ".join(e.zones),
+                "humans": ", ".join(e.humans),
             }
-            for row in self.rows
+            for e in self.episodes
         ]
         schema = {
             "started_ms": pl.Int64,

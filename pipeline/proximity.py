@@ -160,19 +160,18 @@ class ProximityTracker:
         )
         self._open[who] = _Open(episode=episode, last_ms=now, deepest=d)
 
-    def _close(self, who: str) -> None:
-        open_ = self._open.pop(who)
-        self.episodes.append(
-            msgspec.structs.replace(
-                open_.episode,
-                end_ms=open_.last_ms + self.tick_ms,
-                min_surface_distance_m=round(open_.deepest, 4),
-            )
+    def _closed(self, open_: _Open) -> ContactEpisode:
+        return msgspec.structs.replace(
+            open_.episode,
+            end_ms=open_.last_ms + self.tick_ms,
+            min_surface_distance_m=round(open_.deepest, 4),
         )
 
+    def _close(self, who: str) -> None:
+        self.episodes.append(self._closed(self._open.pop(who)))
+
     def finish(self) -> list[ContactEpisode]:
-        """Closes the episodes still open; returns every episode in start order."""
-        for who in sorted(self._open):
-            self._close(who)
-        self.episodes.sort(key=lambda e: (e.start_ms, e.human))
-        return self.episodes
+        """Every episode so far in start order, those still open ending at the last tick seen
+        (they stay open: more updates may follow)."""
+        ongoing = [self._closed(self._open[who]) for who in sorted(self._open)]
+        return sorted([*self.episodes, *ongoing], key=lambda e: (e.start_ms, e.human))

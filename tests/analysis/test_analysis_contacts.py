@@ -60,3 +60,34 @@ def test_oimi_run_checks_contacts_with_the_same_definitions(name: str, passed: l
     assert [v.ok for v in result.verdicts] == passed
     assert result.summary.contact_episodes == 1
     assert result.summary.robot_initiated_contacts == (name == "scripted_collision")
+
+
+def test_touches_a_moment_apart_are_one_episode_and_zones_use_the_surfaces() -> None:
+    from pipeline.events import BodyState, WorldState
+    from pipeline.proximity import ProximityTracker, zone_of
+
+    robot = BodyState(id="robot", kind="robot", x_m=0.0, y_m=0.0, vx_mps=0.2, radius_m=0.3)
+
+    def state(tick: int, x_m: float) -> WorldState:
+        child = BodyState(id="c", kind="child", x_m=x_m, y_m=0.0, vx_mps=-0.1, radius_m=0.2)
+        return WorldState(tick=tick, time_ms=tick * 20, robot=robot, humans=(child,))
+
+    tracker = ProximityTracker(tick_ms=20)
+    #        apart, touching x3, apart 100 ms (merged), touching, apart 300 ms (ends it)
+    gaps = [0.1, 0.0, -0.01, 0.0, 0.05, 0.05, 0.05, 0.05, 0.05, 0.0] + [0.1] * 15 + [0.0]
+    for tick, gap in enumerate(gaps):
+        tracker.update(state(tick, 0.5 + gap))
+    first, second = tracker.finish()
+    assert (first.start_ms, first.end_ms, first.min_surface_distance_m) == (20, 200, -0.01)
+    assert (second.start_ms, second.end_ms) == (500, 520)  # still touching at the end
+    assert first.initiator == "robot"  # 0.2 m/s towards the child, the child 0.1 m/s
+    assert first.closing_speed_mps == pytest.approx(0.3)
+    assert tracker.zone_ms["c"]["contact"] == 5 * 20  # ticks 1-3, 9 and 25
+    assert [zone_of(d) for d in (-0.1, 0.0, 0.3, 0.45, 2.0, 4.0)] == [
+        "contact",
+        "contact",
+        "intimate",
+        "personal",
+        "social",
+        "public",
+    ]
