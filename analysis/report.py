@@ -99,6 +99,9 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
 }
 """Metric -> (unit, meaning), shown on every page."""
 
+_UNITS: Final = {"_mps": "m/s", "_m": "m", "_s": "s"}
+"""Units of columns the glossary does not list, from their name's suffix."""
+
 _STYLE: Final = """
 body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1180px; color: #222;
        padding: 0 1em; }
@@ -153,7 +156,11 @@ def readable(value: object, column: str = "") -> str:
     if isinstance(value, timedelta):
         return human_duration(value.total_seconds())
     column = column.split(" ")[0]  # "contacts mean" -> "contacts"
-    unit = GLOSSARY.get(column, ("", ""))[0]
+    if not column.startswith("param:"):
+        column = column.split(":")[0]  # "min_surface_distance_m:ada" -> its metric
+    unit = GLOSSARY.get(column, ("", ""))[0] or next(
+        (u for suffix, u in _UNITS.items() if column.endswith(suffix)), ""
+    )
     if column.endswith("_ms") and isinstance(value, int):
         return human_duration(value / 1000)
     if isinstance(value, float):
