@@ -16,7 +16,7 @@ from pathlib import Path
 import polars as pl
 
 from analysis.load import SessionData, load_session
-from analysis.metrics import SessionMetrics, session_metrics
+from analysis.metrics import SessionMetrics, Verdicts, session_metrics, session_run_name
 from pipeline.errors import LocatedError
 
 SESSION_ID = "session_id"
@@ -84,10 +84,12 @@ def build_dataset(
     *,
     folder: Path | None = None,
     on_session: Callable[[SessionData, SessionMetrics], None] | None = None,
+    verdicts: Callable[[Path], Verdicts | None] | None = None,
 ) -> Dataset:
     """Load and measure every recording in ``paths`` (files or folders), one at a time.
 
-    ``on_session`` is called with each session (e.g. to write its report). Without
+    ``on_session`` is called with each session (e.g. to write its report); ``verdicts``
+    checks a recording's expectations (``analysis`` cannot load scenarios itself). Without
     ``folder`` only the metric tables are kept (in memory); with it, the topic
     tables are also written and scannable.
     """
@@ -95,16 +97,19 @@ def build_dataset(
     frames: dict[str, list[pl.LazyFrame]] = {}
     seen: set[str] = set()
     for path in recordings(paths):
-        data = load_session(path)
+        data = load_session(path, stream=True)
+        data.session_id = session_run_name(data)
         if data.session_id in seen:
             data.session_id = f"{data.session_id}@{path.stem}"
         seen.add(data.session_id)
-        metrics = session_metrics(data)
+        metrics = session_metrics(data, verdicts(path) if verdicts is not None else None)
         if on_session is not None:
             on_session(data, metrics)
         tables = dict(metrics.tables)
         if folder is not None:
             tables.update(data.tables)
+            if data.streamed is not None:
+                tables["samples"] = data.streamed.samples.frame()
         for name, frame in tables.items():
             tagged = frame.with_columns(pl.lit(data.session_id).alias(SESSION_ID)).select(
                 SESSION_ID, pl.exclude(SESSION_ID)
@@ -117,5 +122,6 @@ def build_dataset(
             else:
                 frames.setdefault(name, []).append(tagged.lazy())
         rows.append(metrics.summary.with_columns(pl.lit(str(path)).alias("path")))
+        del data, metrics, tables
     comparison = pl.concat(rows, how="diagonal_relaxed") if rows else pl.DataFrame()
     return Dataset(comparison=comparison, folder=folder, frames=frames)

@@ -19,6 +19,7 @@ import polars as pl
 import pyarrow as pa
 import pyarrow.json as pa_json
 
+from analysis.stream import STREAMED, Streamed, StreamFolder
 from pipeline.events import TOPIC_TYPES, Topic
 from recorder.errors import RecordingError
 from recorder.reader import RecoveryReport, open_recording
@@ -29,6 +30,12 @@ TIME: Final = "time"
 
 DEFAULT_TOPICS: Final = tuple(t for t in Topic if t is not Topic.MAP)
 """What is loaded unless asked: every topic but ``/map`` (large, and no metric needs it)."""
+
+LIGHT_TOPICS: Final = tuple(
+    t for t in DEFAULT_TOPICS if t.value not in STREAMED and t is not Topic.SENSOR_UPDATES
+)
+"""The topics loaded as tables when streaming: their size grows with what happens, not with
+the ticks (no metric reads ``/sensors/updates``)."""
 
 
 class AnalysisWarning(UserWarning):
@@ -231,6 +238,8 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
     """Set when the file was damaged: what could be read."""
     messages: int = 0
     """Messages of the loaded topics that were decoded."""
+    streamed: Streamed | None = None
+    """The per-tick topics folded by ``analysis.stream`` (``load_session(stream=True)``)."""
 
     def __getitem__(self, name: str) -> pl.DataFrame:
         return self.tables[name]
@@ -257,9 +266,16 @@ def _tick_hz(metadata: dict[str, dict[str, str]], path: str) -> int:
 
 
 def load_session(
-    path: str | os.PathLike[str], *, topics: Iterable[Topic | str] | None = None
+    path: str | os.PathLike[str],
+    *,
+    topics: Iterable[Topic | str] | None = None,
+    stream: bool = False,
 ) -> SessionData:
     """Load a recording's topics as polars tables (``DEFAULT_TOPICS`` unless ``topics``).
+
+    With ``stream``, the per-tick topics are folded message by message instead
+    (``SessionData.streamed``) and only :data:`LIGHT_TOPICS` become tables: memory then
+    stays flat however long the session (what the metrics need).
 
     A damaged or truncated file is loaded up to where it can be read, with an
     :class:`AnalysisWarning` naming what was skipped. Raises
@@ -268,14 +284,22 @@ def load_session(
     name = os.fspath(path)
     recording = open_recording(name)
     wanted = tuple(Topic(t) for t in topics) if topics is not None else DEFAULT_TOPICS
+    if stream:
+        wanted = tuple(t for t in wanted if t in LIGHT_TOPICS)
     payloads: dict[Topic, list[bytes]] = {t: [] for t in wanted}
-    with open(name, "rb") as stream:
-        scan = ChunkScan(stream, frozenset(t.value for t in wanted))
+    folder = StreamFolder(tick_ms=1000 // _tick_hz(recording.metadata, name))
+    names = frozenset(t.value for t in wanted) | (frozenset(STREAMED) if stream else frozenset())
+    streamed = 0
+    with open(name, "rb") as file:
+        scan = ChunkScan(file, names)
         for topic, _, _, data in scan.messages():
-            payloads[Topic(topic)].append(data)
-    _tick_hz(recording.metadata, name)
+            if topic in STREAMED and stream:
+                folder.add(topic, data)
+                streamed += 1
+            else:
+                payloads[Topic(topic)].append(data)
     recovery = recording.recovery or scan.report()
-    if recovery is not None and not any(payloads.values()):
+    if recovery is not None and not streamed and not any(payloads.values()):
         raise RecordingError(f"nothing recoverable: {recovery}", source=name)
     if recovery is not None:
         warnings.warn(
@@ -300,5 +324,6 @@ def load_session(
         attachments=recording.attachments,
         tables=tables,
         recovery=recovery,
-        messages=sum(len(p) for p in payloads.values()),
+        messages=sum(len(p) for p in payloads.values()) + streamed,
+        streamed=folder.result() if stream else None,
     )

@@ -13,12 +13,10 @@ import msgspec
 import polars as pl
 
 from analysis.load import TIME, SessionData
+from analysis.stream import Streamed
 from pipeline.events import REJECTING_SOURCES, Level, ProgressKind
-
-ZONES_M: Final = (("intimate", 0.0, 0.45), ("personal", 0.45, 1.2), ("social", 1.2, 3.6))
-"""Hall's proxemic zones, centre-to-centre distance bands ``[from, to)`` in metres."""
-
-"""``/log`` sources whose warnings mean an input was rejected (as ``scenarios.expectations``)."""
+from pipeline.proximity import ZONE_NAMES
+from pipeline.think.library import RULES
 
 _STARTS: Final = (ProgressKind.LOAD.value, ProgressKind.IDLE.value)
 _ENDS: Final = (ProgressKind.END.value, ProgressKind.SWITCH.value)
@@ -31,8 +29,9 @@ _GOALS: Final = {
 
 
 def end_ms(data: SessionData) -> int:
-    """The last simulated time recorded (on any loaded topic)."""
+    """The last simulated time recorded (on any loaded or streamed topic)."""
     last = [t["time_ms"].max() for t in data.tables.values() if t.height]
+    last.append(data.streamed.last_ms if data.streamed is not None else None)
     return int(max((x for x in last if x is not None), default=0))  # type: ignore[type-var]
 
 
@@ -108,47 +107,82 @@ def goals(data: SessionData) -> pl.DataFrame:
 # --------------------------------------------------------------------- rules
 
 
-def fired_rules(data: SessionData) -> pl.DataFrame:
-    """The fired decisions, each with the activity running when it fired.
+def housekeeping_codes() -> frozenset[int]:
+    """Rule codes whose definition is tagged ``housekeeping`` (``pipeline.think.library``)."""
+    return frozenset(
+        code for code, cls in RULES.codes().items() if getattr(cls, "housekeeping", False)
+    )
+
+
+def rule_episodes(data: SessionData, *, housekeeping: bool = False) -> pl.DataFrame:
+    """Each firing episode of each rule (rising edge to falling edge), with the activity
+    running when it began and its duration; housekeeping rules only when asked.
 
     The rules run after the Block Reader in a tick, so the activity running is the one of
-    the reader's last progress item at or before that tick (a progress message's own
+    the reader's last progress item at or before that time (a progress message's own
     ``activity`` is the map's ``currentactivity``, which a rule forcing a switch has
     already set to the activity it switches *to*).
     """
+    streamed = _streamed(data)
     place = (
         data["/reader/progress/items"]
-        .select("tick", "activity")
-        .group_by("tick", maintain_order=True)
+        .select("time_ms", "activity")
+        .group_by("time_ms", maintain_order=True)
         .last()
-        .sort("tick")
+        .sort("time_ms")
     )
-    fired = data["/rules/decisions"].filter("fired").select("tick", "time_ms", TIME, "rule")
-    return fired.sort("tick").join_asof(place, on="tick", strategy="backward")
+    chores = housekeeping_codes()
+    episodes = (
+        streamed.rules.frame()
+        .with_columns(
+            housekeeping=pl.col("rulecode").is_in(list(chores)),
+            still_firing=pl.col("ended_ms").is_null(),
+            ended_ms=pl.col("ended_ms").fill_null(end_ms(data) + streamed.tick_ms),
+        )
+        .sort("started_ms")
+        .join_asof(place, left_on="started_ms", right_on="time_ms", strategy="backward")
+        .with_columns(duration=_ms_duration("ended_ms") - _ms_duration("started_ms"))
+        .select(
+            "rule",
+            "activity",
+            "started_ms",
+            "ended_ms",
+            "duration",
+            "evaluations_fired",
+            "still_firing",
+            "housekeeping",
+        )
+    )
+    return episodes if housekeeping else episodes.filter(~pl.col("housekeeping"))
 
 
 def rules_fired(data: SessionData) -> pl.DataFrame:
-    """Per rule: evaluations, times fired, first and last time fired."""
-    decisions = data["/rules/decisions"]
+    """Per rule: firing episodes, total time firing, first and last start, whether housekeeping."""
+    evaluated = _streamed(data).rules.evaluated
     return (
-        decisions.group_by("rule")
+        rule_episodes(data, housekeeping=True)
+        .group_by("rule")
         .agg(
-            evaluated=pl.len(),
-            fired=pl.col("fired").sum(),
-            first_ms=pl.col("time_ms").filter("fired").min(),
-            last_ms=pl.col("time_ms").filter("fired").max(),
+            episodes=pl.len(),
+            firing=pl.col("duration").sum(),
+            first_ms=pl.col("started_ms").min(),
+            last_ms=pl.col("started_ms").max(),
+            housekeeping=pl.col("housekeeping").first(),
         )
-        .sort("fired", "rule", descending=[True, False])
+        .with_columns(
+            evaluated=pl.col("rule").replace_strict(evaluated, default=0, return_dtype=pl.Int64)
+        )
+        .sort("housekeeping", "episodes", "rule", descending=[False, True, False])
     )
 
 
 def rules_by_activity(data: SessionData) -> pl.DataFrame:
-    """Times each rule fired while each activity ran."""
+    """Firing episodes of each (non-housekeeping) rule while each activity ran."""
     return (
-        fired_rules(data)
+        rule_episodes(data)
         .group_by("activity", "rule")
-        .agg(fired=pl.len())
-        .sort("activity", "fired", descending=[False, True])
+        .agg(episodes=pl.len(), firing=pl.col("duration").sum())
+        .sort("activity", "episodes", descending=[False, True])
     )
 
 
@@ -165,7 +199,7 @@ def commands(data: SessionData) -> pl.DataFrame:
     )
 
 
-def interventions(data: SessionData) -> pl.DataFrame:
+def joystick_takeovers(data: SessionData) -> pl.DataFrame:
     """Joystick interventions: spans with the safety lock (``LB``) held, and the
     joystick commands issued during each."""
     pad = data["/joystick"].select(
@@ -203,26 +237,6 @@ def interventions(data: SessionData) -> pl.DataFrame:
     )
 
 
-def safety(data: SessionData) -> pl.DataFrame:
-    """The safety supervisor's intervention episodes (``/safety``, one row each): when it
-    started and ended (null: still on at the end), the source it first limited, the
-    human, whether it reached the stop zone and the closest surface distance it estimated."""
-    return (
-        data["/safety"]
-        .with_columns(episode=(pl.col("phase") == "start").cum_sum())
-        .group_by("episode", maintain_order=True)
-        .agg(
-            started_ms=pl.col("time_ms").first(),
-            ended_ms=pl.col("time_ms").filter(pl.col("phase") == "end").first(),
-            source=pl.col("source").first(),
-            human=pl.col("human").filter(pl.col("human") != "").first(),
-            stop=(pl.col("zone") == "stop").any(),
-            min_surface_distance_m=pl.col("surface_distance_m").min(),
-        )
-        .drop("episode")
-    )
-
-
 def operator_commands(data: SessionData) -> pl.DataFrame:
     """Every operator command with its reply (ok, reason) when one was recorded."""
     replies = (
@@ -241,67 +255,114 @@ def operator_commands(data: SessionData) -> pl.DataFrame:
 # --------------------------------------------------------------------- world
 
 
+def _streamed(data: SessionData) -> Streamed:
+    if data.streamed is None:
+        raise ValueError("metrics need load_session(..., stream=True)")
+    return data.streamed
+
+
 def distances(data: SessionData) -> pl.DataFrame:
-    """Per tick and human: centre-to-centre distance to the robot, m."""
-    robot = data["/world/state"].select("tick", "robot_x_m", "robot_y_m")
-    return (
-        data["/world/state/humans"]
-        .select("tick", "time_ms", TIME, "id", "kind", "x_m", "y_m")
-        .join(robot, on="tick")
-        .select(
-            "tick",
-            "time_ms",
-            TIME,
-            pl.col("id").alias("human"),
-            "kind",
-            distance_m=(
-                (pl.col("x_m") - pl.col("robot_x_m")) ** 2
-                + (pl.col("y_m") - pl.col("robot_y_m")) ** 2
-            ).sqrt(),
-        )
+    """Per sampled tick and human: surface-to-surface distance to the robot, m (every tick of
+    a short session; evenly thinned to ``analysis.stream.MAX_SAMPLES`` ticks beyond)."""
+    samples = _streamed(data).samples.frame()
+    return samples.filter(pl.col("id") != "robot").select(
+        "time_ms",
+        _ms_duration("time_ms").alias(TIME),
+        pl.col("id").alias("human"),
+        "kind",
+        "surface_distance_m",
     )
-
-
-def _zone_seconds(tick_ms: int) -> list[pl.Expr]:
-    """Seconds of samples (one per tick) whose ``distance_m`` lies in each zone."""
-    seconds = tick_ms / 1000
-    return [
-        ((pl.col("distance_m") >= low) & (pl.col("distance_m") < high))
-        .sum()
-        .mul(seconds)
-        .alias(f"{name}_s")
-        for name, low, high in ZONES_M
-    ]
 
 
 def proximity(data: SessionData) -> pl.DataFrame:
-    """Per human: minimum distance (and when), seconds spent in each of :data:`ZONES_M`."""
-    frame = distances(data)
-    return (
-        frame.group_by("human", maintain_order=True)
-        .agg(
-            pl.col("kind").first(),
-            pl.col("distance_m").min().alias("min_distance_m"),
-            pl.col("time_ms").get(pl.col("distance_m").arg_min()).alias("min_at_ms"),
-            *_zone_seconds(data.tick_ms),
-        )
-        .sort("human")
-    )
+    """Per human: closest surface distance (and when), contact episodes, time in each zone
+    (every tick counted, ``pipeline.proximity.ZONES_M``)."""
+    streamed = _streamed(data)
+    tracker = streamed.proximity
+    rows = [
+        {
+            "human": who,
+            "kind": tracker.kinds[who],
+            "min_surface_distance_m": round(tracker.closest_m[who], 4),
+            "min_at_ms": tracker.closest_at_ms[who],
+            "contacts": sum(e.human == who for e in streamed.contacts),
+            **{f"{zone}_s": ms / 1000 for zone, ms in tracker.zone_ms[who].items()},
+        }
+        for who in sorted(tracker.kinds)
+    ]
+    schema = {
+        "human": pl.String,
+        "kind": pl.String,
+        "min_surface_distance_m": pl.Float64,
+        "min_at_ms": pl.Int64,
+        "contacts": pl.Int64,
+        **{f"{zone}_s": pl.Float64 for zone in ZONE_NAMES},
+    }
+    return pl.DataFrame(rows, schema=schema) if rows else pl.DataFrame(schema=schema)
+
+
+def contacts(data: SessionData) -> pl.DataFrame:
+    """Every contact episode: who, when, how long, who closed the gap and how fast."""
+    rows = [
+        {
+            "human": e.human,
+            "kind": e.kind,
+            "started_ms": e.start_ms,
+            "duration": e.duration_ms,
+            "initiator": str(e.initiator),
+            "robot_speed_mps": e.robot_speed_mps,
+            "person_speed_mps": e.person_speed_mps,
+            "closing_speed_mps": round(e.closing_speed_mps, 4),
+            "min_surface_distance_m": e.min_surface_distance_m,
+        }
+        for e in _streamed(data).contacts
+    ]
+    schema = {
+        "human": pl.String,
+        "kind": pl.String,
+        "started_ms": pl.Int64,
+        "duration": pl.Int64,
+        "initiator": pl.String,
+        "robot_speed_mps": pl.Float64,
+        "person_speed_mps": pl.Float64,
+        "closing_speed_mps": pl.Float64,
+        "min_surface_distance_m": pl.Float64,
+    }
+    frame = pl.DataFrame(rows, schema=schema) if rows else pl.DataFrame(schema=schema)
+    return frame.with_columns(_ms_duration("duration"))
+
+
+def safety_interventions(data: SessionData) -> pl.DataFrame:
+    """The safety supervisor's interventions (``/safety``) as episodes; none when the
+    recording has no such topic."""
+    frame = _streamed(data).safety.frame(end_ms(data))
+    return frame.with_columns(
+        duration=_ms_duration("ended_ms") - _ms_duration("started_ms")
+    ).select("started_ms", "ended_ms", "duration", pl.exclude("started_ms", "ended_ms", "duration"))
 
 
 def robot(data: SessionData) -> pl.DataFrame:
-    """The robot: distance travelled, maximum and mean speed, commands clamped (one row)."""
-    world = data["/world/state"]
-    speed = (pl.col("robot_vx_mps") ** 2 + pl.col("robot_vy_mps") ** 2).sqrt()
-    step = (pl.col("robot_x_m").diff() ** 2 + pl.col("robot_y_m").diff() ** 2).sqrt()
-    figures = world.select(
-        distance_m=step.sum(),
-        max_speed_mps=speed.max().fill_null(0.0),
-        mean_speed_mps=speed.mean().fill_null(0.0),
-        contact_ticks=pl.col("contact_count").sum().cast(pl.Int64),
-    )
+    """The robot: distance travelled, maximum and mean speed, contact ticks, commands clamped."""
+    figures = _streamed(data).robot
     clamps = data["/actuator/commands"]["clamped"].sum()
-    return figures.with_columns(clamps=pl.lit(int(clamps), dtype=pl.Int64))
+    return pl.DataFrame(
+        [
+            {
+                "distance_m": figures.distance_m,
+                "max_speed_mps": figures.max_speed_mps,
+                "mean_speed_mps": figures.speed_sum / max(figures.ticks, 1),
+                "contact_ticks": figures.contact_ticks,
+                "clamps": int(clamps),
+            }
+        ],
+        schema={
+            "distance_m": pl.Float64,
+            "max_speed_mps": pl.Float64,
+            "mean_speed_mps": pl.Float64,
+            "contact_ticks": pl.Int64,
+            "clamps": pl.Int64,
+        },
+    )
 
 
 def rejections(data: SessionData) -> pl.DataFrame:
@@ -332,18 +393,30 @@ class SessionMetrics(msgspec.Struct, kw_only=True, dict=True):
         return self.tables["summary"]
 
 
-def session_metrics(data: SessionData) -> SessionMetrics:
-    """All the metrics of a session (see the module's functions), plus ``summary``."""
+Verdicts = list[tuple[str, bool, str]]
+"""Expectation verdicts: (name, passed, what was seen)."""
+
+
+def session_metrics(data: SessionData, verdicts: Verdicts | None = None) -> SessionMetrics:
+    """All the metrics of a session (see the module's functions), plus ``summary``;
+    ``verdicts`` (checked by the caller, e.g. ``oimi analyse``) become ``expectations``."""
     tables = {
+        "expectations": pl.DataFrame(
+            verdicts or [],
+            schema={"expectation": pl.String, "passed": pl.Boolean, "detail": pl.String},
+            orient="row",
+        ),
         "activities": activity_timeline(data),
         "goals": goals(data),
+        "contacts": contacts(data),
+        "proximity": proximity(data),
+        "safety_interventions": safety_interventions(data),
+        "joystick_takeovers": joystick_takeovers(data),
+        "rule_episodes": rule_episodes(data),
         "rules": rules_fired(data),
         "rules_by_activity": rules_by_activity(data),
         "commands": commands(data),
-        "interventions": interventions(data),
-        "safety": safety(data),
         "operator": operator_commands(data),
-        "proximity": proximity(data),
         "robot": robot(data),
         "rejections": rejections(data),
     }
@@ -351,44 +424,86 @@ def session_metrics(data: SessionData) -> SessionMetrics:
     return SessionMetrics(session_id=data.session_id, tables=tables)
 
 
+def _seconds(frame: pl.DataFrame, column: str = "duration") -> float:
+    return frame[column].sum().total_seconds() if frame.height else 0.0
+
+
 def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
     scenario = data.metadata.get("scenario", {})
     work = t["activities"].filter(~pl.col("idle"))
     outcome = t["goals"]["outcome"]
-    nearest = distances(data).group_by("tick").agg(pl.col("distance_m").min())
-    closest = t["proximity"].sort("min_distance_m").head(1)
+    closest = t["proximity"].sort("min_surface_distance_m").head(1)
+    touching = t["contacts"]
+    seed = int(scenario["seed"]) if "seed" in scenario else None
+    params = run_params(data.metadata)
+    verdicts = t["expectations"]["passed"]
     row = {
+        "run": session_run_name(data),
         "session_id": data.session_id,
         "scenario": scenario.get("name", ""),
-        "seed": int(scenario["seed"]) if "seed" in scenario else None,
+        "params": params,
+        **{f"param:{k}": v for k, v in sorted(data.metadata.get("variation", {}).items())},
+        "seed": seed,
         "duration_s": (end_ms(data) + data.tick_ms) / 1000,
         "damaged": data.recovery is not None,
+        "passed": bool(verdicts.all()) if verdicts.len() else None,
+        "expectations_passed": int(verdicts.sum()),
+        "expectations_failed": int((~verdicts).sum()),
         "activities_started": work.height,
         "activities_completed": int((work["outcome"] == "completed").sum()),
         "activities_interrupted": int((work["outcome"] == "interrupted").sum()),
         "goals_reached": int((outcome == "reached").sum()),
         "goals_failed": int((outcome == "failed").sum()),
         "goals_interrupted": int((outcome == "interrupted").sum()),
-        "rules_fired": int(t["rules"]["fired"].sum()),
-        "commands": int(t["commands"]["commands"].sum()),
-        "interventions": t["interventions"].height,
-        "intervention_s": t["interventions"]["duration"].sum().total_seconds()
-        if t["interventions"].height
-        else 0.0,
-        "operator_commands": t["operator"].height,
-        "safety_interventions": t["safety"].height,
-        "protective_stops": int(t["safety"]["stop"].sum()),
+        "contacts": touching.height,
+        "robot_initiated_contacts": int((touching["initiator"] == "robot").sum()),
+        "max_closing_speed_mps": float(touching["closing_speed_mps"].max() or 0.0),
+        "contact_s": _seconds(touching),
         "closest_human": closest["human"].item() if closest.height else None,
-        "min_distance_m": closest["min_distance_m"].item() if closest.height else None,
-        **nearest.select(*_zone_seconds(data.tick_ms)).row(0, named=True),
-        **t["robot"].row(0, named=True),
+        "min_surface_distance_m": closest["min_surface_distance_m"].item()
+        if closest.height
+        else None,
+        **{
+            f"{zone}_s": float(t["proximity"][f"{zone}_s"].sum())
+            for zone in ("intimate", "personal")
+        },
+        "safety_interventions": t["safety_interventions"].height,
+        "protective_stops": int(t["safety_interventions"]["zones"].str.contains("stop").sum()),
+        "safety_intervention_s": _seconds(t["safety_interventions"]),
+        "rule_episodes": t["rule_episodes"].height,
+        "joystick_takeovers": t["joystick_takeovers"].height,
+        "joystick_s": _seconds(t["joystick_takeovers"]),
+        "operator_commands": t["operator"].height,
+        **t["robot"].drop("contact_ticks").row(0, named=True),
         "rejected_inputs": int(t["rejections"]["count"].sum()),
     }
     return pl.DataFrame(
         [row],
         schema_overrides={
             "seed": pl.Int64,
-            "min_distance_m": pl.Float64,
+            "min_surface_distance_m": pl.Float64,
             "closest_human": pl.String,
+            "passed": pl.Boolean,
         },
     )
+
+
+def run_params(metadata: dict[str, dict[str, str]]) -> str:
+    """The run's parameter overrides as ``key=value,...`` (sorted; empty for none)."""
+    return ",".join(f"{k}={v}" for k, v in sorted(metadata.get("variation", {}).items()))
+
+
+def session_run_name(data: SessionData) -> str:
+    """:func:`run_name` of a recorded session (its scenario file's stem, overrides and seed)."""
+    scenario = data.metadata.get("scenario", {})
+    stem = scenario.get("file", "").removesuffix(".toml") or scenario.get("name", "")
+    seed = int(scenario["seed"]) if "seed" in scenario else None
+    return run_name(stem or data.session_id, run_params(data.metadata), seed)
+
+
+def run_name(scenario: str, params: str, seed: int | None) -> str:
+    """The one name of a run everywhere (batch files, comparison rows, report pages):
+    ``STEM[-KEY=VALUE,...]-sSEED`` with the scenario file's stem, as ``oimi batch`` names its
+    recordings (``scenarios.batch.spec.task_name``, which hashes untidy overrides)."""
+    middle = f"-{params}" if params else ""
+    return f"{scenario}{middle}-s{seed if seed is not None else 0}"

@@ -16,33 +16,40 @@ import polars as pl
 
 from analysis.dataset import build_dataset, recordings, safe_name
 from analysis.load import AnalysisWarning, SessionData
-from analysis.metrics import SessionMetrics
+from analysis.metrics import SessionMetrics, Verdicts
 from analysis.report import transposed, write_comparison_report, write_session_report
 from oimi.paths import check_output
+from pipeline.errors import LocatedError
+from recorder.reader import open_recording
+from replay.rebuild import rebuilt_session
+from scenarios.expectations import Tracker
 
 SESSION_TABLES = (
+    "expectations",
+    "contacts",
+    "proximity",
+    "safety_interventions",
+    "joystick_takeovers",
     "activities",
     "goals",
+    "rule_episodes",
     "rules",
-    "rules_by_activity",
     "commands",
-    "interventions",
-    "safety",
     "operator",
-    "proximity",
     "rejections",
 )
 
 COMPARISON_COLUMNS = (
-    "session_id",
+    "run",
+    "passed",
     "duration_s",
-    "activities_completed",
+    "contacts",
+    "robot_initiated_contacts",
+    "max_closing_speed_mps",
+    "min_surface_distance_m",
+    "safety_interventions",
     "goals_reached",
-    "rules_fired",
-    "interventions",
-    "min_distance_m",
-    "max_speed_mps",
-    "rejected_inputs",
+    "rule_episodes",
 )
 """What the printed comparison shows (the files hold every column)."""
 
@@ -70,7 +77,10 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", AnalysisWarning)
         dataset = build_dataset(
-            files, folder=None if args.out is None or single else args.out, on_session=on_session
+            files,
+            folder=None if args.out is None or single else args.out,
+            on_session=on_session,
+            verdicts=recorded_verdicts,
         )
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
@@ -84,16 +94,31 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def recorded_verdicts(path: Path) -> Verdicts | None:
+    """The expectations of the recording's attached scenario, checked against its messages
+    (the verdicts ``oimi run`` printed, which the recording does not hold), streamed;
+    None when the recording has no loadable scenario."""
+    recording = open_recording(path)
+    try:
+        with rebuilt_session(recording) as session:
+            tracker = Tracker(session.scenario)
+    except LocatedError:
+        return None
+    for message in recording.iter_messages(Tracker.TOPICS):
+        tracker.record(message.topic, message.time_ns, message.decoded())
+    return [(v.name, v.ok, v.detail) for v in tracker.verdicts()]
+
+
 def _table_config() -> pl.Config:
     return pl.Config(
         tbl_rows=40,
         tbl_cols=-1,
-        tbl_width_chars=160,
+        tbl_width_chars=240,
         tbl_hide_dataframe_shape=True,
         tbl_hide_column_data_types=True,
         tbl_formatting="ASCII_MARKDOWN",
         float_precision=3,
-        fmt_str_lengths=40,
+        fmt_str_lengths=60,
     )
 
 

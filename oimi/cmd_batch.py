@@ -19,6 +19,9 @@ from pathlib import Path
 import msgspec
 import polars as pl
 
+from analysis.compare import group_runs
+from analysis.dataset import build_dataset
+from analysis.report import write_comparison_report
 from oimi import console
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.paths import check_output
@@ -43,6 +46,20 @@ from scenarios.batch.tasks import ResultRow, finished_row, run_task
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"
 REPLAY_RESULTS = "replay.csv"
+REPORT = "report"
+"""The comparison page's folder inside ``--out`` (``report/index.html``)."""
+GROUP_COLUMNS = (
+    "scenario",
+    "params",
+    "runs",
+    "pass rate",
+    "contacts mean",
+    "robot_initiated_contacts mean",
+    "min_surface_distance_m mean",
+    "min_surface_distance_m min",
+    "max_speed_mps mean",
+)
+"""What the printed comparison shows (``report/groups.csv`` holds every aggregate)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -175,8 +192,38 @@ def report(rows: Sequence[ResultRow], out_dir: Path) -> int:
     text = results.summary_text(rows)
     (out_dir / SUMMARY).write_text(text + "\n", encoding="utf-8")
     print(text)
+    index = write_comparison(rows, out_dir / REPORT)
     print("results: " + ", ".join(str(p) for p in [*written, junit]))
+    if index is not None:
+        print(f"comparison: {index}")
     return 0 if all(row.ok for row in rows) else 1
+
+
+def write_comparison(rows: Sequence[ResultRow], folder: Path) -> Path | None:
+    """The comparison page of the batch's recordings (``oimi analyse``'s, verdicts from the
+    runs themselves); prints its groups of scenario × parameters. None without recordings."""
+    recorded = {Path(row.task.out_dir) / row.recording: row for row in rows if row.recording}
+    if not recorded:
+        return None
+
+    def verdicts(path: Path) -> list[tuple[str, bool, str]]:
+        return [(v.name, v.ok, v.detail) for v in recorded[path].result.verdicts]
+
+    dataset = build_dataset(list(recorded), verdicts=verdicts)
+    index = write_comparison_report(dataset.comparison, folder, links={})
+    groups = group_runs(dataset.comparison)
+    with pl.Config(
+        tbl_rows=60,
+        tbl_cols=-1,
+        tbl_width_chars=200,
+        tbl_hide_dataframe_shape=True,
+        tbl_hide_column_data_types=True,
+        tbl_formatting="ASCII_MARKDOWN",
+        float_precision=3,
+        fmt_str_lengths=60,
+    ):
+        print(groups.select(c for c in GROUP_COLUMNS if c in groups.columns))
+    return index
 
 
 class BatchProgress:

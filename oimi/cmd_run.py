@@ -88,10 +88,12 @@ def print_result(result: RunResult) -> None:
     if s.rules_fired:
         fired = ", ".join(f"{rule} x{count}" for rule, count in s.rules_fired.items())
         print(f"  rules fired: {fired}")
-    closest = ", ".join(f"{h} {d:.2f} m" for h, d in s.min_distance_m.items())
+    closest = ", ".join(f"{h} {d:.2f} m" for h, d in s.min_surface_distance_m.items())
     print(
-        f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest {closest or '-'}, "
-        f"{s.contacts} contact ticks, {s.rejected_inputs} rejected inputs"
+        f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest (surface to surface)"
+        f" {closest or '-'}, {s.contact_episodes} contact episodes"
+        f" ({s.robot_initiated_contacts} robot-initiated,"
+        f" fastest closing {s.max_closing_speed_mps:.2f} m/s), {s.rejected_inputs} rejected inputs"
     )
     print(
         f"  safety supervisor: {s.safety_interventions} interventions, "

@@ -26,14 +26,17 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
+from pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
 from scenarios.schema import (
     ActivityCompleted,
     ActivityState,
+    ClosingSpeedAtContact,
     Expectation,
     GoalReached,
     MaxSpeed,
     MinDistance,
     NoRejectedInputs,
+    NoRobotInitiatedContact,
     RobotInArena,
     RuleFired,
     SafetyIntervened,
@@ -62,6 +65,9 @@ class SafetyEpisode(msgspec.Struct, kw_only=True):
 class Tracker:
     """A sink that keeps only the figures the expectations and the summary need."""
 
+    TOPICS = (Topic.WORLD_STATE, Topic.RULE_DECISIONS, Topic.READER_PROGRESS, Topic.LOG)
+    """The topics :meth:`record` reads (what a replayed check needs)."""
+
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.min_distance_m: dict[str, float] = {h.id: math.inf for h in scenario.humans}
@@ -74,6 +80,8 @@ class Tracker:
         self.contacts = 0
         self.safety_episodes: list[SafetyEpisode] = []
         self.last_ms = 0
+        self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz)
+        """Surface distances and contact episodes (the definitions ``oimi analyse`` uses)."""
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         self.last_ms = message.time_ms
@@ -94,6 +102,7 @@ class Tracker:
                 ]
 
     def _world(self, state: WorldState) -> None:
+        self.proximity.update(state)
         robot = state.robot
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         if not speed <= self.max_speed_mps:  # a larger speed, or NaN (which sticks)
@@ -137,6 +146,10 @@ class Tracker:
             if when <= time_ms:
                 state = value
         return state
+
+    def contact_episodes(self, human: str | None = None) -> list[ContactEpisode]:
+        """The contact episodes so far (open ones closed at the last tick seen)."""
+        return [e for e in self.proximity.finish() if human in (None, e.human)]
 
     # --------------------------------------------------------------------- verdicts
 
@@ -222,6 +235,26 @@ class Tracker:
                     f"activity {e.activity} is {e.state} at {_s(when)} s",
                     state == e.state,
                     f"was {state}",
+                )
+            case NoRobotInitiatedContact():
+                episodes = self.contact_episodes(e.human)
+                robot = [c for c in episodes if c.initiator is Initiator.ROBOT]
+                first = robot[0] if robot else None
+                where = f"; first: {first.human} at {first.start_ms / 1000:.2f} s" if first else ""
+                return self._verdict(
+                    e,
+                    f"no robot-initiated contact with {e.human or 'anyone'}",
+                    not robot,
+                    f"{len(robot)} of {len(episodes)} contacts robot-initiated{where}",
+                )
+            case ClosingSpeedAtContact():
+                episodes = self.contact_episodes(e.human)
+                fastest = max((c.closing_speed_mps for c in episodes), default=0.0)
+                return self._verdict(
+                    e,
+                    f"closing speed at contact <= {e.at_most_mps} m/s",
+                    fastest <= e.at_most_mps + 1e-9,
+                    f"{len(episodes)} contacts, fastest {fastest:.3f} m/s",
                 )
         raise AssertionError(f"unhandled expectation {e!r}")
 

@@ -2,14 +2,18 @@
 
 A ``HumanDriver`` knows nothing of pymunk: given where the human and the robot are,
 it returns the velocity (m/s, world frame) for the next tick. Its only randomness
-is the ``random.Random`` it is handed (``wander`` targets), drawn in a fixed order.
+is its own generator, seeded from the ``random.Random`` it is handed (the scenario's
+seeded world stream) and drawn in a fixed order, so each seed gives a different but
+reproducible person: a walking pace per segment (:data:`PACE`), pauses (``wander``
+targets and pause lengths, :data:`PAUSE`), a starting heading, and, while standing,
+where they look (glances towards the robot or elsewhere every :data:`GLANCE_S`).
 """
 
 from __future__ import annotations
 
 import math
 import random
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
 from scenarios.schema import (
     Approach,
@@ -23,6 +27,15 @@ from scenarios.schema import (
 )
 
 Point = tuple[float, float]
+
+PACE: Final = (0.85, 1.1)
+"""A segment's speed is its nominal speed times a factor drawn from this range (then capped
+at the human's ``max_speed_mps``): people do not walk at exactly the scripted speed."""
+PAUSE: Final = (0.5, 1.5)
+"""A ``wander`` pause lasts its ``pause_s`` times a factor drawn from this range."""
+GLANCE_S: Final = (2.0, 6.0)
+"""A standing human looks somewhere new after a time drawn from this range: towards the
+robot half of the time, else up to 90 degrees away from it."""
 
 
 class Arena(NamedTuple):
@@ -39,11 +52,14 @@ class HumanDriver:
     def __init__(self, spec: HumanSpec, *, arena: Arena, rng: random.Random):
         self.spec = spec
         self.arena = arena
-        self.rng = rng
+        self.rng = random.Random(rng.getrandbits(64))
+        """This human's own stream (drawn from the world's at construction, in scenario order)."""
         self.segment: BehaviourSegment = Stand()
         self.left = False
         """True once a ``leave`` segment reached the exit (until another segment starts)."""
-        self.heading_rad = 0.0
+        self.heading_rad = self.rng.uniform(-math.pi, math.pi)
+        self._pace = self.rng.uniform(*PACE)
+        self._glance_ms = 0
         self._timeline = list(spec.behaviour)
         self._starts_ms = [round(segment.at_s * 1000) for segment in self._timeline]
         """When each timeline segment starts, ms (worked out once, checked every tick)."""
@@ -57,6 +73,7 @@ class HumanDriver:
         """Start ``segment`` now (a behaviour event); the human comes back if it had left."""
         self.segment = segment
         self.left = False
+        self._pace = self.rng.uniform(*PACE)
         self._target = None
         self._waypoint = 0
         self._pause_until_ms = 0
@@ -73,13 +90,13 @@ class HumanDriver:
             return (0.0, 0.0)
         segment = self.segment
         speed = segment.speed_mps if segment.speed_mps is not None else self.spec.max_speed_mps
-        speed = min(speed, self.spec.max_speed_mps)
+        speed = min(speed * self._pace, self.spec.max_speed_mps)
         if not (math.isfinite(speed) and speed > 0):  # refused by the loader; never NaN here
             speed = 0.0
         vx, vy = 0.0, 0.0
         match segment:
             case Stand():
-                pass
+                self._glance(position, robot, time_ms)
             case Waypoints(waypoints=points, loop=loop):
                 if self._waypoint < len(points):
                     vx, vy, arrived = _towards(position, points[self._waypoint], speed, dt_s)
@@ -124,8 +141,17 @@ class HumanDriver:
         vx, vy, arrived = _towards(position, self._target, speed, dt_s)
         if arrived:
             self._target = None
-            self._pause_until_ms = time_ms + round(pause_s * 1000)
+            self._pause_until_ms = time_ms + round(pause_s * self.rng.uniform(*PAUSE) * 1000)
         return (vx, vy)
+
+    def _glance(self, position: Point, robot: Point, time_ms: int) -> None:
+        """A standing human's attention: now and then, a look at the robot or away from it."""
+        if time_ms < self._glance_ms:
+            return
+        self._glance_ms = time_ms + round(self.rng.uniform(*GLANCE_S) * 1000)
+        towards = math.atan2(robot[1] - position[1], robot[0] - position[0])
+        away = 0.0 if self.rng.random() < 0.5 else self.rng.uniform(-math.pi / 2, math.pi / 2)
+        self.heading_rad = math.remainder(towards + away, math.tau)
 
     def _inside(self, position: Point, vx: float, vy: float, dt_s: float) -> tuple[float, float]:
         """The velocity, cut so the human's disc does not move further out of the arena."""

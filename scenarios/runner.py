@@ -69,6 +69,12 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     """Episodes in which the safety supervisor limited the robot's velocity."""
     protective_stops: int = 0
     """Those of them that reached the stop zone."""
+    min_surface_distance_m: dict[str, float] = {}
+    """Closest surface-to-surface distance per human (``pipeline.proximity``), m."""
+    contact_episodes: int = 0
+    robot_initiated_contacts: int = 0
+    max_closing_speed_mps: float = 0.0
+    """The fastest a gap closed at the start of a contact episode, m/s."""
 
 
 class RunResult(msgspec.Struct, frozen=True, kw_only=True):
@@ -279,6 +285,10 @@ class Session:
             rejected_inputs=len(t.rejections),
             safety_interventions=len(t.safety_episodes),
             protective_stops=sum(SafetyZone.STOP in e.zones for e in t.safety_episodes),
+            min_surface_distance_m={h: round(d, 4) for h, d in t.proximity.closest_m.items()},
+            contact_episodes=len(episodes := t.contact_episodes()),
+            robot_initiated_contacts=sum(e.initiator == "robot" for e in episodes),
+            max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
 

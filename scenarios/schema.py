@@ -463,6 +463,21 @@ class SafetyIntervened(ExpectSpec, tag="safety_intervened", kw_only=True):
     at_most: int | None = None
 
 
+class NoRobotInitiatedContact(ExpectSpec, tag="no_robot_initiated_contact", kw_only=True):
+    """No contact episode that the robot initiated (``pipeline.proximity``)."""
+
+    human: str | None = None
+    """None: every human."""
+
+
+class ClosingSpeedAtContact(ExpectSpec, tag="closing_speed_at_contact", kw_only=True):
+    """Every contact episode closed the gap at ``at_most_mps`` or less (``pipeline.proximity``)."""
+
+    human: str | None = None
+    """None: every human."""
+    at_most_mps: NonNegative
+
+
 Expectation = (
     GoalReached
     | ActivityCompleted
@@ -473,6 +488,8 @@ Expectation = (
     | RobotInArena
     | ActivityState
     | SafetyIntervened
+    | NoRobotInitiatedContact
+    | ClosingSpeedAtContact
 )
 
 

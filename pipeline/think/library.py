@@ -45,6 +45,10 @@ def _led(r: float, g: float, b: float, *, duration: int, wait_t: int = 0) -> Led
 class KickStarter(Rule):
     """While idle, welcomes a child who comes in front within 2 m with a green glow, once."""
 
+    housekeeping = True
+    """Kept out of the analysis report by default: it keeps the session running, it is not
+    something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
+
     rulecode = rulecodes.KICK_STARTER
     condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
 
@@ -106,6 +110,10 @@ class ObstacleTooClose(Rule):
 class SensorsBlind(Rule):
     """The camera is offline: the robot cannot see a child coming, so it stops moving
     (the block is softened, as for a child too close) until the camera is back."""
+
+    housekeeping = True
+    """Kept out of the analysis report by default: it keeps the session running, it is not
+    something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
 
     rulecode = rulecodes.SENSORS_BLIND
     condition_text = "! {E: camera_offline ()}"
@@ -224,6 +232,10 @@ class BatteryLow(Rule):
 @RULES.register
 class JoystickNote(Rule):
     """Notes in the map when the operator took the robot over with the joystick."""
+
+    housekeeping = True
+    """Kept out of the analysis report by default: it keeps the session running, it is not
+    something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
 
     rulecode = rulecodes.JOYSTICK_NOTE
     condition_text = "! {E: joystick_engaged ()}"

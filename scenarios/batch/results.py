@@ -4,11 +4,14 @@ One row per run, in task order (not finishing order), only scalar columns and
 no wall-clock values, so the same batch gives the same table on any executor:
 
 ``run, scenario, file, seed, params, param:KEY..., ok, passed, failed,
-expect:NAME..., ticks, duration_s, max_speed_mps, min_distance_m,
-min_distance_m:HUMAN..., contacts, rejected_inputs, safety_interventions,
-protective_stops, rules_fired, goals_reached, recording, error``. ``param:`` values
-are the override texts; ``expect:`` and per-human columns are null for runs whose
-scenario has no such expectation or human.
+expect:NAME..., ticks, duration_s, max_speed_mps, min_surface_distance_m,
+min_surface_distance_m:HUMAN..., contacts, robot_initiated_contacts,
+max_closing_speed_mps, rejected_inputs, safety_interventions, protective_stops,
+rules_fired, goals_reached, recording, error``. ``run`` is the one name of a run
+(``STEM[-KEY=VALUE,...]-sSEED``, as ``oimi analyse`` names it); ``param:`` values are
+the override texts; ``expect:`` and per-human columns are null for runs whose scenario
+has no such expectation or human. Distances are surface to surface and contacts are episodes
+(``pipeline.proximity``); ``recording`` is relative to the batch folder.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ def row_columns(row: ResultRow) -> dict[str, Any]:
     s = row.result.summary
     task = row.task
     verdicts = row.result.verdicts
-    closest = min(s.min_distance_m.values(), default=None)
+    closest = min(s.min_surface_distance_m.values(), default=None)
     columns: dict[str, Any] = {
         "run": task.name,
         "scenario": s.scenario,
@@ -48,9 +51,11 @@ def row_columns(row: ResultRow) -> dict[str, Any]:
         "ticks": s.ticks,
         "duration_s": s.duration_s,
         "max_speed_mps": s.max_speed_mps,
-        "min_distance_m": closest,
-        **{f"min_distance_m:{h}": d for h, d in s.min_distance_m.items()},
-        "contacts": s.contacts,
+        "min_surface_distance_m": closest,
+        **{f"min_surface_distance_m:{h}": d for h, d in s.min_surface_distance_m.items()},
+        "contacts": s.contact_episodes,
+        "robot_initiated_contacts": s.robot_initiated_contacts,
+        "max_closing_speed_mps": s.max_closing_speed_mps,
         "rejected_inputs": s.rejected_inputs,
         "safety_interventions": s.safety_interventions,
         "protective_stops": s.protective_stops,
@@ -59,8 +64,6 @@ def row_columns(row: ResultRow) -> dict[str, Any]:
         "recording": row.recording,
         "error": row.error.strip().splitlines()[-1] if row.error.strip() else "",
     }
-    # Later: metrics from ``analysis`` (joystick interventions, time near each human...) would
-    # be added here from the recording, once that package offers per-session figures.
     return columns
 
 

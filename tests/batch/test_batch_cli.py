@@ -46,9 +46,11 @@ def test_pool_and_local_ray_give_identical_tables_and_recordings(tmp_path: Path,
     assert pool["run"].to_list() == [f"{s}-s{n}" for s in ("alpha", "beta") for n in (1, 2, 3)]
     assert pool["ok"].all()
     assert pool.columns[:4] == ["run", "scenario", "file", "seed"]
-    assert {"expect:speed <= 0.5 m/s", "min_distance_m:child", "max_speed_mps"} <= set(pool.columns)
+    assert {"expect:speed <= 0.5 m/s", "min_surface_distance_m:child", "max_speed_mps"} <= set(
+        pool.columns
+    )
     # the seed matters (the child wanders), and each recording is the same on both executors
-    assert pool.filter(pl.col("scenario") == "alpha")["min_distance_m"].n_unique() > 1
+    assert pool.filter(pl.col("scenario") == "alpha")["min_surface_distance_m"].n_unique() > 1
     for name in pool["recording"]:
         assert (tmp_path / "pool" / name).read_bytes() == (tmp_path / "ray" / name).read_bytes()
     assert "batch: 6 runs, 6 passed, 0 failed" in capsys.readouterr().out

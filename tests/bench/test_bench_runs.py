@@ -32,7 +32,7 @@ def test_the_rerun_floor_logs_what_the_recorded_run_logs(tmp_path: Path) -> None
     run_case(TICKS, str(tmp_path), True)
     floor = task_floor(TICKS, str(tmp_path), True)
     logged = rows(tmp_path / "run-rerun.rrd")
-    assert "/world/robot" in logged and "/rules/decisions" in logged
+    assert "/world/robot" in logged and "/rules/chain" in logged
     assert rows(tmp_path / "floor-rerun.rrd") == logged
     mcap = (tmp_path / "run-rerun.mcap").read_bytes()
     assert (tmp_path / "floor-rerun.mcap").read_bytes() == mcap

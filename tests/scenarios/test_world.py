@@ -10,6 +10,7 @@ import pytest
 
 from pipeline.events import encode
 from pipeline.messages import ActuatorOutputs
+from scenarios.humans import PACE
 from scenarios.loader import parse_scenario
 from scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
 from scenarios.world import World, stream_rng
@@ -242,8 +243,11 @@ def test_waypoints_are_walked_in_order_at_the_given_speed():
         " speed_mps = 0.5 },"
         " { at_s = 10.0, kind = 'waypoints', waypoints = [[1.0, 1.0]] }]\n"
     )
-    run(w, STOP, 100)  # 2 s at 0.5 m/s: first corner
-    assert w.human_positions()[0][1:] == pytest.approx((2.0, 1.0))
+    run(w, STOP, 50)  # 1 s at 0.5 m/s times the seeded pace (scenarios.humans.PACE)
+    x, y = w.human_positions()[0][1:]
+    assert 1.0 + 0.5 * PACE[0] - 1e-6 <= x <= 1.0 + 0.5 * PACE[1] + 1e-6 and y == 1.0
+    run(w, STOP, 60, 50)  # 2.2 s: the first corner is behind
+    assert w.human_positions()[0][1] > 1.0
     run(w, STOP, 150, 100)  # 5 s: end of the path, standing
     assert w.human_positions()[0][1:] == pytest.approx((2.0, 2.0))
     run(w, STOP, 400, 250)  # the segment at 10 s walks back

@@ -1,0 +1,139 @@
+"""Peak memory of analysing a long session: a synthetic recording of any length, analysed in a
+fresh process whose peak resident memory is read back (for ``oimi bench``).
+
+The recording has what drives analysis memory: one ``/world/state`` per tick with three
+people (one bumping into the robot every minute), rule decisions every 5 ticks with a rule
+switching on and off, and a ``/safety`` intervention every minute.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Final
+
+import msgspec
+
+from pipeline.events import BodyState, RuleDecision, RuleDecisions, Topic, WorldState
+from pipeline.think import rulecodes
+from recorder.mcap_sink import McapSink
+
+TICK_MS: Final = 20
+SAFETY_SCHEMA: Final = b'{"title": "oimi.SafetyIntervention", "type": "object"}'
+
+
+class MemoryFigure(msgspec.Struct, frozen=True, kw_only=True):
+    """One measurement: a recording of ``hours`` analysed with a peak of ``peak_mb``."""
+
+    hours: float
+    ticks: int
+    file_mb: float
+    peak_mb: float
+    """Peak resident memory of the analysing process (``ru_maxrss``), MB."""
+    baseline_mb: float
+    """Peak of the same process analysing a one-minute recording (imports included), MB."""
+
+
+def add_safety_channel(sink: McapSink) -> None:
+    """Registers ``/safety`` on a sink (the supervisor's topic, which ``Topic`` may lack)."""
+    if Topic.__members__.get("SAFETY") is None:
+        sink._register("/safety", "oimi.SafetyIntervention", SAFETY_SCHEMA)
+
+
+def write_safety(sink: McapSink, time_ms: int, **fields: object) -> None:
+    """One ``/safety`` message (``SafetyIntervention`` as JSON) at ``time_ms``."""
+    message = {"tick": time_ms // TICK_MS, "time_ms": time_ms, **fields}
+    sink._add("/safety", time_ms * 1_000_000, json.dumps(message).encode())
+
+
+def synthetic_recording(path: Path, *, minutes: float) -> int:
+    """Writes a synthetic session of ``minutes`` to ``path``; returns its ticks."""
+    ticks = round(minutes * 60_000 / TICK_MS)
+    metadata = {"scenario": {"name": "synthetic", "seed": "0", "tick_hz": "50"}}
+    with McapSink(path, metadata=metadata, foxglove_every_n_ticks=0) as sink:
+        add_safety_channel(sink)
+        for tick in range(ticks):
+            now = tick * TICK_MS
+            phase = (now % 60_000) / 60_000
+            child_x = 1.5 + 2.0 * abs(math.cos(math.pi * phase))
+            robot = BodyState(id="robot", kind="robot", x_m=1.0, y_m=2.0, radius_m=0.3)
+            humans = (
+                BodyState(id="ada", kind="child", x_m=child_x, y_m=2.0, vx_mps=-0.3, radius_m=0.25),
+                BodyState(id="ben", kind="child", x_m=4.0, y_m=3.0, radius_m=0.25),
+                BodyState(id="tess", kind="therapist", x_m=5.0, y_m=1.0, radius_m=0.3),
+            )
+            touching = ("ada",) if child_x - 1.0 - 0.55 <= 0.0 else ()
+            state = WorldState(
+                tick=tick, time_ms=now, robot=robot, humans=humans, contacts=touching
+            )
+            sink.record(Topic.WORLD_STATE, now * 1_000_000, state)
+            if tick % 5 == 0:
+                decisions = tuple(
+                    RuleDecision(rule=name, rulecode=code, fired=fired)
+                    for name, code, fired in (
+                        ("child_too_close", rulecodes.CHILD_TOO_CLOSE, phase > 0.9),
+                        ("attention_lost", rulecodes.ATTENTION_LOST, False),
+                        ("kick_starter", rulecodes.KICK_STARTER, True),
+                    )
+                )
+                message = RuleDecisions(tick=tick, time_ms=now, decisions=decisions)
+                sink.record(Topic.RULE_DECISIONS, now * 1_000_000, message)
+            if now % 60_000 == 30_000:
+                for offset, phase_name in ((0, "start"), (2_000, "end")):
+                    write_safety(
+                        sink,
+                        now + offset,
+                        phase=phase_name,
+                        source="script",
+                        zone="slow",
+                        human="ada",
+                        surface_distance_m=0.5,
+                        requested=(0.5, 0.0, 0.0),
+                        allowed=(0.2, 0.0, 0.0),
+                    )
+    return ticks
+
+
+_MEASURE: Final = """
+import resource, sys
+from analysis.load import load_session
+from analysis.metrics import session_metrics
+metrics = session_metrics(load_session(sys.argv[1], stream=True))
+assert metrics.summary.height == 1
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+"""
+
+
+def peak_mb(recording: Path) -> float:
+    """Peak resident memory (MB) of a fresh process analysing ``recording``
+    (``load_session(stream=True)`` and ``session_metrics``)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    out = subprocess.run(
+        [sys.executable, "-c", _MEASURE, str(recording)],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def measure_peak_memory(hours: float = 8.0, *, folder: Path | None = None) -> MemoryFigure:
+    """Writes a synthetic recording of ``hours`` and measures analysing it (and a one-minute
+    one, the baseline). This is what ``oimi bench`` reports as analysis memory."""
+    with tempfile.TemporaryDirectory(prefix="oimi-memory-", dir=folder) as temp:
+        long, short = Path(temp) / "long.mcap", Path(temp) / "short.mcap"
+        ticks = synthetic_recording(long, minutes=hours * 60)
+        synthetic_recording(short, minutes=1)
+        return MemoryFigure(
+            hours=hours,
+            ticks=ticks,
+            file_mb=round(long.stat().st_size / 2**20, 1),
+            peak_mb=round(peak_mb(long), 1),
+            baseline_mb=round(peak_mb(short), 1),
+        )

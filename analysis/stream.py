@@ -1,0 +1,288 @@
+"""One streaming pass over a recording, so memory does not grow with the session's length.
+
+The per-tick topics (``/world/state``, ``/rules/decisions``) and ``/safety`` are
+decoded one message at a time and folded into trackers (proximity and contacts
+from ``pipeline.proximity``, rule episodes, the robot's figures, the supervisor's
+interventions); only their results and a decimated sample for the plots (at most
+:data:`MAX_SAMPLES` ticks) are kept. The light topics (progress, operator,
+joystick, actuator commands, log) are loaded as tables by ``analysis.load``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from typing import Final
+
+import msgspec
+import polars as pl
+
+from pipeline.events import RuleDecisions, Topic, WorldState
+from pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
+
+SAFETY_TOPIC: Final = "/safety"
+"""The safety supervisor's interventions (``SafetyIntervention``), read by name: a recording
+made before the supervisor existed simply has none."""
+
+STREAMED: Final = (Topic.WORLD_STATE.value, Topic.RULE_DECISIONS.value, SAFETY_TOPIC)
+"""Topics folded message by message (never held as tables)."""
+
+MAX_SAMPLES: Final = 4000
+"""Ticks kept for the plots: every tick of a short session, evenly thinned beyond."""
+
+
+class SafetyRecord(msgspec.Struct, kw_only=True):
+    """The fields of a ``/safety`` message that analysis reads (others are ignored)."""
+
+    tick: int
+    time_ms: int
+    phase: str
+    source: str = ""
+    zone: str = ""
+    human: str = ""
+    surface_distance_m: float | None = None
+    requested: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    allowed: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+class RuleEpisodes:
+    """A rule's firing episodes: from the first evaluation that fired to the first that did not
+    (decisions are recorded when the chain runs; a rule's result holds until the next)."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[str, int, int, int | None, int]] = []
+        """(rule, rulecode, start_ms, end_ms or None while open, evaluations fired)."""
+        self.evaluated: dict[str, int] = {}
+        self._open: dict[str, int] = {}
+
+    def update(self, message: RuleDecisions) -> None:
+        seen = set()
+        for d in message.decisions:
+            seen.add(d.rule)
+            self.evaluated[d.rule] = self.evaluated.get(d.rule, 0) + 1
+            index = self._open.get(d.rule)
+            if d.fired and index is None:
+                self._open[d.rule] = len(self.rows)
+                self.rows.append((d.rule, d.rulecode, message.time_ms, None, 1))
+            elif d.fired and index is not None:
+                rule, code, start, end, count = self.rows[index]
+                self.rows[index] = (rule, code, start, end, count + 1)
+            elif index is not None:
+                self._close(d.rule, message.time_ms)
+        for rule in [r for r in self._open if r not in seen]:  # removed from the chain
+            self._close(rule, message.time_ms)
+
+    def _close(self, rule: str, time_ms: int) -> None:
+        index = self._open.pop(rule)
+        name, code, start, _, count = self.rows[index]
+        self.rows[index] = (name, code, start, time_ms, count)
+
+    def frame(self) -> pl.DataFrame:
+        return pl.DataFrame(
+            self.rows,
+            schema={
+                "rule": pl.String,
+                "rulecode": pl.Int64,
+                "started_ms": pl.Int64,
+                "ended_ms": pl.Int64,
+                "evaluations_fired": pl.Int64,
+            },
+            orient="row",
+        )
+
+
+class Intervention(msgspec.Struct, kw_only=True):
+    """One safety intervention being gathered from its ``/safety`` messages."""
+
+    started_ms: int
+    ended_ms: int | None = None
+    source: str
+    zones: list[str]
+    humans: list[str]
+    min_surface_distance_m: float | None
+    requested_mps: float
+    allowed_mps: float
+    changes: int = 0
+
+
+class SafetyEpisodes:
+    """The supervisor's interventions, each from its ``start`` to its ``end`` message."""
+
+    def __init__(self) -> None:
+        self.episodes: list[Intervention] = []
+        self._open: Intervention | None = None
+
+    def update(self, r: SafetyRecord) -> None:
+        requested = math.hypot(r.requested[0], r.requested[1])
+        o = self._open
+        if r.phase == "start" or o is None:
+            o = self._open = Intervention(
+                started_ms=r.time_ms,
+                source=r.source,
+                zones=[r.zone],
+                humans=[r.human] if r.human else [],
+                min_surface_distance_m=r.surface_distance_m,
+                requested_mps=requested,
+                allowed_mps=math.hypot(r.allowed[0], r.allowed[1]),
+            )
+            self.episodes.append(o)
+        else:
+            o.changes += r.phase == "change"
+            if r.zone and r.zone not in o.zones:
+                o.zones.append(r.zone)
+            if r.human and r.human not in o.humans:
+                o.humans.append(r.human)
+            if r.surface_distance_m is not None:
+                low = o.min_surface_distance_m
+                o.min_surface_distance_m = (
+                    min(low, r.surface_distance_m) if low is not None else r.surface_distance_m
+                )
+            o.requested_mps = max(o.requested_mps, requested)
+        if r.phase == "end":
+            o.ended_ms = r.time_ms
+            self._open = None
+
+    def frame(self, end_ms: int) -> pl.DataFrame:
+        """One row per intervention (one still open ends at ``end_ms``)."""
+        rows = [
+            {
+                **msgspec.structs.asdict(e),
+                "ended_ms": e.ended_ms if e.ended_ms is not None else end_ms,
+                "zones": " → ".join(e.zones),
+                "humans": ", ".join(e.humans),
+            }
+            for e in self.episodes
+        ]
+        schema = {
+            "started_ms": pl.Int64,
+            "ended_ms": pl.Int64,
+            "source": pl.String,
+            "zones": pl.String,
+            "humans": pl.String,
+            "min_surface_distance_m": pl.Float64,
+            "requested_mps": pl.Float64,
+            "allowed_mps": pl.Float64,
+            "changes": pl.Int64,
+        }
+        return pl.DataFrame(rows, schema=schema) if rows else pl.DataFrame(schema=schema)
+
+
+class Samples:
+    """Per-tick positions and surface distances, thinned to at most :data:`MAX_SAMPLES` ticks
+    (every other kept tick is dropped and the stride doubled when full)."""
+
+    def __init__(self) -> None:
+        self.stride = 1
+        self.ticks: list[list[tuple[int, str, str, float, float, float | None]]] = []
+        self._seen = 0
+
+    def update(self, state: WorldState) -> None:
+        index, self._seen = self._seen, self._seen + 1
+        if index % self.stride:
+            return
+        robot = state.robot
+        rows = [(state.time_ms, "robot", "robot", robot.x_m, robot.y_m, None)]
+        rows += [
+            (state.time_ms, h.id, h.kind, h.x_m, h.y_m, surface_distance(robot, h))
+            for h in state.humans
+        ]
+        self.ticks.append(rows)
+        if len(self.ticks) > MAX_SAMPLES:
+            self.ticks = self.ticks[::2]
+            self.stride *= 2
+
+    def frame(self) -> pl.DataFrame:
+        return pl.DataFrame(
+            [row for rows in self.ticks for row in rows],
+            schema={
+                "time_ms": pl.Int64,
+                "id": pl.String,
+                "kind": pl.String,
+                "x_m": pl.Float64,
+                "y_m": pl.Float64,
+                "surface_distance_m": pl.Float64,
+            },
+            orient="row",
+        )
+
+
+class RobotFigures:
+    """Distance travelled, speeds and contact ticks, accumulated tick by tick."""
+
+    def __init__(self) -> None:
+        self.distance_m = 0.0
+        self.max_speed_mps = 0.0
+        self.speed_sum = 0.0
+        self.ticks = 0
+        self.contact_ticks = 0
+        self._last: tuple[float, float] | None = None
+
+    def update(self, state: WorldState) -> None:
+        robot = state.robot
+        if self._last is not None:
+            self.distance_m += math.hypot(robot.x_m - self._last[0], robot.y_m - self._last[1])
+        self._last = (robot.x_m, robot.y_m)
+        speed = math.hypot(robot.vx_mps, robot.vy_mps)
+        self.max_speed_mps = max(self.max_speed_mps, speed)
+        self.speed_sum += speed
+        self.ticks += 1
+        self.contact_ticks += len(state.contacts)
+
+
+class Streamed(msgspec.Struct, kw_only=True, dict=True):
+    """What the streaming pass kept of one recording."""
+
+    tick_ms: int
+    proximity: ProximityTracker
+    contacts: list[ContactEpisode]
+    rules: RuleEpisodes
+    safety: SafetyEpisodes
+    samples: Samples
+    robot: RobotFigures
+    last_ms: int
+    world_ticks: int
+
+
+class StreamFolder:
+    """Folds streamed messages as the scan yields them; :meth:`result` when the scan ends."""
+
+    def __init__(self, *, tick_ms: int) -> None:
+        self.tick_ms = tick_ms
+        self.proximity = ProximityTracker(tick_ms=tick_ms)
+        self.rules = RuleEpisodes()
+        self.safety = SafetyEpisodes()
+        self.samples = Samples()
+        self.robot = RobotFigures()
+        self.last_ms = 0
+        self._world = msgspec.json.Decoder(WorldState)
+        self._decisions = msgspec.json.Decoder(RuleDecisions)
+        self._safety = msgspec.json.Decoder(SafetyRecord)
+
+    def add(self, topic: str, data: bytes) -> None:
+        if topic == Topic.WORLD_STATE:
+            state = self._world.decode(data)
+            self.proximity.update(state)
+            self.samples.update(state)
+            self.robot.update(state)
+            self.last_ms = max(self.last_ms, state.time_ms)
+        elif topic == Topic.RULE_DECISIONS:
+            message = self._decisions.decode(data)
+            self.rules.update(message)
+            self.last_ms = max(self.last_ms, message.time_ms)
+        elif topic == SAFETY_TOPIC:
+            # a /safety message of another shape is not an intervention we can read
+            with contextlib.suppress(msgspec.DecodeError):
+                self.safety.update(self._safety.decode(data))
+
+    def result(self) -> Streamed:
+        return Streamed(
+            tick_ms=self.tick_ms,
+            proximity=self.proximity,
+            contacts=self.proximity.finish(),
+            rules=self.rules,
+            safety=self.safety,
+            samples=self.samples,
+            robot=self.robot,
+            last_ms=self.last_ms,
+            world_ticks=self.robot.ticks,
+        )

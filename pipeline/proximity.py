@@ -1,0 +1,177 @@
+"""Surface distances, proxemic zones and contact episodes between the robot and each human.
+
+The one definition shared by ``oimi run``'s summary and expectations
+(``scenarios.expectations``) and by ``oimi analyse`` (``analysis``): both feed
+:class:`ProximityTracker` one ``/world/state`` message per tick. It lives in
+``pipeline`` because it is pure geometry on ``pipeline.events`` messages, which
+every other package may import (``pipeline`` itself imports none of them).
+
+Distances are surface to surface: the centres' distance less both radii (the
+radii are the recorded ``BodyState.radius_m``), so touching is 0 m and bodies
+pressed into each other are slightly negative.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from typing import Final
+
+import msgspec
+
+from pipeline.events import BodyState, WorldState
+
+ZONES_M: Final = (
+    ("contact", -math.inf, 0.0),
+    ("intimate", 0.0, 0.45),
+    ("personal", 0.45, 1.2),
+    ("social", 1.2, 3.6),
+    ("public", 3.6, math.inf),
+)
+"""Hall's proxemic zones on the surface distance, ``(name, from, to)`` with ``from < d <= to``
+for contact and ``from <= d < to`` for the others (m)."""
+
+ZONE_NAMES: Final = tuple(name for name, _, _ in ZONES_M)
+
+MERGE_MS: Final = 200
+"""Contacts separated by less than this are one episode (bodies bounce apart for a tick)."""
+
+
+class Initiator(enum.StrEnum):
+    """Who closed the gap at the start of a contact."""
+
+    ROBOT = "robot"
+    """The robot moved towards the person faster than the person moved towards it."""
+    PERSON = "person"
+    """The person moved towards the robot at least as fast (a standing robot never initiates)."""
+
+
+def surface_distance(robot: BodyState, human: BodyState) -> float:
+    """Surface-to-surface distance, m (negative when the bodies overlap)."""
+    centres = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
+    return centres - robot.radius_m - human.radius_m
+
+
+def zone_of(distance_m: float) -> str:
+    """The :data:`ZONES_M` name of a surface distance."""
+    if distance_m <= 0.0:
+        return "contact"
+    for name, low, high in ZONES_M[1:]:
+        if low <= distance_m < high:
+            return name
+    return "public"
+
+
+def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:
+    """``(robot towards human, human towards robot)``, m/s: each body's velocity projected on
+    the line between the centres (positive = closing the gap)."""
+    dx, dy = human.x_m - robot.x_m, human.y_m - robot.y_m
+    norm = math.hypot(dx, dy)
+    if norm == 0.0:
+        return (0.0, 0.0)
+    ux, uy = dx / norm, dy / norm
+    return (robot.vx_mps * ux + robot.vy_mps * uy, -(human.vx_mps * ux + human.vy_mps * uy))
+
+
+class ContactEpisode(msgspec.Struct, frozen=True, kw_only=True):
+    """One contact between the robot and a person, from first touch to separation."""
+
+    human: str
+    kind: str
+    start_ms: int
+    end_ms: int
+    """When the bodies were last in contact, plus one tick."""
+    robot_speed_mps: float
+    """The robot's speed towards the person just before contact (m/s, negative = away)."""
+    person_speed_mps: float
+    """The person's speed towards the robot just before contact (m/s)."""
+    initiator: Initiator
+    min_surface_distance_m: float
+    """The deepest the bodies were pressed into each other during the episode (<= 0)."""
+
+    @property
+    def duration_ms(self) -> int:
+        return self.end_ms - self.start_ms
+
+    @property
+    def closing_speed_mps(self) -> float:
+        """The speed at which the gap closed just before contact (both speeds summed)."""
+        return self.robot_speed_mps + self.person_speed_mps
+
+
+class _Open(msgspec.Struct, kw_only=True):
+    episode: ContactEpisode
+    last_ms: int
+    deepest: float
+
+
+class ProximityTracker:
+    """Per human: closest surface distance, time in each zone, and contact episodes.
+
+    Feed it every ``WorldState`` in order (:meth:`update`), then :meth:`finish`;
+    memory is one entry per human plus the episodes found.
+    """
+
+    def __init__(self, *, tick_ms: int) -> None:
+        self.tick_ms = tick_ms
+        self.kinds: dict[str, str] = {}
+        self.closest_m: dict[str, float] = {}
+        self.closest_at_ms: dict[str, int] = {}
+        self.zone_ms: dict[str, dict[str, int]] = {}
+        self.episodes: list[ContactEpisode] = []
+        self._open: dict[str, _Open] = {}
+        self._previous: dict[str, tuple[BodyState, BodyState]] = {}
+        self._last_ms = 0
+
+    def update(self, state: WorldState) -> None:
+        robot, now = state.robot, state.time_ms
+        self._last_ms = now
+        for human in state.humans:
+            who = human.id
+            self.kinds.setdefault(who, human.kind)
+            distance = surface_distance(robot, human)
+            if distance < self.closest_m.get(who, math.inf):
+                self.closest_m[who], self.closest_at_ms[who] = distance, now
+            zones = self.zone_ms.setdefault(who, dict.fromkeys(ZONE_NAMES, 0))
+            zones[zone_of(distance)] += self.tick_ms
+            touching = distance <= 0.0 or who in state.contacts
+            if touching:
+                self._touch(who, human, robot, now, distance)
+            elif (open_ := self._open.get(who)) and now - open_.last_ms > MERGE_MS:
+                self._close(who)
+            self._previous[who] = (robot, human)
+
+    def _touch(self, who: str, human: BodyState, robot: BodyState, now: int, d: float) -> None:
+        if (open_ := self._open.get(who)) is not None:
+            open_.last_ms, open_.deepest = now, min(open_.deepest, d)
+            return
+        before_robot, before_human = self._previous.get(who, (robot, human))
+        robot_speed, person_speed = approach_speeds(before_robot, before_human)
+        initiator = Initiator.ROBOT if robot_speed > person_speed else Initiator.PERSON
+        episode = ContactEpisode(
+            human=who,
+            kind=human.kind,
+            start_ms=now,
+            end_ms=now + self.tick_ms,
+            robot_speed_mps=round(robot_speed, 4),
+            person_speed_mps=round(person_speed, 4),
+            initiator=initiator,
+            min_surface_distance_m=round(d, 4),
+        )
+        self._open[who] = _Open(episode=episode, last_ms=now, deepest=d)
+
+    def _closed(self, open_: _Open) -> ContactEpisode:
+        return msgspec.structs.replace(
+            open_.episode,
+            end_ms=open_.last_ms + self.tick_ms,
+            min_surface_distance_m=round(open_.deepest, 4),
+        )
+
+    def _close(self, who: str) -> None:
+        self.episodes.append(self._closed(self._open.pop(who)))
+
+    def finish(self) -> list[ContactEpisode]:
+        """Every episode so far in start order, those still open ending at the last tick seen
+        (they stay open: more updates may follow)."""
+        ongoing = [self._closed(self._open[who]) for who in sorted(self._open)]
+        return sorted([*self.episodes, *ongoing], key=lambda e: (e.start_ms, e.human))
