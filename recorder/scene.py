@@ -34,3 +34,24 @@ class SceneGeometry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     width_m: float
     height_m: float
     obstacles: tuple[ObstacleGeometry, ...] = ()
+
+
+class SafetyZones(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """The safety supervisor's zones around a person, as surface-to-surface distances (m).
+
+    Drawn by the Rerun sink as rings around each person at their radius plus each
+    distance: the robot's body crossing a ring puts it in that zone.
+    """
+
+    stop_m: float = 0.15
+    """Closer than this, the robot stops."""
+    slow_m: float = 0.5
+    """Closer than this, the robot slows down."""
+
+    def acting(self, gap_m: float) -> str | None:
+        """The zone a surface distance ``gap_m`` falls in: ``stop``, ``slow`` or None."""
+        if gap_m <= self.stop_m:
+            return "stop"
+        if gap_m <= self.slow_m:
+            return "slow"
+        return None
