@@ -36,6 +36,12 @@ ANALYTICS_OFF_VARIABLE: Final = "CI"
 other switch but ``rerun analytics disable``, which is persistent and left to the user."""
 ANALYTICS_FORCE_VARIABLE: Final = "FORCE_RERUN_ANALYTICS"
 """Overrides the above in Rerun; removed from the viewer's environment."""
+DEAD_PROXY: Final = "http://127.0.0.1:9"
+"""Where the viewer's own HTTP requests (its update check) are sent: a loopback port
+nothing serves, so they fail on this machine. Rerun's HTTP client honours the usual
+proxy variables; loopback (its gRPC server, the recording) is exempt."""
+PROXY_VARIABLES: Final = ("HTTPS_PROXY", "https_proxy", "HTTP_PROXY", "http_proxy", "ALL_PROXY")
+NO_PROXY: Final = "127.0.0.1,localhost,::1"
 SUFFIXES: Final = (".mcap", ".rrd")
 
 
@@ -146,10 +152,16 @@ def viewer_command(rrd: Path, *, port: int | None, web: bool, web_port: int) -> 
     return [*command, str(rrd)]
 
 
-def viewer_environment(environ: Mapping[str, str]) -> dict[str, str]:
-    """The viewer's environment: ours, with Rerun's analytics off (this process only)."""
+def viewer_environment(environ: Mapping[str, str], *, web: bool = False) -> dict[str, str]:
+    """The viewer's environment: ours, with Rerun's analytics off and its HTTP requests
+    sent to :data:`DEAD_PROXY` (this process only). With ``web``, Rerun logs warnings only:
+    its address of the unguarded page is not printed."""
     env = {k: v for k, v in environ.items() if k != ANALYTICS_FORCE_VARIABLE}
     env.setdefault(ANALYTICS_OFF_VARIABLE, "1")
+    env.update(dict.fromkeys(PROXY_VARIABLES, DEAD_PROXY))
+    env["NO_PROXY"] = env["no_proxy"] = NO_PROXY
+    if web:
+        env.setdefault("RUST_LOG", "warn")
     return env
 
 
@@ -175,7 +187,8 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
         print(f"Rerun viewer on {rrd.name} (gRPC on {BIND_ADDRESS}:{port or DEFAULT_GRPC_PORT})")
     sys.stdout.flush()
     try:
-        status = subprocess.run(command, env=viewer_environment(os.environ), check=False)
+        environment = viewer_environment(os.environ, web=web)
+        status = subprocess.run(command, env=environment, check=False)
     except OSError as error:
         print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
         return EXIT_FAILED

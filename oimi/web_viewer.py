@@ -14,12 +14,16 @@ from __future__ import annotations
 
 import re
 import threading
+import time
+import urllib.error
 import urllib.parse
 import urllib.request
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Final
 
 LOOPBACK: Final = "127.0.0.1"
+START_S: Final = 30.0
+"""How long a request waits for Rerun's server to start listening."""
 FORWARDED: Final = ("/re_viewer.js", "/re_viewer_bg.wasm", "/favicon.svg", "/favicon.ico")
 """The viewer's own files, forwarded from Rerun's loopback server."""
 
@@ -111,12 +115,24 @@ class PrivateViewer(ThreadingHTTPServer):
         """A file of Rerun's server (the page patched), fetched once from loopback."""
         with self.lock:
             if path not in self.cache:
-                with urllib.request.urlopen(self.assets + path, timeout=30) as response:
-                    body = response.read()
+                body = self._fetch(path)
                 if path == "/index.html":
                     body = private_page(body.decode("utf-8")).encode("utf-8")
                 self.cache[path] = body
             return self.cache[path]
+
+    def _fetch(self, path: str) -> bytes:
+        """``path`` from Rerun's server, waiting up to :data:`START_S` for it to listen."""
+        deadline = time.monotonic() + START_S
+        while True:
+            try:
+                with urllib.request.urlopen(self.assets + path, timeout=START_S) as response:
+                    return response.read()
+            except urllib.error.URLError as error:
+                refused = isinstance(error.reason, ConnectionRefusedError)
+                if not refused or time.monotonic() > deadline:
+                    raise
+                time.sleep(0.1)
 
     def start(self) -> threading.Thread:
         """Serve in a background thread until :meth:`shutdown`."""
