@@ -67,6 +67,7 @@ def led_rgb(led: tuple[float, float, float]) -> RGB:
     return (r, g, b)
 
 
+DIM: Final = 0.5
 _HUES: Final = (
     (15, "red"),
     (40, "orange"),
@@ -81,7 +82,8 @@ _HUES: Final = (
 
 
 def colour_name(led: tuple[float, float, float]) -> str:
-    """A plain name for an LED colour: ``off``, ``white``, ``grey``, ``yellow``..."""
+    """A plain name for an LED colour: ``off``, ``white``, ``grey``, ``yellow``...,
+    ``dim orange`` when no channel reaches :data:`DIM`."""
     r, g, b = (min(max(c, 0.0), 1.0) for c in led)
     hue, lightness, saturation = colorsys.rgb_to_hls(r, g, b)
     if max(r, g, b) < 0.05:
@@ -89,7 +91,8 @@ def colour_name(led: tuple[float, float, float]) -> str:
     if saturation < 0.2 or max(r, g, b) - min(r, g, b) < 0.1:
         return "white" if lightness > 0.75 else "grey"
     degrees = hue * 360
-    return next(name for limit, name in _HUES if degrees < limit)
+    name = next(name for limit, name in _HUES if degrees < limit)
+    return name if max(r, g, b) >= DIM else f"dim {name}"
 
 
 def hex_colour(rgb: RGB) -> str:

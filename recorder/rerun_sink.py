@@ -69,7 +69,7 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
     bounds = None
     if scene is not None:
         bounds = rrb.VisualBounds2D(
-            x_range=[-0.5, scene.width_m + 0.3], y_range=[-scene.height_m - 0.5, 0.3]
+            x_range=[-0.5, scene.width_m + 0.3], y_range=[-scene.height_m - 0.3, 0.5]
         )
     hidden = [
         rrb.encodings.TimelineColumn(name, visible=False) for name in ("sim_time", "tick")
@@ -225,7 +225,7 @@ class RerunSink:
         log("world/robot/name", _name_tag("robot", palette.colour("arena")), static=True)
         log(
             "world/robot/led",
-            rr.LineStrips2D.from_fields(radii=0.03, draw_order=_RING),
+            rr.LineStrips2D.from_fields(radii=0.045, draw_order=_RING),
             static=True,
         )
         log(
@@ -417,7 +417,7 @@ class RerunSink:
         buffer(
             "world/robot/led",
             rr.LineStrips2D,
-            strips=_ring(robot.x_m, robot.y_m, r * 0.8),
+            strips=_ring(robot.x_m, robot.y_m, r * 0.72),
             colors=led,
         )
         heading = _xy(1.2 * r * math.cos(robot.theta_rad), 1.2 * r * math.sin(robot.theta_rad))

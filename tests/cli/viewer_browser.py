@@ -2,7 +2,7 @@
 Playwright) with every request logged and every request off this machine refused.
 
 Also makes the screenshots of docs/recording.md:
-``PYTHONPATH=$PWD python tests/cli/viewer_browser.py SESSION.mcap docs/``.
+``PYTHONPATH=$PWD python tests/cli/viewer_browser.py SESSION.mcap docs/ [FRACTION]``.
 """
 
 from __future__ import annotations
@@ -150,8 +150,9 @@ def wait_until(page, condition, *, seconds: float) -> bool:
     return True
 
 
-def screenshots(recording: Path, folder: Path) -> list[Path]:
-    """The default view of ``recording`` at 1280x800 and 1920x1080, once it has loaded."""
+def screenshots(recording: Path, folder: Path, at: float | None = None) -> list[Path]:
+    """The default view of ``recording`` at 1280x800 and 1920x1080, once it has loaded;
+    at its end, or at the fraction ``at`` of its time bar."""
     made = []
     with viewing(recording) as (url, _, _):
         for width, height in ((1280, 800), (1920, 1080)):
@@ -160,7 +161,11 @@ def screenshots(recording: Path, folder: Path) -> list[Path]:
                 wait_until(
                     page, lambda: any("ReadMessages" in r for r in traffic.requests), seconds=90
                 )
-                page.wait_for_timeout(15_000)  # let the software renderer draw the recording
+                page.wait_for_timeout(10_000)  # let the software renderer draw the recording
+                if at is not None:  # click the collapsed time panel's bar
+                    left, right = 290, width - 205
+                    page.mouse.click(left + at * (right - left), height - 14)
+                page.wait_for_timeout(8_000)
                 path = folder / f"rerun-view-{width}x{height}.png"
                 page.screenshot(path=str(path))
                 made.append(path)
@@ -169,5 +174,6 @@ def screenshots(recording: Path, folder: Path) -> list[Path]:
 
 if __name__ == "__main__":
     signal.signal(signal.SIGINT, signal.default_int_handler)
-    for made in screenshots(Path(sys.argv[1]), Path(sys.argv[2])):
+    at = float(sys.argv[3]) if len(sys.argv) > 3 else None
+    for made in screenshots(Path(sys.argv[1]), Path(sys.argv[2]), at):
         print(made)

@@ -146,3 +146,18 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
         "   0.06 s  contact: robot touches child1",
         "   0.16 s  contact with child1 ended",
     ]
+
+
+@pytest.mark.parametrize(
+    ("led", "name"),
+    [
+        ((1.0, 1.0, 0.0), "yellow"),
+        ((1.0, 0.5, 0.0), "orange"),
+        ((0.0, 0.0, 1.0), "blue"),
+        ((1.0, 1.0, 1.0), "white"),
+        ((0.0, 0.0, 0.0), "off"),
+        ((0.4, 0.2, 0.0), "dim orange"),
+    ],
+)
+def test_led_colours_have_plain_names(led: tuple[float, float, float], name: str) -> None:
+    assert palette.colour_name(led) == name
