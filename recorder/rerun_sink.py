@@ -4,8 +4,8 @@ An explicit ``RecordingStream`` (no global state) with a fixed recording id, no
 wall-clock timelines (``log_time``/``log_tick`` off, no recording properties),
 timelines ``sim_time`` (simulated seconds) and ``tick``. Rerun's 2D views point
 y down: world coordinates are drawn with y negated so the arena reads like a map.
-The SDK writing a file sends no usage data (Rerun's analytics live in its viewer:
-``rerun analytics disable``).
+Colours come from :mod:`recorder.palette`. The SDK writing a file sends no usage
+data (the viewer's privacy is ``oimi view``'s: docs/viewer-privacy.md).
 """
 
 from __future__ import annotations
