@@ -2,7 +2,8 @@
 
 ``--save OUT.rrd`` only writes the Rerun recording (no screen needed). Otherwise the
 viewer starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics
-off; ``--web`` serves the web viewer on 127.0.0.1 instead of opening a window. A
+off; ``--web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
+:mod:`oimi.web_viewer` so the page asks nothing of another machine. A
 damaged MCAP (a killed run) is converted up to its damage, and how much was
 recovered is printed. Exit 0 on success, 1 when the viewer cannot run, 2 on a
 missing or unreadable recording.
@@ -13,6 +14,7 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
@@ -21,6 +23,7 @@ from pathlib import Path
 from typing import Final
 
 from oimi.paths import check_output
+from oimi.web_viewer import PrivateViewer
 from recorder.errors import RecordingError
 from recorder.rerun_sink import mcap_to_rrd
 from recorder.rrd import check_rrd
@@ -29,11 +32,18 @@ EXIT_OK, EXIT_FAILED = 0, 1
 BIND_ADDRESS: Final = "127.0.0.1"
 """Every server the viewer opens listens here only (Rerun's own default is 0.0.0.0)."""
 DEFAULT_WEB_PORT: Final = 9090
+DEFAULT_GRPC_PORT: Final = 9876
 ANALYTICS_OFF_VARIABLE: Final = "CI"
 """Rerun 0.41's viewer records no analytics when ``CI`` is set (any value); it has no
 other switch but ``rerun analytics disable``, which is persistent and left to the user."""
 ANALYTICS_FORCE_VARIABLE: Final = "FORCE_RERUN_ANALYTICS"
 """Overrides the above in Rerun; removed from the viewer's environment."""
+DEAD_PROXY: Final = "http://127.0.0.1:9"
+"""Where the viewer's own HTTP requests (its update check) are sent: a loopback port
+nothing serves, so they fail on this machine. Rerun's HTTP client honours the usual
+proxy variables; loopback (its gRPC server, the recording) is exempt."""
+PROXY_VARIABLES: Final = ("HTTPS_PROXY", "https_proxy", "HTTP_PROXY", "http_proxy", "ALL_PROXY")
+NO_PROXY: Final = "127.0.0.1,localhost,::1"
 SUFFIXES: Final = (".mcap", ".rrd")
 
 
@@ -133,38 +143,74 @@ def display_problem(*, web: bool, environ: Mapping[str, str], platform: str) -> 
 
 
 def viewer_command(rrd: Path, *, port: int | None, web: bool, web_port: int) -> list[str]:
-    """The command line that starts Rerun's viewer on ``rrd``, bound to 127.0.0.1."""
+    """The command line that starts Rerun's viewer on ``rrd``, bound to 127.0.0.1.
+
+    With ``web``, Rerun only serves (``--serve-web``: its viewer's files on ``web_port``
+    and the recording over gRPC) and opens no browser on its own page."""
     command = [sys.executable, "-m", "rerun_cli", "--bind", BIND_ADDRESS]
     if port is not None:
         command += ["--port", str(port)]
     if web:
-        command += ["--web-viewer", "--web-viewer-port", str(web_port)]
+        command += ["--serve-web", "--web-viewer-port", str(web_port)]
+    else:
+        command += ["--hide-welcome-screen"]
     return [*command, str(rrd)]
 
 
-def viewer_environment(environ: Mapping[str, str]) -> dict[str, str]:
-    """The viewer's environment: ours, with Rerun's analytics off (this process only)."""
+def viewer_environment(environ: Mapping[str, str], *, web: bool = False) -> dict[str, str]:
+    """The viewer's environment: ours, with Rerun's analytics off and its HTTP requests
+    sent to :data:`DEAD_PROXY` (this process only). With ``web``, Rerun logs warnings only:
+    its address of the unguarded page is not printed."""
     env = {k: v for k, v in environ.items() if k != ANALYTICS_FORCE_VARIABLE}
     env.setdefault(ANALYTICS_OFF_VARIABLE, "1")
+    env.update(dict.fromkeys(PROXY_VARIABLES, DEAD_PROXY))
+    env["NO_PROXY"] = env["no_proxy"] = NO_PROXY
+    if web:
+        env.setdefault("RUST_LOG", "warn")
     return env
 
 
 def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> int:
     """Run the viewer on ``rrd`` until it is closed (or Ctrl-C)."""
-    command = viewer_command(rrd, port=port, web=web, web_port=web_port)
+    page = None
     if web:
-        print(f"web viewer: http://{BIND_ADDRESS}:{web_port} (Ctrl-C to stop)")
+        grpc = port or DEFAULT_GRPC_PORT
+        assets = _free_port()
+        try:
+            page = PrivateViewer(web_port, assets_port=assets, grpc_port=grpc)
+        except OSError as error:
+            print(
+                f"oimi view: cannot listen on {BIND_ADDRESS}:{web_port}: {error.strerror}",
+                file=sys.stderr,
+            )
+            return EXIT_FAILED
+        command = viewer_command(rrd, port=grpc, web=True, web_port=assets)
+        page.start()
+        print(f"web viewer: {page.url} (Ctrl-C to stop)")
     else:
-        print(f"Rerun viewer on {rrd.name} (gRPC on {BIND_ADDRESS}:{port or 9876})")
+        command = viewer_command(rrd, port=port, web=False, web_port=web_port)
+        print(f"Rerun viewer on {rrd.name} (gRPC on {BIND_ADDRESS}:{port or DEFAULT_GRPC_PORT})")
     sys.stdout.flush()
     try:
-        status = subprocess.run(command, env=viewer_environment(os.environ), check=False)
+        environment = viewer_environment(os.environ, web=web)
+        status = subprocess.run(command, env=environment, check=False)
     except OSError as error:
         print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
         return EXIT_FAILED
+    finally:
+        if page is not None:
+            page.shutdown()
+            page.server_close()
     if status.returncode != 0:
         print(
             f"oimi view: the Rerun viewer exited with status {status.returncode}", file=sys.stderr
         )
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _free_port() -> int:
+    """A loopback port nobody listens on now (for Rerun's internal file server)."""
+    with socket.socket() as probe:
+        probe.bind((BIND_ADDRESS, 0))
+        return probe.getsockname()[1]

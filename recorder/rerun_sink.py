@@ -4,17 +4,15 @@ An explicit ``RecordingStream`` (no global state) with a fixed recording id, no
 wall-clock timelines (``log_time``/``log_tick`` off, no recording properties),
 timelines ``sim_time`` (simulated seconds) and ``tick``. Rerun's 2D views point
 y down: world coordinates are drawn with y negated so the arena reads like a map.
-The SDK writing a file sends no usage data (Rerun's analytics live in its viewer:
-``rerun analytics disable``).
+Colours come from :mod:`recorder.palette`. The SDK writing a file sends no usage
+data (the viewer's privacy is ``oimi view``'s: docs/security.md#viewer-privacy).
 """
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from collections import deque
-from collections.abc import Sequence
 from typing import Final
 
 import msgspec
@@ -31,57 +29,86 @@ from pipeline.events import (
     ReaderProgress,
     RuleChainState,
     RuleDecisions,
+    SafetyIntervention,
+    SafetyPhase,
+    SafetyZone,
     Topic,
     WorldState,
 )
 from pipeline.messages import InstructionBlock
+from recorder import palette
 from recorder.errors import RecordingError
+from recorder.palette import RGB
 from recorder.reader import Recording, open_recording
-from recorder.scene import SceneGeometry
+from recorder.scene import SafetyZones, SceneGeometry
 from recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
 
 DEFAULT_WORLD_EVERY_N_TICKS: Final = 5
-DEFAULT_TRAIL_SAMPLES: Final = 200
-"""Points kept in each trail (at every 5th tick of 50 Hz: the last 20 s)."""
+DEFAULT_TRAIL_SAMPLES: Final = 100
+"""Points kept in each trail (at every 5th tick of 50 Hz: the last 10 s)."""
 TRAIL_EVERY_N_SAMPLES: Final = 5
 """Trails are re-drawn every 5th world sample (1 Hz at the defaults)."""
 COLUMN_BATCH_SAMPLES: Final = 250
 """World samples buffered before they are sent as columns (50 s at the defaults)."""
-
-_RGB = tuple[int, int, int]
-LED_OFF: Final[_RGB] = (140, 140, 140)
-ROLE_COLORS: Final[dict[str, _RGB]] = {"child": (255, 153, 26), "therapist": (51, 115, 242)}
-OTHER_HUMAN: Final[_RGB] = (153, 77, 204)
-OBJECT: Final[_RGB] = (51, 204, 77)
-OBSTACLE: Final[_RGB] = (128, 102, 77)
-ARENA: Final[_RGB] = (90, 90, 102)
+DEFAULT_ZONES: Final = SafetyZones()
+"""Drawn until the safety supervisor's own configuration reaches the sink."""
+RING_POINTS: Final = 48
+NAME_OFFSET_M: Final = 0.22
+TRAIL_ALPHA: Final = 150
+"""Trails are drawn translucent, in their body's colour."""
 LEVELS: Final[dict[Level, str]] = {
     Level.DEBUG: rr.TextLogLevel.DEBUG,
     Level.INFO: rr.TextLogLevel.INFO,
     Level.WARNING: rr.TextLogLevel.WARN,
     Level.ERROR: rr.TextLogLevel.ERROR,
 }
+# draw order, back to front
+_GRID, _ARENA, _TRAIL, _ZONE, _BODY, _RING, _INK, _MARK = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0
 
 
-def default_blueprint() -> rrb.Blueprint:
-    """The world on the left, plots in the middle, the script and text logs on the right."""
+def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
+    """The room gets most of the screen; beside it what the robot does now, the LED band,
+    distances and speed, then the texts in tabs. Side panels collapsed, time in seconds."""
+    bounds = None
+    if scene is not None:
+        bounds = rrb.VisualBounds2D(
+            x_range=[-0.5, scene.width_m + 0.3], y_range=[-scene.height_m - 0.3, 0.5]
+        )
+    hidden = [
+        rrb.encodings.TimelineColumn(name, visible=False) for name in ("sim_time", "tick")
+    ]  # each line starts with its time in seconds instead
+    texts = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["body"])
+    leveled = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["loglevel", "body"])
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(name="World", origin="world"),
+            rrb.Spatial2DView(name="Room", origin="world", visual_bounds=bounds),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="Speed (m/s)", origin="robot/speed"),
-                rrb.TimeSeriesView(name="Distance to humans (m)", origin="robot/distance"),
-                rrb.TimeSeriesView(name="LEDs", origin="robot/leds"),
+                rrb.TextDocumentView(name="Now", origin="script/block"),
+                rrb.TimeSeriesView(
+                    name="LED colour",
+                    origin="robot/led",
+                    axis_y=rrb.ScalarAxis(range=(0.0, 2.0), zoom_lock=True),
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                rrb.TimeSeriesView(name="Gap to each person (m)", origin="robot/distance"),
+                rrb.TimeSeriesView(
+                    name="Speed (m/s)",
+                    origin="robot/speed",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                rrb.Tabs(
+                    rrb.TextLogView(name="Script", origin="script/events", columns=texts),
+                    rrb.TextLogView(name="Sound", origin="robot/audio", columns=texts),
+                    rrb.TextLogView(name="Rules", origin="rules", columns=texts),
+                    rrb.TextLogView(name="Log", origin="log", columns=leveled),
+                ),
+                row_shares=[1.2, 0.8, 1.6, 1.2, 2.4],
             ),
-            rrb.Vertical(
-                rrb.TextDocumentView(name="Current block", origin="script/block"),
-                rrb.TextLogView(name="Script", origin="script/events"),
-                rrb.TextLogView(name="Rules fired", origin="rules"),
-                rrb.TextLogView(name="Log", origin="log"),
-            ),
-            column_shares=[3, 2, 2],
+            column_shares=[3, 2],
         ),
-        collapse_panels=False,
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline="sim_time"),
     )
 
 
@@ -89,11 +116,59 @@ def _xy(x_m: float, y_m: float) -> list[float]:
     return [x_m, -y_m]
 
 
+def _ring(x_m: float, y_m: float, radius_m: float) -> list[list[float]]:
+    step = 2 * math.pi / RING_POINTS
+    return [
+        _xy(x_m + radius_m * math.cos(i * step), y_m + radius_m * math.sin(i * step))
+        for i in range(RING_POINTS + 1)
+    ]
+
+
+def zone_rings(
+    person: BodyState, zones: SafetyZones, acting: str | None
+) -> tuple[list[list[list[float]]], list[RGB], list[float]]:
+    """The slow and stop rings around ``person`` (its radius plus each zone's distance):
+    line strips, colours, line radii. The ``acting`` zone (``slow``, ``stop`` or None)
+    is drawn bold; the others thin and dimmed."""
+    strips, colours, widths = [], [], []
+    for name, distance in (("slow", zones.slow_m), ("stop", zones.stop_m)):
+        strips.append(_ring(person.x_m, person.y_m, person.radius_m + distance))
+        full = palette.colour(f"{name}-zone")
+        bold = name == acting
+        colours.append(full if bold else tuple(c * 3 // 5 for c in full))
+        widths.append(0.035 if bold else 0.01)
+    return strips, colours, widths
+
+
+def _drawn_zone(zone: SafetyZone | str | None) -> str | None:
+    """The ring a supervisor zone lights: ``stop`` and ``slow`` their own (``stale`` and
+    ``blind`` caps are not about one person's distance: no ring)."""
+    return str(zone) if zone in (SafetyZone.STOP, SafetyZone.SLOW) else None
+
+
+def _under(body: BodyState) -> list[float]:
+    """Where a body's name goes: just below it, clear of its disc."""
+    return _xy(body.x_m, body.y_m - body.radius_m - NAME_OFFSET_M)
+
+
+def _name_tag(name: str, colour: RGB) -> rr.Points2D:
+    """The static part of a name tag: a label on an invisible point."""
+    return rr.Points2D.from_fields(
+        radii=0.001, colors=colour, labels=name, show_labels=True, draw_order=_MARK
+    )
+
+
+def _gap(a: BodyState, b: BodyState) -> float:
+    """Surface-to-surface distance of two discs, m (negative when they overlap)."""
+    return math.hypot(a.x_m - b.x_m, a.y_m - b.y_m) - a.radius_m - b.radius_m
+
+
 class RerunSink:
     """Logs events to an ``.rrd`` file; a context manager; a ``Sink``.
 
     World entities, trails, speed and distances are logged every
     ``world_every_n_ticks`` ticks (and on the first world state); texts as they come.
+    ``zones`` are the safety zones drawn around each person.
     """
 
     def __init__(
@@ -105,6 +180,7 @@ class RerunSink:
         application_id: str = "oimi",
         world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
         trail_samples: int = DEFAULT_TRAIL_SAMPLES,
+        zones: SafetyZones | None = None,
     ) -> None:
         if world_every_n_ticks < 1:
             raise RecordingError(f"world_every_n_ticks must be >= 1, got {world_every_n_ticks}")
@@ -112,21 +188,29 @@ class RerunSink:
             application_id, recording_id=recording_id, send_properties=False
         )
         try:
-            self._rec.save(os.fspath(path), default_blueprint=default_blueprint())
+            self._rec.save(os.fspath(path), default_blueprint=default_blueprint(scene))
         except Exception as error:  # the bindings raise plain exceptions on IO errors
             raise RecordingError(f"cannot write: {error}", source=os.fspath(path)) from None
         self._rec.set_log_time_enabled(False)
         self._rec.set_log_tick_enabled(False)
         self._every = world_every_n_ticks
         self._trail_samples = trail_samples
+        self._zones = zones or (scene.safety if scene is not None else DEFAULT_ZONES)
+        self._acting: dict[str, str | None] | None = None
+        """The zone the supervisor acts in per person, from ``/safety`` (None: no such topic
+        seen yet, so the zone is read off the geometry)."""
         self._trails: dict[str, deque[list[float]]] = {}
         self._tick: int | None = None
         self._seconds = 0.0
         self._time_set = False
         self._samples = 0
-        self._series: dict[str, _Series] = {}
+        self._series: dict[tuple[str, type], _Series] = {}
+        self._seen: set[str] = set()
+        self._kinds: dict[str, int] = {}
+        """People seen of each kind: their colours go by order of appearance."""
         self._led: tuple[float, float, float] | None = None
         self._audio: str | None = None
+        self._contacts: tuple[str, ...] = ()
         self._place: tuple[str, str, str, str] | None = None
         self._block: InstructionBlock | None = None
         self._closed = False
@@ -138,23 +222,69 @@ class RerunSink:
 
     def _static(self) -> None:
         log = self._rec.log
-        log("robot/speed", rr.SeriesLines(names="speed", widths=2), static=True)
+        robot = palette.colour("robot")
+        log("robot/speed", rr.SeriesLines(names="speed", colors=robot, widths=2), static=True)
         log(
-            "robot/leds",
-            rr.SeriesLines(colors=[(255, 0, 0), (0, 200, 0), (0, 0, 255)], names=["r", "g", "b"]),
+            "robot/led",
+            rr.SeriesPoints(names="LED", markers="square", marker_sizes=7),
+            static=True,
+        )
+        log(
+            "world/robot",
+            rr.Points2D.from_fields(colors=robot, draw_order=_BODY),
+            static=True,
+        )
+        log("world/robot/name", _name_tag("robot", palette.colour("arena")), static=True)
+        log(
+            "world/robot/led",
+            rr.LineStrips2D.from_fields(radii=0.045, draw_order=_RING),
+            static=True,
+        )
+        log(
+            "world/robot/heading",
+            rr.Arrows2D.from_fields(
+                colors=palette.colour("robot-ink"), radii=0.025, draw_order=_INK
+            ),
+            static=True,
+        )
+        log(
+            "world/robot/trail",
+            rr.LineStrips2D.from_fields(
+                colors=(*robot, TRAIL_ALPHA), radii=0.012, draw_order=_TRAIL
+            ),
             static=True,
         )
 
     def _scene(self, scene: SceneGeometry) -> None:
         log = self._rec.log
+        width, height = scene.width_m, scene.height_m
+        grid = [[_xy(x, 0.0), _xy(x, height)] for x in range(math.floor(width) + 1)]
+        grid += [[_xy(0.0, y), _xy(width, y)] for y in range(math.floor(height) + 1)]
+        log(
+            "world/grid",
+            rr.LineStrips2D(grid, colors=palette.colour("grid"), radii=0.006, draw_order=_GRID),
+            static=True,
+        )
+        marks = [(x, -0.25) for x in range(math.floor(width) + 1)]
+        log(
+            "world/grid/metres",
+            rr.Points2D(
+                [_xy(x, y) for x, y in marks],
+                radii=0.01,
+                colors=palette.colour("grid"),
+                labels=[f"{x} m" for x, _ in marks],
+                show_labels=True,
+                draw_order=_GRID,
+            ),
+            static=True,
+        )
         log(
             "world/arena",
-            rr.Boxes2D(
-                mins=[0.0, -scene.height_m],
-                sizes=[scene.width_m, scene.height_m],
-                colors=ARENA,
-                labels="arena",
-                show_labels=False,
+            rr.LineStrips2D(
+                [[_xy(0, 0), _xy(width, 0), _xy(width, height), _xy(0, height), _xy(0, 0)]],
+                colors=palette.colour("arena"),
+                radii=0.02,
+                draw_order=_ARENA,
             ),
             static=True,
         )
@@ -165,8 +295,10 @@ class RerunSink:
                 "world/obstacles/boxes",
                 rr.LineStrips2D(
                     [_box_outline(o.x_m, o.y_m, o.width_m, o.height_m, o.angle_rad) for o in boxes],
-                    colors=OBSTACLE,
+                    colors=palette.colour("obstacle"),
+                    radii=0.02,
                     labels=[o.kind or o.id for o in boxes],
+                    draw_order=_ARENA,
                 ),
                 static=True,
             )
@@ -176,11 +308,56 @@ class RerunSink:
                 rr.Points2D(
                     [_xy(o.x_m, o.y_m) for o in discs],
                     radii=[o.radius_m for o in discs],
-                    colors=OBSTACLE,
+                    colors=palette.colour("obstacle"),
                     labels=[o.kind or o.id for o in discs],
+                    draw_order=_ARENA,
                 ),
                 static=True,
             )
+
+    def _first_sight(self, body: BodyState, *, person: bool) -> None:
+        """Static colours and labels of a person or object, logged when it first appears."""
+        if body.id in self._seen:
+            return
+        self._seen.add(body.id)
+        log = self._rec.log
+        if not person:
+            log(
+                f"world/objects/{body.id}",
+                rr.Points2D.from_fields(
+                    colors=palette.colour("object"),
+                    labels=body.id,
+                    show_labels=True,
+                    draw_order=_BODY,
+                ),
+                static=True,
+            )
+            return
+        index = self._kinds[body.kind] = self._kinds.get(body.kind, -1) + 1
+        colour = palette.person_colour(body.kind, index)
+        log(
+            f"world/humans/{body.id}",
+            rr.Points2D.from_fields(colors=colour, draw_order=_BODY),
+            static=True,
+        )
+        log(f"world/humans/{body.id}/name", _name_tag(body.id, colour), static=True)
+        log(
+            f"world/humans/{body.id}/trail",
+            rr.LineStrips2D.from_fields(
+                colors=(*colour, TRAIL_ALPHA), radii=0.012, draw_order=_TRAIL
+            ),
+            static=True,
+        )
+        log(
+            f"world/humans/{body.id}/zones",
+            rr.LineStrips2D.from_fields(draw_order=_ZONE),
+            static=True,
+        )
+        log(
+            f"robot/distance/{body.id}",
+            rr.SeriesLines(names=body.id, colors=colour, widths=2),
+            static=True,
+        )
 
     # --------------------------------------------------------------- Sink
 
@@ -206,12 +383,20 @@ class RerunSink:
                 self._chain(message)
             case LogEntries():
                 self._log(message)
+            case SafetyIntervention():
+                acting = self._acting if self._acting is not None else {}
+                self._acting = acting
+                acting[message.human] = None if message.phase == SafetyPhase.END else message.zone
             case OperatorCommands():
                 for c in message.commands:
                     text = f"#{c.id} {c.verb.value} {c.activity}".rstrip()
-                    self._emit("log/operator", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+                    self._say("log/operator", text)
             case _:
                 pass
+
+    def _say(self, path: str, text: str, level: str = rr.TextLogLevel.INFO) -> None:
+        """A line of text, led by the simulated time in seconds (the views show no time column)."""
+        self._emit(path, rr.TextLog(f"{self._seconds:7.2f} s  {text}", level=level))
 
     def _emit(self, path: str, archetype: rr.AsComponents) -> None:
         """Log now, at the current tick (the timelines are set lazily, once per tick)."""
@@ -222,83 +407,124 @@ class RerunSink:
         self._rec.log(path, archetype)
 
     def _world(self, state: WorldState) -> None:
-        if state.led != self._led:
+        changed = state.led != self._led
+        if changed:
             self._led = state.led
-            self._emit("robot/leds", rr.Scalars(list(state.led)))
         if state.audio != self._audio:
             self._audio = state.audio
-            text = f"playing {state.audio}" if state.audio else "silence"
-            self._emit("robot/audio", rr.TextLog(text))
+            text = f"sound {state.audio}" if state.audio else "sound off"
+            self._say("robot/audio", text)
+        if state.contacts != self._contacts:
+            self._contact(state)
         if self._samples and state.tick % self._every:
+            if changed:
+                self._buffer("robot/led", rr.SeriesPoints, colors=palette.led_rgb(state.led))
+                self._buffer("robot/led", rr.Scalars, scalars=1.0)
             return
         self._samples += 1
         robot = state.robot
-        r = robot.radius_m or 0.2
-        colour = LED_OFF if not any(state.led) else tuple(round(255 * c) for c in state.led)
-        heading = _xy(1.5 * r * math.cos(robot.theta_rad), 1.5 * r * math.sin(robot.theta_rad))
+        r = robot.radius_m
+        led = palette.led_rgb(state.led)
+        self._buffer("robot/led", rr.SeriesPoints, colors=led)
+        self._buffer("robot/led", rr.Scalars, scalars=1.0)
         buffer = self._buffer
+        buffer("world/robot", rr.Points2D, positions=_xy(robot.x_m, robot.y_m), radii=r)
+        buffer("world/robot/name", rr.Points2D, positions=_under(robot))
         buffer(
-            "world/robot",
-            rr.Points2D,
-            positions=_xy(robot.x_m, robot.y_m),
-            radii=r,
-            colors=colour,
-            labels="robot",
+            "world/robot/led",
+            rr.LineStrips2D,
+            strips=_ring(robot.x_m, robot.y_m, r * 0.72),
+            colors=led,
         )
+        heading = _xy(1.2 * r * math.cos(robot.theta_rad), 1.2 * r * math.sin(robot.theta_rad))
         buffer(
             "world/robot/heading",
             rr.Arrows2D,
             origins=_xy(robot.x_m, robot.y_m),
             vectors=heading,
-            colors=(255, 255, 255),
         )
         buffer("robot/speed", rr.Scalars, scalars=math.hypot(robot.vx_mps, robot.vy_mps))
-        self._trail("world/robot/trail", robot, colour)
+        self._trail("world/robot/trail", robot)
+        if state.contacts:
+            self._contact(state)
         for human in state.humans:
-            colour_h = ROLE_COLORS.get(human.kind, OTHER_HUMAN)
-            buffer(
-                f"world/humans/{human.id}",
-                rr.Points2D,
-                positions=_xy(human.x_m, human.y_m),
-                radii=human.radius_m or 0.2,
-                colors=colour_h,
-                labels=human.id,
+            self._first_sight(human, person=True)
+            path = f"world/humans/{human.id}"
+            buffer(path, rr.Points2D, positions=_xy(human.x_m, human.y_m), radii=human.radius_m)
+            buffer(f"{path}/name", rr.Points2D, positions=_under(human))
+            gap = _gap(robot, human)
+            acting = (
+                self._zones.acting(gap)
+                if self._acting is None
+                else _drawn_zone(self._acting.get(human.id))
             )
-            distance = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
-            buffer(f"robot/distance/{human.id}", rr.Scalars, scalars=distance)
-            self._trail(f"world/humans/{human.id}/trail", human, colour_h)
+            strips, colours, widths = zone_rings(human, self._zones, acting)
+            self._buffer(
+                f"{path}/zones", rr.LineStrips2D, 2, strips=strips, colors=colours, radii=widths
+            )
+            buffer(f"robot/distance/{human.id}", rr.Scalars, scalars=max(gap, 0.0))
+            self._trail(f"{path}/trail", human)
         for obj in state.objects:
+            self._first_sight(obj, person=False)
             buffer(
                 f"world/objects/{obj.id}",
                 rr.Points2D,
                 positions=_xy(obj.x_m, obj.y_m),
                 radii=obj.radius_m or 0.1,
-                colors=OBJECT,
-                labels=obj.id,
             )
         if self._samples % COLUMN_BATCH_SAMPLES == 0:
             self._send_columns()
 
-    def _buffer(self, path: str, archetype: type, **fields: object) -> None:
-        """Queue one row of a sampled entity; rows go to Rerun in batches (``send_columns``)."""
-        series = self._series.get(path)
+    def _contact(self, state: WorldState) -> None:
+        """Contact episodes: a mark between the robot and each person it touches, and a
+        warning in the log when an episode starts or ends."""
+        started = [h for h in state.contacts if h not in self._contacts]
+        ended = [h for h in self._contacts if h not in state.contacts]
+        self._contacts = state.contacts
+        for human_id in started:
+            self._say(
+                "log/safety", f"contact: robot touches {human_id}", level=rr.TextLogLevel.WARN
+            )
+        for human_id in ended:
+            self._say("log/safety", f"contact with {human_id} ended")
+        robot = state.robot
+        touching = [h for h in state.humans if h.id in state.contacts]
+        if not touching:
+            self._emit("world/contacts", rr.Clear(recursive=False))
+            return
+        self._emit(
+            "world/contacts",
+            rr.Points2D(
+                [_xy((robot.x_m + h.x_m) / 2, (robot.y_m + h.y_m) / 2) for h in touching],
+                radii=0.09,
+                colors=palette.colour("contact"),
+                labels="contact",
+                show_labels=True,
+                draw_order=_MARK,
+            ),
+        )
+
+    def _buffer(self, path: str, archetype: type, count: int = 1, **fields: object) -> None:
+        """Queue one row of a sampled entity (``count`` instances, each field a list of
+        that many when count > 1); rows go to Rerun in batches (``send_columns``)."""
+        series = self._series.get((path, archetype))
         if series is None:
-            series = self._series[path] = _Series(archetype)
-        series.add(self._tick or 0, self._seconds, fields)
+            series = self._series[path, archetype] = _Series(archetype)
+        series.add(self._tick or 0, self._seconds, fields, count)
 
     def _send_columns(self) -> None:
-        for path, series in self._series.items():
+        for (path, _), series in self._series.items():
             if series.ticks:
                 self._rec.send_columns(path, indexes=series.indexes(), columns=series.columns())
                 series.clear()
 
-    def _trail(self, path: str, body: BodyState, colour: Sequence[int]) -> None:
+    def _trail(self, path: str, body: BodyState) -> None:
         trail = self._trails.get(path)
         if trail is None:
             trail = self._trails[path] = deque(maxlen=self._trail_samples)
         trail.append(_xy(body.x_m, body.y_m))
         if len(trail) > 1 and (self._samples - 1) % TRAIL_EVERY_N_SAMPLES == 0:
-            self._emit(path, rr.LineStrips2D([list(trail)], colors=colour, radii=0.02))
+            self._buffer(path, rr.LineStrips2D, strips=list(trail))
 
     def _progress(self, progress: ReaderProgress) -> None:
         place = (progress.activity, progress.goalid, progress.actionid, progress.blockid)
@@ -308,17 +534,14 @@ class RerunSink:
         for item in progress.items:
             where = f" at {item.path}" if item.path else ""
             detail = f": {item.detail}" if item.detail else ""
-            self._emit(
-                "script/events",
-                rr.TextLog(f"{item.kind.value} {item.activity}{where}{detail}", level="INFO"),
-            )
+            self._say("script/events", f"{item.kind.value} {item.activity}{where}{detail}")
 
     def _block_document(self) -> None:
         activity, goal, action, block = self._place or ("", "", "", "")
-        lines = [f"**{activity or '(no activity)'}** `{goal}/{action}/{block}`"]
+        where = f"{goal}/{action}/{block}" if goal else "-"
+        lines = [f"**{activity or '(no activity)'}** · {where}"]
         if self._block is not None:
-            body = json.dumps(json.loads(msgspec.json.encode(self._block)), indent=2)
-            lines += ["", "```json", body, "```"]
+            lines += ["", f"### {block_line(self._block)}"]
         self._emit("script/block", rr.TextDocument("\n".join(lines), media_type="text/markdown"))
 
     def _decisions(self, decisions: RuleDecisions) -> None:
@@ -329,22 +552,19 @@ class RerunSink:
             if d.bindings:
                 parts.append(", ".join(f"{k}={v}" for k, v in d.bindings.items()))
             parts.extend(f"{c.path}: {c.old} -> {c.new}" for c in d.changes)
-            self._emit("rules/decisions", rr.TextLog("; ".join(parts), level="INFO"))
+            self._say("rules/decisions", "; ".join(parts))
 
     def _chain(self, chain: RuleChainState) -> None:
         applied = ", ".join(f"{m.action.name} {m.id}" for m in chain.applied)
         text = f"{applied}; active: {', '.join(chain.active) or '-'}"
         if chain.locked:
             text += " (locked)"
-        self._emit("rules/chain", rr.TextLog(text, level="INFO"))
+        self._say("rules/chain", text)
 
     def _log(self, entries: LogEntries) -> None:
         for e in entries.entries:
             ref = f" [{e.ref}]" if e.ref else ""
-            self._emit(
-                "log",
-                rr.TextLog(f"{e.source}: {e.message}{ref}", level=LEVELS.get(e.level, "INFO")),
-            )
+            self._say("log", f"{e.source}: {e.message}{ref}", level=LEVELS.get(e.level, "INFO"))
 
     # ---------------------------------------------------------- lifecycle
 
@@ -365,19 +585,25 @@ class RerunSink:
 
 
 class _Series:
-    """Buffered rows of one entity: timeline values and per-row component values."""
+    """Buffered rows of one entity and archetype: timeline values and component values."""
 
     def __init__(self, archetype: type) -> None:
         self.archetype = archetype
         self.ticks: list[int] = []
         self.seconds: list[float] = []
+        self.lengths: list[int] = []
         self.fields: dict[str, list[object]] = {}
 
-    def add(self, tick: int, seconds: float, fields: dict[str, object]) -> None:
+    def add(self, tick: int, seconds: float, fields: dict[str, object], count: int) -> None:
         self.ticks.append(tick)
         self.seconds.append(seconds)
+        self.lengths.append(count)
         for name, value in fields.items():
-            self.fields.setdefault(name, []).append(value)
+            column = self.fields.setdefault(name, [])
+            if count == 1:
+                column.append(value)
+            else:
+                column.extend(value)  # type: ignore[call-overload]
 
     def indexes(self) -> list[rr.TimeColumn]:
         return [
@@ -386,11 +612,15 @@ class _Series:
         ]
 
     def columns(self) -> object:
-        return self.archetype.columns(**self.fields)
+        columns = self.archetype.columns(**self.fields)
+        if any(n != 1 for n in self.lengths):
+            columns = columns.partition(self.lengths)
+        return columns
 
     def clear(self) -> None:
         self.ticks.clear()
         self.seconds.clear()
+        self.lengths.clear()
         self.fields.clear()
 
 
@@ -398,6 +628,26 @@ def _box_outline(x: float, y: float, w: float, h: float, angle: float) -> list[l
     c, s = math.cos(angle), math.sin(angle)
     corners = [(-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2), (-w / 2, -h / 2)]
     return [_xy(x + c * dx - s * dy, y + s * dx + c * dy) for dx, dy in corners]
+
+
+def block_line(block: InstructionBlock) -> str:
+    """What a block makes the robot do, in words:
+    ``MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav``."""
+    moves = []
+    for m in block.move:
+        speed = math.hypot(m.v_x, m.v_y)
+        parts = [f"MV {speed:.2f} m/s"] if speed else []
+        if m.v_theta:
+            parts.append(f"turn {m.v_theta:.2f} rad/s")
+        text = " ".join(parts) or "stand still"
+        text += f" for {m.duration / 1000:.1f} s"
+        if m.wait_t:
+            text += f" after {m.wait_t / 1000:.1f} s"
+        moves.append(text)
+    leds = [f"LED {palette.colour_name((x.r, x.g, x.b)) if x.turnas else 'off'}" for x in block.led]
+    sounds = [f"sound {os.path.basename(a.track_path)}" for a in block.audioout]
+    channels = [" then ".join(items) for items in (moves, leds, sounds) if items]
+    return " · ".join(channels) or "nothing"
 
 
 def recording_id_of(metadata: dict[str, dict[str, str]], fallback: str) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 from recorder.errors import RecordingError
 from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from recorder.rerun_sink import RerunSink
-from recorder.scene import ObstacleGeometry, SceneGeometry
+from recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from scenarios.runner import Session
 from scenarios.schema import Scenario
 
@@ -36,6 +36,10 @@ def scene_of(scenario: Scenario) -> SceneGeometry:
                 angle_rad=o.angle_rad,
             )
             for o in world.obstacles
+        ),
+        safety=SafetyZones(
+            stop_m=scenario.robot.safety.stop_distance_m,
+            slow_m=scenario.robot.safety.slow_distance_m,
         ),
     )
 

@@ -159,10 +159,22 @@ def test_the_viewer_is_bound_to_localhost_with_analytics_off(tmp_path: Path) -> 
     assert command[command.index("--bind") + 1] == "127.0.0.1"
     assert command[command.index("--port") + 1] == "9999"
     assert command[command.index("--web-viewer-port") + 1] == "9091"
+    assert "--serve-web" in command and "--web-viewer" not in command  # no browser on Rerun's page
     assert command[-1] == str(tmp_path / "a.rrd")
-    env = cmd_view.viewer_environment({"PATH": "/bin", "FORCE_RERUN_ANALYTICS": "1"})
-    assert env == {"PATH": "/bin", "CI": "1"}
+    env = cmd_view.viewer_environment(
+        {"PATH": "/bin", "FORCE_RERUN_ANALYTICS": "1", "HTTPS_PROXY": "http://proxy.lan:3128"}
+    )
+    assert env["CI"] == "1" and "FORCE_RERUN_ANALYTICS" not in env
     assert cmd_view.viewer_environment({"CI": "true"})["CI"] == "true"
+
+
+def test_the_viewers_own_http_requests_go_to_a_dead_loopback_port() -> None:
+    env = cmd_view.viewer_environment({"HTTPS_PROXY": "http://proxy.lan:3128"})
+    for name in ("HTTPS_PROXY", "https_proxy", "HTTP_PROXY", "http_proxy", "ALL_PROXY"):
+        assert env[name] == "http://127.0.0.1:9", name
+    assert env["NO_PROXY"] == env["no_proxy"] == "127.0.0.1,localhost,::1"
+    assert "RUST_LOG" not in env
+    assert cmd_view.viewer_environment({}, web=True)["RUST_LOG"] == "warn"
 
 
 def test_with_a_display_the_converted_recording_goes_to_the_viewer_then_is_removed(
@@ -225,8 +237,8 @@ def test_the_real_web_viewer_listens_on_127_0_0_1_only_with_analytics_off(
             sockets = listening(parent)
         assert {port for _, _, port in sockets} >= {grpc, web}, sockets
         assert {ip for _, ip, _ in sockets} == {"127.0.0.1"}
-        viewer = psutil.Process(sockets[0][0])
-        assert viewer.environ().get("CI"), "analytics off in the viewer"
+        [viewer] = {pid for pid, _, port in sockets if port == grpc}
+        assert psutil.Process(viewer).environ().get("CI"), "analytics off in the viewer"
     finally:
         stop(parent, process)
 

@@ -208,6 +208,8 @@ def test_the_rrd_holds_the_world_robot_humans_rules_and_log(session_files: Recor
     rows: Counter[str] = Counter()
     for chunk in reader.stream().to_chunks():
         rows[chunk.entity_path] += chunk.num_rows
+        if not chunk.is_static:
+            rows["temporal " + chunk.entity_path] += chunk.num_rows
     for entity in (
         "/world/arena",
         "/world/robot",
@@ -219,4 +221,4 @@ def test_the_rrd_holds_the_world_robot_humans_rules_and_log(session_files: Recor
         "/script/block",
     ):
         assert rows[entity] > 0, entity
-    assert rows["/world/robot"] == 40  # every 5th of 200 ticks
+    assert rows["temporal /world/robot"] == 40  # every 5th of 200 ticks

@@ -326,7 +326,7 @@ function drawWorld() {
   g.strokeStyle = "#889";
   g.lineWidth = 2;
   g.strokeRect(X(0), Y(scene.height_m), scene.width_m * scale, scene.height_m * scale);
-  g.fillStyle = "#c9c2b4";
+  g.fillStyle = paint("obstacle");
   for (const o of scene.obstacles || []) {
     if (o.radius_m > 0) {
       disc(g, X(o.x_m), Y(o.y_m), o.radius_m * scale);
@@ -339,11 +339,13 @@ function drawWorld() {
     }
   }
   for (const o of frame.objects || []) {
-    g.fillStyle = "#8e6bbf";
+    g.fillStyle = paint("object");
     disc(g, X(o.x_m), Y(o.y_m), Math.max(o.radius_m, 0.06) * scale);
   }
+  const seen = {};
   for (const h of frame.humans || []) {
-    g.fillStyle = h.kind === "child" ? "#f29b38" : "#7d8794";
+    const index = (seen[h.kind] = (seen[h.kind] ?? -1) + 1);
+    g.fillStyle = paint(personColour(h.kind, index));
     disc(g, X(h.x_m), Y(h.y_m), Math.max(h.radius_m, 0.15) * scale);
     g.fillStyle = "#333";
     g.font = "12px system-ui";
@@ -352,11 +354,11 @@ function drawWorld() {
   const r = frame.robot;
   const led = rgb(frame.led);
   const radius = Math.max(r.radius_m, 0.2) * scale;
-  g.fillStyle = "#3b4250";
+  g.fillStyle = paint("robot");
   disc(g, X(r.x_m), Y(r.y_m), radius);
   g.fillStyle = led;
   disc(g, X(r.x_m), Y(r.y_m), radius * 0.6);
-  g.strokeStyle = "#fff";
+  g.strokeStyle = paint("robot-ink");
   g.beginPath();
   g.moveTo(X(r.x_m), Y(r.y_m));
   g.lineTo(X(r.x_m) + Math.cos(r.theta_rad) * radius, Y(r.y_m) - Math.sin(r.theta_rad) * radius);
@@ -384,6 +386,20 @@ function disc(g, x, y, radius) {
   g.beginPath();
   g.arc(x, y, radius, 0, 2 * Math.PI);
   g.fill();
+}
+
+/** The palette's name for the index-th person of a kind: person-child, person-child-2...,
+ * person-other for a kind without its own colours (the rule of recorder/palette.py). */
+function personColour(kind, index) {
+  if (!paint(`person-${kind}`)) return "person-other";
+  const shades = [`person-${kind}`];
+  while (paint(`person-${kind}-${shades.length + 1}`)) shades.push(`person-${kind}-${shades.length + 1}`);
+  return shades[index % shades.length];
+}
+
+/** A colour of the shared palette (recorder/palette.py, generated into console.css). */
+function paint(name) {
+  return getComputedStyle(document.documentElement).getPropertyValue(`--oimi-${name}`).trim();
 }
 
 function rgb(c) {

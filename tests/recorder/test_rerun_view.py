@@ -1,0 +1,215 @@
+"""What the Rerun view draws for people: colours from the one palette (the same as the web
+console's), the block in words, safety zones that light up, contact marks, text with seconds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+import pytest
+from recorder_synthetic import SCENE, session, world_state
+from rerun.chunk import RrdReader
+
+from pipeline.events import (
+    BodyState,
+    MotionSource,
+    SafetyIntervention,
+    SafetyPhase,
+    SafetyZone,
+    Topic,
+)
+from pipeline.messages import AudioOut, InstructionBlock, Led, Move
+from recorder import palette
+from recorder.rerun_sink import RerunSink, block_line, zone_rings
+from recorder.scene import SafetyZones
+
+
+def packed(rgb: palette.RGB, alpha: int = 255) -> int:
+    r, g, b = rgb
+    return (r << 24) | (g << 16) | (b << 8) | alpha
+
+
+def rows(path: Path, entity: str, *, static: bool | None = None) -> list[dict]:
+    found = []
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == entity and (static is None or chunk.is_static == static):
+            found += chunk.to_record_batch().to_pylist()
+    return found
+
+
+@pytest.fixture(scope="module")
+def rrd(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("view") / "s.rrd"
+    with RerunSink(path, recording_id="s", scene=SCENE) as sink:
+        for topic, time_ns, event in session(30):
+            sink.record(topic, time_ns, event)
+    return path
+
+
+def test_each_body_has_its_palette_colour_in_the_room_and_in_the_plots(rrd: Path) -> None:
+    child, therapist = palette.person_colour("child"), palette.person_colour("therapist")
+    assert child != therapist
+    for entity, rgb in [
+        ("/world/humans/child1", child),
+        ("/world/humans/therapist1", therapist),
+        ("/world/robot", palette.colour("robot")),
+    ]:
+        [row] = rows(rrd, entity, static=True)
+        assert row["Points2D:colors"] == [packed(rgb)], entity
+    [plot] = rows(rrd, "/robot/distance/child1", static=True)
+    assert plot["SeriesLines:colors"] == [packed(child)]
+    assert plot["SeriesLines:names"] == ["child1"]
+    [plot] = rows(rrd, "/robot/distance/therapist1", static=True)
+    assert plot["SeriesLines:colors"] == [packed(therapist)]
+    [trail] = rows(rrd, "/world/humans/child1/trail", static=True)
+    assert trail["LineStrips2D:colors"][0] >> 8 == packed(child) >> 8
+
+
+def test_the_web_console_uses_the_same_palette() -> None:
+    """console.css carries the generated palette; console.js draws bodies only with it."""
+    text = palette.CONSOLE_CSS.read_text(encoding="utf-8")
+    assert palette.console_block(text) == palette.css()
+    script = (palette.CONSOLE_CSS.parent / "console.js").read_text(encoding="utf-8")
+    for name in ("robot", "robot-ink", "object", "obstacle"):
+        assert f'paint("{name}")' in script
+    assert "paint(personColour(h.kind, index))" in script
+    assert "--oimi-${name}" in script
+
+
+def test_people_of_one_kind_get_the_kinds_shades_in_order_then_cycle() -> None:
+    names = [palette.person_colour_name("child", i) for i in range(4)]
+    assert names == ["person-child", "person-child-2", "person-child-3", "person-child"]
+    assert palette.person_colour_name("visitor", 0) == "person-other"
+    assert len({palette.person_colour("child", i) for i in range(3)}) == 3
+
+
+def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path) -> None:
+    ring = rows(rrd, "/world/robot/led", static=False)
+    colours = {c for row in ring for c in row["LineStrips2D:colors"]}
+    assert colours <= {packed(palette.colour("led-off")), packed((0, 0, 255))}
+    assert rows(rrd, "/world/robot", static=False)
+    assert all("Points2D:colors" not in row for row in rows(rrd, "/world/robot", static=False))
+    band = rows(rrd, "/robot/led", static=False)
+    assert {c for row in band for c in row.get("SeriesPoints:colors") or []} == colours
+
+
+@pytest.mark.parametrize(
+    ("block", "line"),
+    [
+        (
+            InstructionBlock(
+                move=(Move(v_x=0.15, v_y=0.0, v_theta=0.0, wait_t=0, duration=2000),),
+                led=(Led(r=1.0, g=1.0, b=0.0, turnas=1, wait_t=0, duration=2000),),
+                audioout=(AudioOut(track_path="audio/hello.wav", wait_t=0, duration=900),),
+            ),
+            "MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav",
+        ),
+        (
+            InstructionBlock(
+                move=(
+                    Move(v_x=0.0, v_y=0.0, v_theta=0.5, wait_t=500, duration=1000),
+                    Move(v_x=0.0, v_y=0.0, v_theta=0.0, wait_t=0, duration=1000),
+                ),
+                led=(Led(r=1.0, g=1.0, b=1.0, turnas=0, wait_t=0, duration=0),),
+            ),
+            "turn 0.50 rad/s for 1.0 s after 0.5 s then stand still for 1.0 s · LED off",
+        ),
+        (InstructionBlock(), "nothing"),
+    ],
+)
+def test_the_current_block_reads_as_a_line(block: InstructionBlock, line: str) -> None:
+    assert block_line(block) == line
+
+
+def test_zone_rings_surround_the_person_and_the_acting_one_is_bold() -> None:
+    person = BodyState(id="c", kind="child", x_m=2.0, y_m=1.0, radius_m=0.25)
+    zones = SafetyZones(stop_m=0.15, slow_m=0.5)
+    strips, colours, widths = zone_rings(person, zones, None)
+    radii = [max(abs(x - 2.0) for x, _ in strip) for strip in strips]
+    assert radii == pytest.approx([0.75, 0.4])
+    assert widths[0] == widths[1]
+    _, bold_colours, bold_widths = zone_rings(person, zones, "stop")
+    assert bold_widths[1] > bold_widths[0] == widths[0]
+    assert bold_colours[1] == palette.colour("stop-zone") != colours[1]
+    assert zones.acting(0.1) == "stop" and zones.acting(0.3) == "slow"
+    assert zones.acting(0.6) is None
+
+
+def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) -> None:
+    path = tmp_path / "c.rrd"
+    with RerunSink(path, recording_id="c", scene=SCENE) as sink:
+        for tick in range(12):
+            state = world_state(tick)
+            if 3 <= tick < 8:
+                state = msgspec.structs.replace(state, contacts=("child1",))
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, state)
+    marks = sorted(rows(path, "/world/contacts"), key=lambda row: row["tick"])
+    assert [row["tick"] for row in marks] == [3, 5, 8]  # starts, each sample, ends
+    assert marks[0]["Points2D:labels"] == ["contact"]
+    assert marks[1]["Points2D:positions"] == [pytest.approx([2.025, -1.5])]  # robot-child midpoint
+    assert "Clear:is_recursive" in marks[-1] and "Points2D:positions" not in marks[-1]
+    texts = [row["TextLog:text"][0] for row in rows(path, "/log/safety")]
+    assert texts == [
+        "   0.06 s  contact: robot touches child1",
+        "   0.16 s  contact with child1 ended",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("led", "name"),
+    [
+        ((1.0, 1.0, 0.0), "yellow"),
+        ((1.0, 0.5, 0.0), "orange"),
+        ((0.0, 0.0, 1.0), "blue"),
+        ((1.0, 1.0, 1.0), "white"),
+        ((0.0, 0.0, 0.0), "off"),
+        ((0.4, 0.2, 0.0), "dim orange"),
+    ],
+)
+def test_led_colours_have_plain_names(led: tuple[float, float, float], name: str) -> None:
+    assert palette.colour_name(led) == name
+
+
+def test_the_zone_the_supervisor_reports_on_safety_is_the_one_drawn_bold(tmp_path: Path) -> None:
+    """With ``/safety`` in the session, the bold ring is the zone the supervisor acted in
+    (not one guessed from the geometry), and it goes thin again when the episode ends."""
+    path = tmp_path / "z.rrd"
+    far = SafetyZones(stop_m=0.01, slow_m=0.02)  # the geometry alone would light no ring
+    with RerunSink(
+        path, recording_id="z", scene=SCENE, zones=far, world_every_n_ticks=1
+    ) as sink:
+        for tick in range(10):
+            if tick in (2, 6):
+                phase = SafetyPhase.START if tick == 2 else SafetyPhase.END
+                sink.record(
+                    Topic.SAFETY,
+                    tick * 20_000_000,
+                    SafetyIntervention(
+                        tick=tick,
+                        time_ms=tick * 20,
+                        phase=phase,
+                        source=MotionSource.SCRIPT,
+                        zone=SafetyZone.STOP,
+                        human="child1",
+                    ),
+                )
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, world_state(tick))
+    widths = {
+        row["tick"]: row["LineStrips2D:radii"]
+        for row in rows(path, "/world/humans/child1/zones", static=False)
+    }
+    thin = pytest.approx([0.01, 0.01])
+    assert widths[0] == thin and widths[1] == thin
+    assert widths[2][1] > widths[2][0]  # the stop ring, bold while the supervisor acts
+    assert widths[6] == thin
+
+
+def test_the_scene_carries_the_sessions_zones_to_the_view() -> None:
+    from scenarios.recording import scene_of
+    from scenarios.schema import Scenario
+
+    scenario = msgspec.convert(
+        {"name": "z", "robot": {"safety": {"stop_distance_m": 0.2, "slow_distance_m": 0.9}}},
+        Scenario,
+    )
+    assert scene_of(scenario).safety == SafetyZones(stop_m=0.2, slow_m=0.9)
