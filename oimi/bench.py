@@ -197,9 +197,9 @@ def bench_memory(ticks: int) -> Case:
 def bench_conditions(repetitions: int) -> list[Case]:
     from pipeline.messages import Human, WorldMap
     from pipeline.think.conditions import compile_condition
-    from pipeline.think.library import RULES
+    from pipeline.think.library import BUILTIN_RULES
 
-    texts = [cls.condition_text for cls in RULES.codes().values()]
+    texts = [cls.condition_text for cls in BUILTIN_RULES]
     count = 200
     compile_rates = []
     for _ in range(repetitions):

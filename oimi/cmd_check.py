@@ -12,9 +12,9 @@ import sys
 from pathlib import Path
 
 from pipeline.errors import LocatedError
+from pipeline.registries import Registries
 from pipeline.script import ParsedScript, ScriptError
 from pipeline.think.conditions import compile_condition
-from pipeline.think.library import RULES
 from scenarios.activities import check_script_file
 from scenarios.loader import load_scenario
 
@@ -94,7 +94,7 @@ def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
             ("omegarulemessages", script.omegarulemessages),
         )
         for index, message in enumerate(messages)
-        if message.rulecode not in RULES
+        if message.rulecode not in Registries.build().rules
     ]
 
 

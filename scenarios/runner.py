@@ -7,7 +7,6 @@ once. Everything goes to the sinks; a ``Tracker`` checks the expectations.
 
 from __future__ import annotations
 
-import hashlib
 import inspect
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import metadata as package_metadata
@@ -19,12 +18,10 @@ from pipeline.act.limits import RobotLimits
 from pipeline.events import JoystickInput, OperatorCommand, OperatorVerb, SafetyZone, Topic
 from pipeline.loop import Pipeline, PipelineConfig
 from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
-from pipeline.operator.generators import default_catalogue
 from pipeline.operator.handler import GeneratorHandler
+from pipeline.registries import Registries
 from pipeline.sink import FanOut, Sink
 from pipeline.think import library as rule_library
-from pipeline.think.functions import default_registry
-from pipeline.think.library import RULES
 from scenarios.activities import ACTIVITIES, ActivityLibrary
 from scenarios.expectations import Tracker, Verdict
 from scenarios.loader import LoadedScenario, apply_overrides
@@ -114,6 +111,7 @@ class Session:
         self.loaded = loaded
         self.scenario = scenario
         self.tick_ms = scenario.tick_ms
+        self.registries = Registries.build()
         self.library = ActivityLibrary(
             [loaded.source.parent, loaded.source.parent / "activities", ACTIVITIES]
         )
@@ -128,8 +126,9 @@ class Session:
             self.config,
             idle=self.library.idle(),
             resolve=self.library.resolve,
-            handler=GeneratorHandler(default_catalogue(scripts)),
+            handler=GeneratorHandler(self.registries.catalogue(scripts)),
             sink=self.sink,
+            registries=self.registries,
         )
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
@@ -277,8 +276,8 @@ class Session:
             "oimi": {
                 "version": _version(),
                 "format_version": str(FORMAT_VERSION),
-                "rule_registry": _rule_registry_version(),
-                "function_registry": default_registry().version,
+                "rule_registry": self.registries.rules.version,
+                "function_registry": self.registries.functions.version,
             },
             "scenario": {
                 "name": s.name,
@@ -315,13 +314,6 @@ def _version() -> str:
         return package_metadata.version("oimi")
     except package_metadata.PackageNotFoundError:
         return "0+unknown"
-
-
-def _rule_registry_version() -> str:
-    text = ";".join(
-        f"{code}:{cls.__name__}:{cls.condition_text}" for code, cls in RULES.codes().items()
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def library_scenarios() -> list[Path]:
