@@ -17,6 +17,7 @@ from pathlib import Path
 
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
+from oimi.extension_args import extensions_of
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.live.session import LiveSession
 from scenarios.loader import load_scenario
@@ -45,7 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
+    loaded = load_scenario(
+        args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
+    )
     output = args.output or Path("out") / f"{args.scenario.stem}-live.mcap"
     if args.duration_s is not None and not args.duration_s > 0:  # NaN too
         print("oimi serve: --duration-s must be positive", file=sys.stderr)

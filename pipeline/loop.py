@@ -195,6 +195,11 @@ class Pipeline:
         decisions = self.chain.propagate(self.map, now_ms=now_ms)
         if decisions:
             emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+        notes = self.chain.take_notes()
+        if notes:  # rules' messages to generators (thesis 3.2): delivered and logged
+            self._operator_moved = True
+            for line, note in zip(self.handler.deliver(notes), notes, strict=True):
+                emitter.log(Level.INFO, "generators", line, note.generator)
 
         # 2. Publish progress (after this tick's reading, so it names the block in the works).
         self._publish_progress(outcome, emitter)
@@ -206,7 +211,7 @@ class Pipeline:
     # ---------------------------------------------------------------- the steps' parts
 
     def _operate(self, command: OperatorCommand, emitter: _Emitter, now_ms: int) -> ReadOutcome:
-        result = self.handler.handle(command, now_ms=now_ms)
+        result = self.handler.handle(command, now_ms=now_ms, world_map=self.map)
         emitter.replies.append(result.reply)
         outcome = ReadOutcome()
         if not result.reply.ok:

@@ -24,6 +24,7 @@ from pipeline.sink import FanOut, Sink
 from pipeline.think import library as rule_library
 from scenarios.activities import ACTIVITIES, ActivityLibrary
 from scenarios.expectations import Tracker, Verdict
+from scenarios.extensions import extension_attachments, extensions_metadata
 from scenarios.loader import LoadedScenario, apply_overrides
 from scenarios.schema import (
     BehaviourEvent,
@@ -111,15 +112,23 @@ class Session:
         self.loaded = loaded
         self.scenario = scenario
         self.tick_ms = scenario.tick_ms
-        self.registries = Registries.build()
+        self.toolkit = loaded.toolkit
+        self.registries: Registries = loaded.toolkit.registries
         self.library = ActivityLibrary(
-            [loaded.source.parent, loaded.source.parent / "activities", ACTIVITIES]
+            [
+                loaded.source.parent,
+                loaded.source.parent / "activities",
+                ACTIVITIES,
+                *loaded.toolkit.activity_folders,
+            ]
         )
         scripts = self._activity_scripts()
         self.activity_names = list(scripts)
         self.tracker = Tracker(scenario)
         self.sink = FanOut(self.tracker, *sinks)
-        self.world = World(scenario, stream_rng(scenario.seed, "world"))
+        self.world = World(
+            scenario, stream_rng(scenario.seed, "world"), behaviours=loaded.toolkit.behaviours
+        )
         self.sensors = Sensors(scenario.sensors, scenario, stream_rng(scenario.seed, "sensors"))
         self.config = pipeline_config(scenario)
         self.pipeline = Pipeline(
@@ -293,11 +302,16 @@ class Session:
                 "sensors": msgspec.json.encode(s.sensors).decode(),
             },
             **({"variation": dict(self.overrides)} if self.overrides else {}),
+            **(
+                {"extensions": extensions_metadata(self.toolkit.extensions)}
+                if self.toolkit.extensions
+                else {}
+            ),
         }
 
     def attachments(self) -> list[tuple[str, bytes]]:
         """The scenario file, every script its activity folders hold (first folder wins a name),
-        and the rule library's source."""
+        the rule library's source and every extension's sources (``extensions/NAME/PATH``)."""
         files = [(f"scenario/{self.loaded.source.name}", self.loaded.raw)]
         seen: set[str] = set()
         for folder in self.library.folders:
@@ -306,6 +320,7 @@ class Session:
                     seen.add(path.name)
                     files.append((f"activities/{path.name}", path.read_bytes()))
         files.append(("rules/library.py", inspect.getsource(rule_library).encode()))
+        files += extension_attachments(self.toolkit.extensions)
         return files
 
 

@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 import msgspec
 
 from pipeline.events import MapChange, RuleDecision
-from pipeline.messages import RuleMessage, WorldMap
+from pipeline.messages import GeneratorNote, RuleMessage, WorldMap
 from pipeline.think.conditions import Condition, Evaluation, compile_condition
 from pipeline.think.errors import RuleSyntaxError
 from pipeline.think.functions import FunctionRegistry
@@ -34,6 +34,8 @@ class RuleContext:
     snapshot: bytes | None = None
     """The map's JSON as the last fired rule left it (saves encoding it again); reset when
     a condition binds scope-U aliases or variables, so a body's diff is its own."""
+    notes: list[GeneratorNote] = field(default_factory=list)
+    """Messages the rules wrote to script generators this tick (delivered by the loop)."""
 
 
 class Effect(enum.Enum):
@@ -74,6 +76,14 @@ class Rule:
         skips encoding the map), :attr:`Effect.CHANGED` when it may have changed it.
         """
         return Effect.UNCHANGED
+
+    def tell(self, ctx: RuleContext, generator: str, text: str) -> None:
+        """Send ``text`` to the selected generator ``generator`` (it hears it after this tick)."""
+        ctx.notes.append(GeneratorNote(generator=generator, rule=self.name, text=text))
+
+    def quiesce(self, ctx: RuleContext, generator: str) -> None:
+        """Set the generator ``generator`` back to quiescence (the button shows Get Ready)."""
+        ctx.notes.append(GeneratorNote(generator=generator, rule=self.name, quiesce=True))
 
     def decide(self, world_map: WorldMap, ctx: RuleContext) -> RuleDecision:
         """Evaluate the condition, run the body if it holds, and report what changed."""
