@@ -180,9 +180,12 @@ class Toolkit:
 
 
 def build_toolkit(extensions: Iterable[LoadedExtension] = ()) -> Toolkit:
-    """The built-ins plus ``extensions``; a colliding name or rule code raises
-    :class:`ExtensionError` naming both origins."""
-    extensions = tuple(extensions)
+    """The built-ins plus ``extensions`` (one module counted once); a colliding name or
+    rule code raises :class:`ExtensionError` naming both origins."""
+    unique: dict[str, LoadedExtension] = {}
+    for ext in extensions:
+        unique.setdefault(ext.module, ext)
+    extensions = tuple(unique.values())
     functions = {name: BUILTIN for name in default_registry().names()}
     rules = {cls.rulecode: f"{cls.__name__} ({BUILTIN})" for cls in BUILTIN_RULES}
     generators = {name: BUILTIN for name in default_catalogue().names()}

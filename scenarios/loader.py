@@ -291,9 +291,10 @@ def parse_scenario(
         scenario = decode_scenario(document)
         if loaded_extensions is None:
             try:
-                loaded_extensions = load_extensions(
-                    [*scenario.extensions, *extensions], base=folder
-                )
+                loaded_extensions = [
+                    *load_extensions(scenario.extensions, base=folder, installed=False),
+                    *load_extensions(extensions),  # the command line's: from the cwd
+                ]
             except ExtensionError as error:
                 raise Invalid(("extensions",), error.message) from None
         toolkit = build_toolkit(loaded_extensions)

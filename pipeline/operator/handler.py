@@ -118,6 +118,8 @@ class _Selected:
     generator: Generator
     state: ActivityState = ActivityState.NOT_YET_COMPLETED
     script: Script | None = None
+    quiesced: bool = False
+    """A rule set its generator quiescent while its script ran."""
 
 
 class _Refused(Exception):
@@ -223,7 +225,8 @@ class GeneratorHandler:
 
         The next pushed activity becomes current; after the last one the button
         shows ``start`` (the scripts stay generated; completed activities are
-        not run again until ``restart``). False if ``name`` is not one of ours.
+        not run again until ``restart``), or ``get_ready`` when a rule set a generator
+        quiescent meanwhile. False if ``name`` is not one of ours.
         """
         entry = self._running_entry(name)
         if entry is None:
@@ -233,7 +236,10 @@ class GeneratorHandler:
         if self._running:
             self._find(self._running[0]).state = ActivityState.CURRENT  # type: ignore[union-attr]
         else:
-            self._button = Button.START
+            for s in self._selected:
+                if s.quiesced:  # a rule set it quiescent while it ran: Get Ready again
+                    s.script, s.quiesced = None, False
+            self._settle()
         return True
 
     def deliver(self, notes: Sequence[GeneratorNote]) -> list[str]:
@@ -248,9 +254,12 @@ class GeneratorHandler:
                 continue
             if note.quiesce:
                 s.generator.shutdown()
-                s.script = None
-                if self._button is not Button.STOP:
-                    self._button = Button.GET_READY
+                if s.name in self._running:
+                    s.quiesced = True  # its script runs on; Get Ready once the run ends
+                else:
+                    s.script = None
+                    if self._button is not Button.STOP:
+                        self._settle()
                 done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent")
                 continue
             hear = getattr(s.generator, "hear", None)
