@@ -268,6 +268,8 @@ def _import(spec: str, base: Path | None) -> ModuleType:
     existing = sys.modules.get(name)
     if existing is not None and Path(getattr(existing, "__file__", "") or "").resolve() == init:
         return existing
+    for loaded in [m for m in sys.modules if m == name or m.startswith(name + ".")]:
+        del sys.modules[loaded]  # another copy of the same name (a replay's attached sources)
     locations = [str(path)] if path.is_dir() else None
     module_spec = importlib.util.spec_from_file_location(
         name, init, submodule_search_locations=locations
