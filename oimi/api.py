@@ -8,7 +8,7 @@ Errors are the toolkit's located errors (``ScenarioError``, ``ScriptError``,
     scenario = oimi.load_scenario("examples/bubbles/bubbles.toml")
     outcome = oimi.run(scenario, output="out/bubbles.mcap")
     frames = oimi.open_recording(outcome.recording)
-    frames["/rules/decisions/decisions"]
+    frames["/rules/decisions"]
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def evaluate(
 
 
 def open_recording(path: PathLike, *, topics: Sequence[str] | None = None) -> SessionData:
-    """A recording's topics as polars frames (``frames["/rules/decisions/decisions"]``),
+    """A recording's topics as polars frames (``frames["/rules/decisions"]``),
     with its metadata and attachments."""
     from analysis.load import load_session
 

@@ -49,7 +49,7 @@ def test_a_notebook_drives_the_public_api_end_to_end(tmp_path: Path, capsys) -> 
 
     # 5. Open the recording as polars frames.
     frames = oimi.open_recording(outcome.recording)
-    decisions = frames["/rules/decisions/decisions"]
+    decisions = frames["/rules/decisions"]
     assert isinstance(decisions, pl.DataFrame)
     assert decisions.filter(pl.col("rule") == "pop_reward")["fired"].any()
 
