@@ -21,6 +21,7 @@ import polars as pl
 
 from oimi import console
 from oimi.cmd_check import add_outside_paths_argument
+from oimi.extension_args import extensions_of
 from recorder.errors import RecordingError
 from replay.redrive import redrive
 from scenarios.batch import results
@@ -136,6 +137,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
                 seeds=args.seeds,
                 seed_range=seed_range,
                 allow_outside_paths=args.allow_outside_paths,
+                extensions=extensions_of(args),
             )
         else:
             scenarios += scenario_files([path], base=Path.cwd())
@@ -147,6 +149,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
             seed_range=seed_range,
             out_dir=out_dir,
             allow_outside_paths=args.allow_outside_paths,
+            extensions=extensions_of(args),
         )
     check_unique(tasks)
     return tasks

@@ -4,6 +4,7 @@ batches: the extensions named there, loaded with the installed ones."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Final
 
 from scenarios.extensions import Toolkit, build_toolkit, load_extensions
@@ -23,8 +24,12 @@ def add_extension_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def extensions_of(args: argparse.Namespace) -> list[str]:
-    """The ``--extension`` values (empty when the command has none)."""
-    return list(getattr(args, "extension", None) or [])
+    """The ``--extension`` values (empty when the command has none); a path that exists is
+    made absolute, so that batch workers find it whatever their folder."""
+    return [
+        str(Path(value).resolve()) if Path(value).exists() else value
+        for value in getattr(args, "extension", None) or []
+    ]
 
 
 def toolkit_of(args: argparse.Namespace) -> Toolkit:

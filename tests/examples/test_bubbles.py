@@ -164,3 +164,11 @@ def test_the_recording_appears_in_oimi_analyse(recording: Path, tmp_path: Path) 
     done = oimi_cli("analyse", str(recording), "--out", str(tmp_path / "report"))
     assert done.returncode == 0, done.stderr
     assert "pop_reward" in done.stdout
+
+
+def test_a_batch_passes_extensions_to_its_workers(tmp_path: Path) -> None:
+    done = oimi_cli(
+        "batch", str(SCENARIO), "--out", str(tmp_path), "--extension", str(PACKAGE), "-q"
+    )
+    assert done.returncode == 0, done.stderr
+    assert "1 passed" in done.stdout + done.stderr
