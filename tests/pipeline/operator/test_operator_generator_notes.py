@@ -8,8 +8,8 @@ from collections.abc import Mapping
 from pipeline.events import OperatorCommand, OperatorVerb
 from pipeline.messages import GeneratorNote, Human, Script, WorldMap
 from pipeline.operator.generator import BaseGenerator, Catalogue, OptionValue
-from pipeline.operator.handler import Button, GeneratorHandler
 from pipeline.operator.generators.build import ScriptBuilder, led
+from pipeline.operator.handler import Button, GeneratorHandler
 
 
 class Looking(BaseGenerator):
