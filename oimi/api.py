@@ -23,12 +23,13 @@ from pipeline.errors import LocatedError
 from pipeline.messages import Script, WorldMap
 from pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
 from pipeline.think.conditions import Condition, Evaluation, compile_condition
-from scenarios.extensions import Extension, Toolkit, build_toolkit, load_extensions
+from scenarios.extensions import Extension as Extension  # re-exported: the registration API
+from scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from scenarios.loader import LoadedScenario
 from scenarios.loader import load_scenario as _load_scenario
 from scenarios.recording import recorded
 from scenarios.runner import RunResult, Session, Summary
-from scenarios.schema import Scenario
+from scenarios.schema import Scenario as Scenario  # re-exported
 
 if TYPE_CHECKING:
     from analysis.load import SessionData
@@ -147,20 +148,3 @@ def open_recording(path: PathLike, *, topics: Sequence[str] | None = None) -> Se
 
     return load_session(path, topics=topics)
 
-
-__all__ = [
-    "Extension",
-    "LoadedScenario",
-    "RunOutcome",
-    "Scenario",
-    "Toolkit",
-    "check_scenario",
-    "compile_script",
-    "condition",
-    "evaluate",
-    "load_scenario",
-    "open_recording",
-    "run",
-    "script_json",
-    "toolkit",
-]
