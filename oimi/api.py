@@ -147,4 +147,3 @@ def open_recording(path: PathLike, *, topics: Sequence[str] | None = None) -> Se
     from analysis.load import load_session
 
     return load_session(path, topics=topics)
-
