@@ -20,6 +20,7 @@ from recorder.errors import RecordingError
 from replay.rebuild import _attached_extensions
 from replay.redrive import redrive
 from replay.rerun import rerun
+from scenarios.errors import ScenarioError
 from scenarios.extensions import ExtensionError, build_toolkit, load_extension
 from scenarios.humans import Arena, BehaviourView
 
@@ -172,3 +173,31 @@ def test_a_batch_passes_extensions_to_its_workers(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert "1 passed" in done.stdout + done.stderr
+
+
+def test_installed_packages_offer_extensions_through_the_entry_point_group(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from importlib import metadata
+
+    from scenarios import extensions
+
+    monkeypatch.syspath_prepend(str(EXAMPLE))
+    point = metadata.EntryPoint(name="bubbles", value="bubbles", group="oimi.extensions")
+    monkeypatch.setattr(
+        extensions.metadata,
+        "entry_points",
+        lambda group: [point] if group == extensions.ENTRY_POINT_GROUP else [],
+    )
+    (found,) = extensions.installed_extensions()
+    assert found.name == "bubbles" and found.origin == "bubbles"
+    assert "chase_bubbles" in build_toolkit([found]).behaviours
+
+
+def test_an_unknown_custom_behaviour_is_refused_naming_the_known_ones(tmp_path: Path) -> None:
+    text = SCENARIO.read_text().replace('name = "chase_bubbles"', 'name = "chase_ghosts"')
+    text = text.replace('extensions = ["bubbles"]', f"extensions = [{str(PACKAGE)!r}]")
+    bad = tmp_path / "unknown_behaviour.toml"
+    bad.write_text(text)
+    with pytest.raises(ScenarioError, match=r"unknown behaviour 'chase_ghosts' \(known: chase_"):
+        oimi.load_scenario(bad)
