@@ -136,7 +136,14 @@ def load_extension(spec: str, *, base: Path | None = None) -> LoadedExtension:
         raise ExtensionError(f"{spec!r} has no register(ext) function", source=spec)
     root = _root(module)
     ext = Extension(name=getattr(module, "NAME", module.__name__), root=root)
-    register(ext)
+    try:
+        register(ext)
+    except ExtensionError:
+        raise
+    except Exception as error:  # an extension's bug is bad input, named, not a traceback
+        raise ExtensionError(
+            f"extension {spec!r}: register failed: {type(error).__name__}: {error}", source=spec
+        ) from None
     return LoadedExtension(
         name=ext.name,
         version=str(getattr(module, "__version__", "0")),
@@ -206,11 +213,15 @@ def build_toolkit(extensions: Iterable[LoadedExtension] = ()) -> Toolkit:
             _claim(generators, name, origin, "generator")
         for name in ext.added.behaviours:
             _claim(behaviours, name, origin, "behaviour")
-    registries = Registries.build(
-        functions=[fn for ext in extensions for fn in ext.added.functions],
-        rules=[cls for ext in extensions for cls in ext.added.rules],
-        generators={k: v for ext in extensions for k, v in ext.added.generators.items()},
-    )
+    try:
+        registries = Registries.build(
+            functions=[fn for ext in extensions for fn in ext.added.functions],
+            rules=[cls for ext in extensions for cls in ext.added.rules],
+            generators={k: v for ext in extensions for k, v in ext.added.generators.items()},
+        )
+    except ValueError as error:  # a rule's condition_text does not compile, say
+        names = ", ".join(repr(ext.name) for ext in extensions)
+        raise ExtensionError(f"{error} (extensions {names})", source=BUILTIN) from None
     return Toolkit(
         registries=registries,
         behaviours=MappingProxyType(
@@ -265,11 +276,8 @@ def _import(spec: str, base: Path | None) -> ModuleType:
     if not init.is_file():
         raise ExtensionError(f"extension {spec!r} not found at {path}", source=spec)
     name = path.name if path.is_dir() else path.stem
-    existing = sys.modules.get(name)
-    if existing is not None and Path(getattr(existing, "__file__", "") or "").resolve() == init:
-        return existing
     for loaded in [m for m in sys.modules if m == name or m.startswith(name + ".")]:
-        del sys.modules[loaded]  # another copy of the same name (a replay's attached sources)
+        del sys.modules[loaded]  # always the file's current code (a replay's attached sources)
     locations = [str(path)] if path.is_dir() else None
     module_spec = importlib.util.spec_from_file_location(
         name, init, submodule_search_locations=locations

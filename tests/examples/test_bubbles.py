@@ -201,3 +201,22 @@ def test_an_unknown_custom_behaviour_is_refused_naming_the_known_ones(tmp_path: 
     bad.write_text(text)
     with pytest.raises(ScenarioError, match=r"unknown behaviour 'chase_ghosts' \(known: chase_"):
         oimi.load_scenario(bad)
+
+
+def test_an_extension_bug_is_a_named_error_not_a_traceback(tmp_path: Path) -> None:
+    path = write_extension(
+        tmp_path,
+        "buggy",
+        'class Odd(Rule):\n    rulecode = 1001\n    condition_text = "! {E: nowhere ()}"\n\n'
+        "def register(ext):\n    ext.rule(Odd)\n    ext.function(len)\n",
+    )
+    with pytest.raises(ExtensionError, match=r"'.*buggy.py': register failed: ValueError"):
+        load_extension(str(path))
+    path.write_text(path.read_text().replace("    ext.function(len)\n", ""))
+    with pytest.raises(ExtensionError, match=r"Odd.condition_text: .*unknown function 'nowhere'"):
+        build_toolkit([load_extension(str(path))])
+    scenario = tmp_path / "s.toml"
+    scenario.write_text('name = "s"\nextensions = ["buggy.py"]\n')
+    done = oimi_cli("check", str(scenario))
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.startswith(f"{scenario}:2:1: Odd.condition_text: ")
