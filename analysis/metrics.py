@@ -16,7 +16,7 @@ from analysis.load import TIME, SessionData
 from analysis.stream import Streamed
 from pipeline.events import REJECTING_SOURCES, Level, ProgressKind
 from pipeline.proximity import ZONE_NAMES
-from pipeline.think.library import RULES
+from pipeline.think.library import BUILTIN_RULES
 
 _STARTS: Final = (ProgressKind.LOAD.value, ProgressKind.IDLE.value)
 _ENDS: Final = (ProgressKind.END.value, ProgressKind.SWITCH.value)
@@ -109,9 +109,7 @@ def goals(data: SessionData) -> pl.DataFrame:
 
 def housekeeping_codes() -> frozenset[int]:
     """Rule codes whose definition is tagged ``housekeeping`` (``pipeline.think.library``)."""
-    return frozenset(
-        code for code, cls in RULES.codes().items() if getattr(cls, "housekeeping", False)
-    )
+    return frozenset(cls.rulecode for cls in BUILTIN_RULES if cls.housekeeping)
 
 
 def rule_episodes(data: SessionData, *, housekeeping: bool = False) -> pl.DataFrame:

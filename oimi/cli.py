@@ -9,6 +9,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from oimi.extension_args import EXTENDABLE, add_extension_argument
 from pipeline.errors import LocatedError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -45,6 +46,8 @@ def build_parser(names: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
         doc = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
         command = sub.add_parser(name, help=doc, description=module.__doc__)
         module.add_arguments(command)
+        if name in EXTENDABLE:
+            add_extension_argument(command)
         command.set_defaults(handler=module.run)
     return parser
 

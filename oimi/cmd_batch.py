@@ -24,6 +24,7 @@ from analysis.dataset import build_dataset
 from analysis.report import write_comparison_report
 from oimi import console
 from oimi.cmd_check import add_outside_paths_argument
+from oimi.extension_args import extensions_of
 from oimi.paths import check_output
 from recorder.errors import RecordingError
 from replay.redrive import redrive
@@ -154,6 +155,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
                 seeds=args.seeds,
                 seed_range=seed_range,
                 allow_outside_paths=args.allow_outside_paths,
+                extensions=extensions_of(args),
             )
         else:
             scenarios += scenario_files([path], base=Path.cwd())
@@ -165,6 +167,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
             seed_range=seed_range,
             out_dir=out_dir,
             allow_outside_paths=args.allow_outside_paths,
+            extensions=extensions_of(args),
         )
     check_unique(tasks)
     return tasks

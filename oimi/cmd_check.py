@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
+from oimi.extension_args import extensions_of
 from pipeline.errors import LocatedError
 from pipeline.script import ParsedScript, ScriptError
 from pipeline.think.conditions import compile_condition
-from pipeline.think.library import RULES
+from pipeline.think.functions import FunctionRegistry
+from pipeline.think.rules import RuleRegistry
 from scenarios.activities import check_script_file
+from scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from scenarios.loader import load_scenario
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
@@ -50,8 +54,15 @@ def run(args: argparse.Namespace) -> int:
         report("nothing to check: give FILEs or --condition TEXT")
         return EXIT_BAD_INPUT
     failed = False
+    extensions = extensions_of(args)
+    toolkit = build_toolkit(load_extensions(extensions))
     for name in args.files:
-        errors = check_file(Path(name), allow_outside=args.allow_outside_paths)
+        errors = check_file(
+            Path(name),
+            allow_outside=args.allow_outside_paths,
+            extensions=extensions,
+            toolkit=toolkit,
+        )
         if errors:
             failed = True
             for error in errors:
@@ -59,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(f"{name}: ok")
     for number, text in enumerate(args.condition, start=1):
-        message = check_condition(text, number)
+        message = check_condition(text, number, toolkit.registries.functions)
         if message:
             failed = True
             report(message)
@@ -68,18 +79,25 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_BAD_INPUT if failed else EXIT_OK
 
 
-def check_file(path: Path, *, allow_outside: bool = False) -> list[LocatedError]:
-    """Every problem found in one file (empty when it is fine)."""
+def check_file(
+    path: Path,
+    *,
+    allow_outside: bool = False,
+    extensions: Sequence[str] = (),
+    toolkit: Toolkit | None = None,
+) -> list[LocatedError]:
+    """Every problem found in one file (empty when it is fine), with these extensions."""
     if path.suffix.lower() == ".toml":
-        return check_scenario(path, allow_outside=allow_outside)
-    parsed, errors = check_script_file(path)
+        return check_scenario(path, allow_outside=allow_outside, extensions=extensions)
+    toolkit = toolkit or build_toolkit(load_extensions(extensions))
+    parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
     if parsed is not None:
-        for warning in unknown_rule_codes(parsed):
+        for warning in unknown_rule_codes(parsed, toolkit.registries.rules):
             report(f"{warning} (warning)")
     return errors
 
 
-def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
+def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[ScriptError]:
     """Alfa/omega messages naming a rule code the rule library does not have."""
     script = parsed.script
     return [
@@ -94,15 +112,17 @@ def unknown_rule_codes(parsed: ParsedScript) -> list[ScriptError]:
             ("omegarulemessages", script.omegarulemessages),
         )
         for index, message in enumerate(messages)
-        if message.rulecode not in RULES
+        if message.rulecode not in rules
     ]
 
 
-def check_scenario(path: Path, *, allow_outside: bool = False) -> list[LocatedError]:
+def check_scenario(
+    path: Path, *, allow_outside: bool = False, extensions: Sequence[str] = ()
+) -> list[LocatedError]:
     """A scenario's problems: everything ``oimi run`` would refuse, ranges, the robot's
     ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
     try:
-        load_scenario(path, allow_outside=allow_outside)
+        load_scenario(path, allow_outside=allow_outside, extensions=extensions)
     except LocatedError as error:
         return [error]
     except OSError as error:
@@ -110,10 +130,10 @@ def check_scenario(path: Path, *, allow_outside: bool = False) -> list[LocatedEr
     return []
 
 
-def check_condition(text: str, number: int) -> str:
+def check_condition(text: str, number: int, functions: FunctionRegistry | None = None) -> str:
     """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
     try:
-        compile_condition(text)
+        compile_condition(text, registry=functions)
     except LocatedError as error:
         return f"<condition {number}>:{error.column}: {error.message}"
     return ""

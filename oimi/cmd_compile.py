@@ -9,9 +9,11 @@ import argparse
 import os
 import sys
 import tempfile
+from functools import partial
 from pathlib import Path
 
 from oimi.cmd_check import report, report_error
+from oimi.extension_args import toolkit_of
 from oimi.paths import check_output, output_error
 from pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
 from pipeline.think.conditions import compile_condition
@@ -40,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
     except ScriptError as error:
         report_error(error)
         return EXIT_BAD_INPUT
-    errors = condition_errors(parsed, compile_condition)
+    functions = toolkit_of(args).registries.functions
+    errors = condition_errors(parsed, partial(compile_condition, registry=functions))
     for error in errors:
         report_error(error)
     if errors:

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from oimi.cmd_run import print_result
+from oimi.extension_args import extensions_of
 from oimi.ros2.network import missing_extra
 from replay.compare import format_report
 from replay.redrive import redrive
@@ -44,6 +45,13 @@ def run(args: argparse.Namespace) -> int:
     if args.scenario is not None or args.output is not None or args.seed is not None:
         print("oimi replay: --scenario, -o and --seed are for a rosbag2 folder", file=sys.stderr)
         return 2
+    if extensions_of(args):
+        print(
+            "oimi replay: a recording replays with the extensions attached to it;"
+            " --extension is for a rosbag2 folder's --scenario",
+            file=sys.stderr,
+        )
+        return 2
     comparison = MODES[args.mode](args.recording)
     print(format_report(comparison))
     return 0 if comparison.ok else 1
@@ -70,7 +78,10 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
 
     output = args.output or Path("out") / f"{args.recording.name}-replay.mcap"
     result, ticks, notes = replay_rosbag(
-        args.recording, load_scenario(args.scenario), output=output, seed=args.seed
+        args.recording,
+        load_scenario(args.scenario, extensions=extensions_of(args)),
+        output=output,
+        seed=args.seed,
     )
     for note in notes:
         print(f"note: {note}", file=sys.stderr)

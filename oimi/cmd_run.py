@@ -14,6 +14,7 @@ from pathlib import Path
 
 from oimi import console
 from oimi.cmd_check import add_outside_paths_argument
+from oimi.extension_args import extensions_of
 from scenarios.batch.spec import parse_param
 from scenarios.errors import ScenarioError
 from scenarios.loader import load_scenario
@@ -44,7 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
+    loaded = load_scenario(
+        args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
+    )
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
     session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))
     check_outputs((output, args.rrd, args.junit), overwrite=args.overwrite)

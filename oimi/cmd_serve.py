@@ -23,6 +23,7 @@ from typing import Final
 
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
+from oimi.extension_args import extensions_of
 from scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
 from scenarios.live.session import LiveSession
 from scenarios.loader import LoadedScenario, load_scenario
@@ -96,7 +97,9 @@ def serve(
     if args.token is not None and not args.token:
         print(f"{command}: --token must not be empty", file=sys.stderr)
         return 2
-    loaded = load_scenario(args.scenario, allow_outside=args.allow_outside_paths)
+    loaded = load_scenario(
+        args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
+    )
     output = args.output or dated_path(
         Path("out"), f"{args.scenario.stem}{suffix}", ".mcap", now=datetime.datetime.now()
     )

@@ -40,12 +40,11 @@ from pipeline.messages import (
     WorldMap,
 )
 from pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
+from pipeline.registries import Registries
 from pipeline.sense.producer import MapProducer
 from pipeline.sink import Sink
 from pipeline.think.chain import RuleChain
-from pipeline.think.library import RULES
 from pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
-from pipeline.think.rules import RuleRegistry
 
 
 class PipelineConfig(Message):
@@ -72,17 +71,24 @@ class Pipeline:
         resolve: ScriptResolver,
         handler: GeneratorHandler,
         sink: Sink,
-        rules: RuleRegistry = RULES,
+        registries: Registries | None = None,
     ) -> None:
+        """``registries``: the session's functions, rules and generators (the built-ins
+        when omitted); the handler's catalogue should be built from the same."""
         self.config = config
+        self.registries = registries = registries or Registries.build()
         self.map = WorldMap()
         self.producer = MapProducer(
             self.map, register_capacity=config.register_capacity, script_root=config.script_root
         )
-        self.chain = RuleChain(rules)
+        self.chain = RuleChain(registries.rules)
         self._resolve_file = resolve
         self.reader = BlockReader(
-            self.map, idle=idle, resolve=self._resolve, register_capacity=config.register_capacity
+            self.map,
+            idle=idle,
+            resolve=self._resolve,
+            register_capacity=config.register_capacity,
+            functions=registries.functions,
         )
         self.actuator = Actuator(config.limits, tick_ms=config.tick_ms)
         self.safety = SafetySupervisor(config.safety, config.limits, tick_ms=config.tick_ms)
@@ -189,6 +195,11 @@ class Pipeline:
         decisions = self.chain.propagate(self.map, now_ms=now_ms)
         if decisions:
             emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+        notes = self.chain.take_notes()
+        if notes:  # rules' messages to generators (thesis 3.2): delivered and logged
+            self._operator_moved = True
+            for line, note in zip(self.handler.deliver(notes), notes, strict=True):
+                emitter.log(Level.INFO, "generators", line, note.generator)
 
         # 2. Publish progress (after this tick's reading, so it names the block in the works).
         self._publish_progress(outcome, emitter)
@@ -200,7 +211,7 @@ class Pipeline:
     # ---------------------------------------------------------------- the steps' parts
 
     def _operate(self, command: OperatorCommand, emitter: _Emitter, now_ms: int) -> ReadOutcome:
-        result = self.handler.handle(command, now_ms=now_ms)
+        result = self.handler.handle(command, now_ms=now_ms, world_map=self.map)
         emitter.replies.append(result.reply)
         outcome = ReadOutcome()
         if not result.reply.ok:

@@ -162,6 +162,18 @@ class Goal(Message):
     actions: tuple[Action, ...] = ()
 
 
+class GeneratorNote(Message):
+    """A rule's message to a script generator (thesis 3.2): words for it to hear, or
+    ``quiesce`` to set it back to quiescence (the operator's button shows Get Ready)."""
+
+    generator: str
+    """The addressed generator's name (as selected by the operator)."""
+    rule: str
+    """The id of the rule that wrote it."""
+    text: str = ""
+    quiesce: bool = False
+
+
 class RuleMessage(Message):
     """An alfa/omega message: loads, removes, holds or recovers a rule in the chain."""
 

@@ -5,7 +5,8 @@ its activity folders (``activities/<name>``) and the metadata of the run
 (``scenario``: name, file, seed...; ``configuration``: the pipeline's set-up).
 They are written into a temporary folder laid out as ``<tmp>/<file>`` and
 ``<tmp>/activities/``, so that the attached scripts win over the installed
-library: a recording replays with the scripts it was made with.
+library: a recording replays with the scripts it was made with. The extensions it
+used (``extensions/NAME/...``) are loaded from their attached sources.
 """
 
 from __future__ import annotations
@@ -16,9 +17,12 @@ from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import Final
 
+import msgspec
+
 from pipeline.errors import LocatedError
 from recorder.errors import RecordingError
 from recorder.reader import Recording
+from scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_extension
 from scenarios.loader import parse_scenario
 from scenarios.runner import Session
 
@@ -26,6 +30,7 @@ SCENARIO_RECORD: Final = "scenario"
 CONFIGURATION_RECORD: Final = "configuration"
 SCENARIO_PREFIX: Final = "scenario/"
 ACTIVITY_PREFIX: Final = "activities/"
+EXTENSIONS_RECORD: Final = "extensions"
 
 
 def _safe_name(name: str, *, source: str) -> str:
@@ -74,8 +79,9 @@ def rebuilt_session(recording: Recording) -> Iterator[Session]:
                 (scripts / script).write_bytes(data)
         source = base / file_name
         source.write_bytes(raw)
+        extensions = _attached_extensions(recording, base / "extensions")
         try:
-            loaded = parse_scenario(raw, source=source, base_dir=base)
+            loaded = parse_scenario(raw, source=source, base_dir=base, loaded_extensions=extensions)
             session = Session(loaded, seed=seed, overrides=recording.metadata.get("variation"))
         except LocatedError as error:  # a scenario or script error, placed in the temp folder
             text = str(error).replace(str(base) + "/", "")
@@ -83,6 +89,54 @@ def rebuilt_session(recording: Recording) -> Iterator[Session]:
                 f"the attached scenario does not load: {text}", source=where
             ) from None
         yield session
+
+
+def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExtension]:
+    """The extensions the recording names, loaded from its attached sources; refused when
+    their sources are missing or are not the ones recorded (their digest differs)."""
+    where = recording.path
+    recorded = recording.metadata.get(EXTENSIONS_RECORD, {})
+    loaded = []
+    for name in sorted(recorded):
+        info = msgspec.json.decode(recorded[name])
+        prefix = f"{ATTACHMENT_PREFIX}{name}/"
+        files = {
+            k.removeprefix(prefix): v
+            for k, v in recording.attachments.items()
+            if k.startswith(prefix)
+        }
+        if not files:
+            raise RecordingError(
+                f"extension {name!r} was used but its sources are not attached ({prefix}...)",
+                source=where,
+            )
+        root = folder / name
+        for relative, data in files.items():
+            path = PurePosixPath(relative)
+            if path.is_absolute() or ".." in path.parts:
+                raise RecordingError(
+                    f"attachment {prefix}{relative!r} leaves its folder", source=where
+                )
+            (root / path).parent.mkdir(parents=True, exist_ok=True)
+            (root / path).write_bytes(data)
+        module = info.get("module", name)
+        entry = (
+            root if (root / "__init__.py").is_file() else root / f"{module.rpartition('.')[2]}.py"
+        )
+        try:
+            extension = load_extension(str(entry))
+        except LocatedError as error:
+            raise RecordingError(
+                f"the attached extension {name!r} does not load: {error}", source=where
+            ) from None
+        if extension.digest != info.get("digest"):
+            raise RecordingError(
+                f"the attached sources of extension {name!r} are not the recorded ones"
+                f" (digest {extension.digest}, recorded {info.get('digest')})",
+                source=where,
+            )
+        loaded.append(extension)
+    return loaded
 
 
 def rebuild_notes(recording: Recording, session: Session) -> list[str]:

@@ -12,7 +12,9 @@ from pipeline.script import ParsedScript, condition_errors
 from pipeline.script.errors import ScriptError
 from pipeline.script.files import parse_script
 from pipeline.think.conditions import compile_condition
+from pipeline.think.functions import FunctionRegistry
 from pipeline.think.reader import ScriptEntry
+from pipeline.think.stdlib import default_registry
 
 LIBRARY: Final = Path(__file__).resolve().parent / "library"
 """The shipped scenarios; their activities are in ``LIBRARY / "activities"``."""
@@ -29,9 +31,12 @@ def load_script_file(path: Path) -> Script:
     return parse_script(raw, source=str(path)).script
 
 
-def check_script_file(path: Path) -> tuple[ParsedScript | None, list[LocatedError]]:
-    """A script file parsed and its jump conditions compiled, as ``oimi run`` would load it:
-    the parsed script (None when it does not parse) and every error, placed in the file."""
+def check_script_file(
+    path: Path, *, functions: FunctionRegistry | None = None
+) -> tuple[ParsedScript | None, list[LocatedError]]:
+    """A script file parsed and its jump conditions compiled against ``functions`` (the
+    standard library when omitted), as ``oimi run`` would load it: the parsed script (None
+    when it does not parse) and every error, placed in the file."""
     try:
         raw = path.read_bytes()
     except OSError as error:
@@ -40,7 +45,8 @@ def check_script_file(path: Path) -> tuple[ParsedScript | None, list[LocatedErro
         parsed = parse_script(raw, source=str(path))
     except ScriptError as error:
         return None, [error]
-    return parsed, condition_errors(parsed, compile_condition)
+    registry = functions or default_registry()
+    return parsed, condition_errors(parsed, lambda text: compile_condition(text, registry=registry))
 
 
 class ActivityLibrary:

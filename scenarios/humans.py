@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import math
 import random
-from typing import Final, NamedTuple
+from collections.abc import Callable, Mapping
+from typing import Final, NamedTuple, Protocol
 
 from scenarios.schema import (
     Approach,
     BehaviourSegment,
+    Custom,
     Follow,
     HumanSpec,
     Leave,
@@ -46,11 +48,58 @@ class Arena(NamedTuple):
     exit_m: Point
 
 
+class BehaviourView(NamedTuple):
+    """What an extension's behaviour sees each tick (positions in m, world frame)."""
+
+    position: Point
+    robot: Point
+    time_ms: int
+    dt_s: float
+    speed_mps: float
+    """The segment's walking speed (capped by the human's maximum)."""
+    arena: Arena
+    rng: random.Random
+    """The world's seeded generator: draw from it only, in a fixed order."""
+
+
+class Behaviour(Protocol):
+    """A human behaviour an extension adds: a velocity each tick."""
+
+    def velocity(self, view: BehaviourView) -> tuple[float, float]:
+        """World-frame velocity (m/s) for the tick starting at ``view.time_ms``."""
+        ...
+
+
+BehaviourFactory = Callable[[Mapping[str, float | str]], Behaviour]
+"""Makes a behaviour from the segment's ``options`` (once per segment start)."""
+
+BUILTIN_BEHAVIOURS: Final = (
+    "approach",
+    "custom",
+    "follow",
+    "leave",
+    "stand",
+    "wander",
+    "waypoints",
+)
+"""Segment kinds of the schema; an extension's behaviour may not take one of these names."""
+
+
 class HumanDriver:
     """Follows one human's timeline of behaviour segments (and segments switched in by events)."""
 
-    def __init__(self, spec: HumanSpec, *, arena: Arena, rng: random.Random):
+    def __init__(
+        self,
+        spec: HumanSpec,
+        *,
+        arena: Arena,
+        rng: random.Random,
+        behaviours: Mapping[str, BehaviourFactory] | None = None,
+    ):
         self.spec = spec
+        self.behaviours = behaviours or {}
+        """Extension behaviours by name, for ``custom`` segments."""
+        self._custom: Behaviour | None = None
         self.arena = arena
         self.rng = random.Random(rng.getrandbits(64))
         """This human's own stream (drawn from the world's at construction, in scenario order)."""
@@ -78,6 +127,9 @@ class HumanDriver:
         self._waypoint = 0
         self._pause_until_ms = 0
         self._done = False
+        self._custom = None
+        if isinstance(segment, Custom):
+            self._custom = self.behaviours[segment.name](dict(segment.options))
 
     def velocity(
         self, *, position: Point, robot: Point, time_ms: int, dt_s: float
@@ -111,6 +163,10 @@ class HumanDriver:
                 vx, vy, _ = _keep_distance(position, robot, distance, speed, dt_s)
             case Wander(pause_s=pause_s, margin_m=margin_m):
                 vx, vy = self._wander(position, time_ms, speed, dt_s, pause_s, margin_m)
+            case Custom():
+                assert self._custom is not None  # made by switch
+                view = BehaviourView(position, robot, time_ms, dt_s, speed, self.arena, self.rng)
+                vx, vy = self._custom.velocity(view)
             case Leave():
                 vx, vy, arrived = _towards(position, self.arena.exit_m, speed, dt_s)
                 if arrived:

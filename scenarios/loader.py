@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final
 
@@ -25,9 +25,17 @@ from pipeline.operator.generator import Catalogue, GeneratorError
 from pipeline.operator.generators import default_catalogue
 from scenarios.activities import check_script_file
 from scenarios.errors import ScenarioError
+from scenarios.extensions import (
+    ExtensionError,
+    LoadedExtension,
+    Toolkit,
+    build_toolkit,
+    load_extensions,
+)
 from scenarios.profile import THESIS_ROBOT
 from scenarios.schema import (
     BehaviourEvent,
+    Custom,
     FaultEvent,
     MinDistance,
     RuleFired,
@@ -56,6 +64,8 @@ class LoadedScenario(msgspec.Struct, frozen=True, kw_only=True):
     """The file's bytes, exactly as read."""
     activity_paths: tuple[Path | None, ...]
     """The resolved script file of each activity (None for generators), in order."""
+    toolkit: Toolkit = msgspec.field(default_factory=build_toolkit)
+    """The built-ins plus the extensions the scenario (and the command line) named."""
 
 
 # ------------------------------------------------------------------ locating
@@ -224,7 +234,11 @@ def field_name(where: PathKey) -> str:
 
 
 def load_scenario(
-    path: str | Path, *, catalogue: Catalogue | None = None, allow_outside: bool = False
+    path: str | Path,
+    *,
+    catalogue: Catalogue | None = None,
+    allow_outside: bool = False,
+    extensions: Sequence[str] = (),
 ) -> LoadedScenario:
     """Read, decode and check a scenario file (see :func:`parse_scenario`).
 
@@ -237,7 +251,9 @@ def load_scenario(
         raise ScenarioError(
             f"cannot read the scenario: {error.strerror}", source=str(path)
         ) from None
-    return parse_scenario(raw, source=path, catalogue=catalogue, allow_outside=allow_outside)
+    return parse_scenario(
+        raw, source=path, catalogue=catalogue, allow_outside=allow_outside, extensions=extensions
+    )
 
 
 def parse_scenario(
@@ -247,8 +263,15 @@ def parse_scenario(
     base_dir: Path | None = None,
     catalogue: Catalogue | None = None,
     allow_outside: bool = False,
+    extensions: Sequence[str] = (),
+    loaded_extensions: Sequence[LoadedExtension] | None = None,
 ) -> LoadedScenario:
     """Decode and check a scenario from its bytes: everything ``oimi run`` would refuse.
+
+    Its ``extensions`` (relative to its folder) and ``extensions`` given here (module
+    names or paths, e.g. ``--extension``) are loaded with the installed ones into the
+    scenario's :class:`~scenarios.extensions.Toolkit`; ``loaded_extensions`` replaces
+    that loading (a replay hands the recording's own).
 
     Scripts resolve against ``base_dir`` (default: the folder of ``source``), then the
     library; outside those two only when ``allow_outside``. Every script must parse and
@@ -266,13 +289,48 @@ def parse_scenario(
     folder = base_dir if base_dir is not None else source_path.parent
     try:
         scenario = decode_scenario(document)
-        paths = _check_activities(scenario, folder, catalogue, allow_outside)
+        if loaded_extensions is None:
+            try:
+                loaded_extensions = [
+                    *load_extensions(scenario.extensions, base=folder, installed=False),
+                    *load_extensions(extensions),  # the command line's: from the cwd
+                ]
+            except ExtensionError as error:
+                raise Invalid(("extensions",), error.message) from None
+        toolkit = build_toolkit(loaded_extensions)
+        _check_behaviours(scenario, toolkit)
+        paths = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
     except Invalid as problem:
         line, column = locator.locate(problem.where)
         raise ScenarioError(problem.message(), source=name, line=line, column=column) from None
+    except ExtensionError as error:
+        line, column = locator.locate(("extensions",))
+        raise ScenarioError(error.message, source=name, line=line, column=column) from None
     return LoadedScenario(
-        scenario=scenario, source=source_path, raw=raw, activity_paths=tuple(paths)
+        scenario=scenario,
+        source=source_path,
+        raw=raw,
+        activity_paths=tuple(paths),
+        toolkit=toolkit,
     )
+
+
+def _check_behaviours(scenario: Scenario, toolkit: Toolkit) -> None:
+    """Every ``custom`` segment names a behaviour an extension added."""
+    known = ", ".join(sorted(toolkit.behaviours)) or "none: add an extension"
+    segments: list[tuple[PathKey, object]] = [
+        (("humans", h, "behaviour", n), segment)
+        for h, human in enumerate(scenario.humans)
+        for n, segment in enumerate(human.behaviour)
+    ]
+    segments += [
+        (("events", n, "segment"), event.segment)
+        for n, event in enumerate(scenario.events)
+        if isinstance(event, BehaviourEvent)
+    ]
+    for where, segment in segments:
+        if isinstance(segment, Custom) and segment.name not in toolkit.behaviours:
+            raise Invalid((*where, "name"), f"unknown behaviour {segment.name!r} (known: {known})")
 
 
 def decode_scenario(document: Any) -> Scenario:
@@ -387,7 +445,11 @@ def _located_validation_error(message: str, source: str, locator: TomlLocator) -
 
 
 def _check_activities(
-    scenario: Scenario, folder: Path, catalogue: Catalogue | None, allow_outside: bool
+    scenario: Scenario,
+    folder: Path,
+    catalogue: Catalogue | None,
+    allow_outside: bool,
+    toolkit: Toolkit,
 ) -> list[Path | None]:
     """Each activity's script file (None for a generator), found, confined and compiled;
     then every generator and its options, as the session will start them."""
@@ -401,8 +463,10 @@ def _check_activities(
         if activity.script is None:
             paths.append(None)
             continue
-        path = _find_script(activity.script, (*where, "script"), folder, allow_outside)
-        parsed, errors = check_script_file(path)
+        path = _find_script(
+            activity.script, (*where, "script"), folder, allow_outside, toolkit.activity_folders
+        )
+        parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
         if parsed is None or errors:
             raise Invalid((*where, "script"), f"{activity.script!r} does not load: {errors[0]}")
         name = parsed.script.activityname
@@ -414,21 +478,23 @@ def _check_activities(
         scripts[name] = parsed.script
         paths.append(path)
     if catalogue is None:
-        catalogue = default_catalogue(scripts)
+        catalogue = toolkit.registries.catalogue(scripts)
     for index, activity in enumerate(scenario.activities):
         if activity.generator is not None:
             _check_generator(catalogue, activity.generator, activity.options, index)
     return paths
 
 
-def _find_script(name: str, where: PathKey, folder: Path, allow_outside: bool) -> Path:
-    """The script file ``name``: in ``folder``, else in the library; confined to those two
-    unless ``allow_outside``."""
+def _find_script(
+    name: str, where: PathKey, folder: Path, allow_outside: bool, extra: Sequence[Path] = ()
+) -> Path:
+    """The script file ``name``: in ``folder``, else in the library, else in the extensions'
+    activity folders; confined to those unless ``allow_outside``."""
     script = Path(name)
     if script.suffix not in SCRIPT_SUFFIXES:
         raise Invalid(where, f"script {name!r} is not a .json or .txt file")
-    roots = (folder.resolve(), LIBRARY_DIR.resolve())
-    for candidate in (folder / script, LIBRARY_DIR / script):
+    roots = (folder.resolve(), LIBRARY_DIR.resolve(), *(p.resolve() for p in extra))
+    for candidate in (folder / script, LIBRARY_DIR / script, *(p / script for p in extra)):
         resolved = candidate.resolve()
         inside = any(resolved.is_relative_to(root) for root in roots)
         if not inside and not allow_outside:

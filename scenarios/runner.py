@@ -7,7 +7,6 @@ once. Everything goes to the sinks; a ``Tracker`` checks the expectations.
 
 from __future__ import annotations
 
-import hashlib
 import inspect
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import metadata as package_metadata
@@ -27,14 +26,13 @@ from pipeline.events import (
 )
 from pipeline.loop import Pipeline, PipelineConfig
 from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
-from pipeline.operator.generators import default_catalogue
 from pipeline.operator.handler import GeneratorHandler
+from pipeline.registries import Registries
 from pipeline.sink import FanOut, Sink
 from pipeline.think import library as rule_library
-from pipeline.think.functions import default_registry
-from pipeline.think.library import RULES
 from scenarios.activities import ACTIVITIES, ActivityLibrary
 from scenarios.expectations import Tracker, Verdict
+from scenarios.extensions import extension_attachments, extensions_metadata
 from scenarios.loader import LoadedScenario, apply_overrides
 from scenarios.schema import (
     BehaviourEvent,
@@ -128,22 +126,32 @@ class Session:
         self.loaded = loaded
         self.scenario = scenario
         self.tick_ms = scenario.tick_ms
+        self.toolkit = loaded.toolkit
+        self.registries: Registries = loaded.toolkit.registries
         self.library = ActivityLibrary(
-            [loaded.source.parent, loaded.source.parent / "activities", ACTIVITIES]
+            [
+                loaded.source.parent,
+                loaded.source.parent / "activities",
+                ACTIVITIES,
+                *loaded.toolkit.activity_folders,
+            ]
         )
         scripts = self._activity_scripts()
         self.activity_names = list(scripts)
         self.tracker = Tracker(scenario)
         self.sink = FanOut(self.tracker, *sinks)
-        self.world = World(scenario, stream_rng(scenario.seed, "world"))
+        self.world = World(
+            scenario, stream_rng(scenario.seed, "world"), behaviours=loaded.toolkit.behaviours
+        )
         self.sensors = Sensors(scenario.sensors, scenario, stream_rng(scenario.seed, "sensors"))
         self.config = pipeline_config(scenario)
         self.pipeline = Pipeline(
             self.config,
             idle=self.library.idle(),
             resolve=self.library.resolve,
-            handler=GeneratorHandler(default_catalogue(scripts)),
+            handler=GeneratorHandler(self.registries.catalogue(scripts)),
             sink=self.sink,
+            registries=self.registries,
         )
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
@@ -301,8 +309,8 @@ class Session:
             "oimi": {
                 "version": _version(),
                 "format_version": str(FORMAT_VERSION),
-                "rule_registry": _rule_registry_version(),
-                "function_registry": default_registry().version,
+                "rule_registry": self.registries.rules.version,
+                "function_registry": self.registries.functions.version,
             },
             "scenario": {
                 "name": s.name,
@@ -318,11 +326,16 @@ class Session:
                 "sensors": msgspec.json.encode(s.sensors).decode(),
             },
             **({"variation": dict(self.overrides)} if self.overrides else {}),
+            **(
+                {"extensions": extensions_metadata(self.toolkit.extensions)}
+                if self.toolkit.extensions
+                else {}
+            ),
         }
 
     def attachments(self) -> list[tuple[str, bytes]]:
         """The scenario file, every script its activity folders hold (first folder wins a name),
-        and the rule library's source."""
+        the rule library's source and every extension's sources (``extensions/NAME/PATH``)."""
         files = [(f"scenario/{self.loaded.source.name}", self.loaded.raw)]
         seen: set[str] = set()
         for folder in self.library.folders:
@@ -331,6 +344,7 @@ class Session:
                     seen.add(path.name)
                     files.append((f"activities/{path.name}", path.read_bytes()))
         files.append(("rules/library.py", inspect.getsource(rule_library).encode()))
+        files += extension_attachments(self.toolkit.extensions)
         return files
 
 
@@ -339,13 +353,6 @@ def _version() -> str:
         return package_metadata.version("oimi")
     except package_metadata.PackageNotFoundError:
         return "0+unknown"
-
-
-def _rule_registry_version() -> str:
-    text = ";".join(
-        f"{code}:{cls.__name__}:{cls.condition_text}" for code, cls in RULES.codes().items()
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def library_scenarios() -> list[Path]:

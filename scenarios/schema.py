@@ -302,7 +302,15 @@ class Leave(Segment, tag="leave", kw_only=True):
     """Walk to the arena's exit and leave the room (no longer simulated or seen)."""
 
 
-BehaviourSegment = Stand | Waypoints | Approach | Wander | Follow | Leave
+class Custom(Segment, tag="custom", kw_only=True):
+    """A behaviour an extension adds (``ext.behaviour(name, factory)``), by its name."""
+
+    name: str
+    options: dict[str, float | str] = {}
+    """Handed to the behaviour's factory."""
+
+
+BehaviourSegment = Stand | Waypoints | Approach | Wander | Follow | Leave | Custom
 
 
 class HumanSpec(Spec, kw_only=True):
@@ -513,6 +521,8 @@ class Scenario(Spec, kw_only=True):
     activities: list[ActivitySpec] = []
     events: list[Event] = []
     expect: list[Expectation] = []
+    extensions: list[str] = []
+    """Extensions the scenario needs: paths relative to this file, or module names."""
 
     @property
     def tick_ms(self) -> int:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Mapping
 from typing import Final, NamedTuple
 
 import msgspec
@@ -26,7 +27,7 @@ import pymunk.batch
 
 from pipeline.events import BodyState, WorldState
 from pipeline.messages import ActuatorOutputs
-from scenarios.humans import Arena, HumanDriver
+from scenarios.humans import Arena, BehaviourFactory, HumanDriver
 from scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
 
 WALL_THICKNESS_M: Final = 0.1
@@ -127,8 +128,16 @@ class _Thing:
 class World:
     """The room, the robot, the humans and the objects; stepped one tick at a time."""
 
-    def __init__(self, scenario: Scenario, rng: random.Random):
+    def __init__(
+        self,
+        scenario: Scenario,
+        rng: random.Random,
+        *,
+        behaviours: Mapping[str, BehaviourFactory] | None = None,
+    ):
+        """``behaviours``: the extensions' human behaviours, for ``custom`` segments."""
         self.scenario = scenario
+        self.behaviours = behaviours or {}
         self.rng = rng
         self.tick_ms = scenario.tick_ms
         self.step_s = self.tick_ms / 1000
@@ -203,7 +212,7 @@ class World:
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.5, 0.3
         self.space.add(body, shape)
-        driver = HumanDriver(spec, arena=self.arena, rng=self.rng)
+        driver = HumanDriver(spec, arena=self.arena, rng=self.rng, behaviours=self.behaviours)
         return _Human(spec, driver, body, shape)
 
     def _add_robot(self) -> pymunk.Body:

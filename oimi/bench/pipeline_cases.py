@@ -16,9 +16,9 @@ def bench_conditions(repetitions: int) -> list[Case]:
     """Compiling the rule library's conditions; evaluating one beside a hand-written predicate."""
     from pipeline.messages import Human, WorldMap
     from pipeline.think.conditions import compile_condition
-    from pipeline.think.library import RULES
+    from pipeline.think.library import BUILTIN_RULES
 
-    texts = [cls.condition_text for cls in RULES.codes().values()]
+    texts = [cls.condition_text for cls in BUILTIN_RULES]
     rounds = COMPILED // len(texts) + 1
     condition = compile_condition("{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}")
     world = WorldMap(

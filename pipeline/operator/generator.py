@@ -3,7 +3,12 @@
 A generator starts quiescent; ``activate(options)`` validates its options and
 readies it, ``generate()`` returns a :class:`~pipeline.messages.Script`,
 ``shutdown()`` returns it to quiescence. Generators are pure: no files, no
-clock; the same options give the same script.
+clock; the same options, map view and state give the same script.
+
+As in the thesis (3.2), a generator may also ``see`` a read-only view of the map
+just before it generates, keep its own state between scripts (the instance lives
+as long as the operator's selection), and ``hear`` the messages rules address to
+it (:class:`~pipeline.messages.GeneratorNote`); a rule may set it quiescent.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from typing import Final, Protocol
 import msgspec
 
 from pipeline.errors import LocatedError
-from pipeline.messages import Message, Script
+from pipeline.messages import GeneratorNote, Message, Script, WorldMap
 
 Colour = tuple[float, float, float]
 OptionValue = str | float | int | Colour | tuple[Colour, ...]
@@ -205,8 +210,30 @@ class Generator(Protocol):
         """Back to quiescence."""
 
 
+class GeneratorView(Message):
+    """What a generator sees at generate time: a copy of the map (changing it changes
+    nothing) and the simulated time."""
+
+    world_map: WorldMap
+    now_ms: int
+
+
+class AwareGenerator(Generator, Protocol):
+    """A generator that looks at the map and listens to rules (both optional hooks)."""
+
+    def see(self, view: GeneratorView) -> None:
+        """Called just before ``generate`` with the map as it is now."""
+
+    def hear(self, note: GeneratorNote) -> None:
+        """A rule's message addressed to this generator."""
+
+
 class BaseGenerator:
-    """Lifecycle shared by the shipped generators: subclasses write ``build(options)``."""
+    """Lifecycle shared by the shipped generators: subclasses write ``build(options)``.
+
+    ``self.view`` is the latest map view (None before the first), ``self.state`` a dict
+    the subclass may keep between scripts, ``self.heard`` the rules' messages so far.
+    """
 
     name: str = ""
     title: str = ""
@@ -215,6 +242,15 @@ class BaseGenerator:
 
     def __init__(self) -> None:
         self._values: dict[str, OptionValue] | None = None
+        self.view: GeneratorView | None = None
+        self.state: dict[str, object] = {}
+        self.heard: list[GeneratorNote] = []
+
+    def see(self, view: GeneratorView) -> None:
+        self.view = view
+
+    def hear(self, note: GeneratorNote) -> None:
+        self.heard.append(note)
 
     @property
     def active(self) -> bool:

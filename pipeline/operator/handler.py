@@ -20,7 +20,10 @@ back to ``not_yet_completed``.
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import msgspec
 
 from pipeline.events import (
     ActivityEntry,
@@ -29,12 +32,13 @@ from pipeline.events import (
     OperatorState,
     OperatorVerb,
 )
-from pipeline.messages import Message, Script
+from pipeline.messages import GeneratorNote, Message, Script, WorldMap
 from pipeline.operator.generator import (
     Catalogue,
     Generator,
     GeneratorError,
     GeneratorInfo,
+    GeneratorView,
     resolve_options,
 )
 from pipeline.script.validate import script_errors
@@ -114,6 +118,8 @@ class _Selected:
     generator: Generator
     state: ActivityState = ActivityState.NOT_YET_COMPLETED
     script: Script | None = None
+    quiesced: bool = False
+    """A rule set its generator quiescent while its script ran."""
 
 
 class _Refused(Exception):
@@ -127,6 +133,8 @@ class GeneratorHandler:
         self._catalogue = catalogue
         self._selected: list[_Selected] = []
         self._button = Button.GET_READY
+        self._seen: tuple[WorldMap | None, int] = (None, 0)
+        """The map and time of the command being handled (what generators see)."""
         self._running: list[str] = []
         """Names pushed at start and not finished yet, in run order (first = current)."""
 
@@ -166,9 +174,12 @@ class GeneratorHandler:
 
     # ----------------------------------------------------------------- commands
 
-    def handle(self, cmd: OperatorCommand, *, now_ms: int) -> HandlerResult:
-        """Do ``cmd`` completely or refuse it with a reason, changing nothing."""
-        del now_ms  # the handler's decisions do not depend on time
+    def handle(
+        self, cmd: OperatorCommand, *, now_ms: int, world_map: WorldMap | None = None
+    ) -> HandlerResult:
+        """Do ``cmd`` completely or refuse it with a reason, changing nothing. ``world_map``
+        is what generators see (a copy) when they generate."""
+        self._seen = (world_map, now_ms)
         handlers = {
             OperatorVerb.LIST: self._list,
             OperatorVerb.ADD: self._add,
@@ -214,7 +225,8 @@ class GeneratorHandler:
 
         The next pushed activity becomes current; after the last one the button
         shows ``start`` (the scripts stay generated; completed activities are
-        not run again until ``restart``). False if ``name`` is not one of ours.
+        not run again until ``restart``), or ``get_ready`` when a rule set a generator
+        quiescent meanwhile. False if ``name`` is not one of ours.
         """
         entry = self._running_entry(name)
         if entry is None:
@@ -224,8 +236,37 @@ class GeneratorHandler:
         if self._running:
             self._find(self._running[0]).state = ActivityState.CURRENT  # type: ignore[union-attr]
         else:
-            self._button = Button.START
+            for s in self._selected:
+                if s.quiesced:  # a rule set it quiescent while it ran: Get Ready again
+                    s.script, s.quiesced = None, False
+            self._settle()
         return True
+
+    def deliver(self, notes: Sequence[GeneratorNote]) -> list[str]:
+        """Hand the rules' messages to the generators they name; a ``quiesce`` shuts the
+        generator down and drops its script (the button shows Get Ready once nothing
+        runs). Returns what happened, one line per note, for the log."""
+        done = []
+        for note in notes:
+            s = self._find(note.generator)
+            if s is None:
+                done.append(f"rule {note.rule!r}: generator {note.generator!r} is not selected")
+                continue
+            if note.quiesce:
+                s.generator.shutdown()
+                if s.name in self._running:
+                    s.quiesced = True  # its script runs on; Get Ready once the run ends
+                else:
+                    s.script = None
+                    if self._button is not Button.STOP:
+                        self._settle()
+                done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent")
+                continue
+            hear = getattr(s.generator, "hear", None)
+            if hear is not None:
+                hear(note)
+            done.append(f"rule {note.rule!r} told generator {s.name!r}: {note.text}")
+        return done
 
     # ----------------------------------------------------------------- helpers
 
@@ -320,6 +361,9 @@ class GeneratorHandler:
                     continue
                 activated.append(s)
                 s.generator.activate(s.options)
+                see = getattr(s.generator, "see", None)
+                if see is not None and self._seen[0] is not None:
+                    see(_view(*self._seen))
                 script = s.generator.generate()
                 problems = [error.message for error in script_errors(script)]
                 if problems:
@@ -383,3 +427,9 @@ class GeneratorHandler:
         self._selected = []
         self._button = Button.GET_READY
         return "cleared", ()
+
+
+def _view(world_map: WorldMap, now_ms: int) -> GeneratorView:
+    """A view on a deep copy of the map, so that a generator cannot change the loop's."""
+    copy = msgspec.json.decode(msgspec.json.encode(world_map), type=WorldMap)
+    return GeneratorView(world_map=copy, now_ms=now_ms)

@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from pipeline.events import Level, LogEntry, RuleDecision
-from pipeline.messages import MutexCmd, RuleAction, RuleMessage, WorldMap
+from pipeline.messages import GeneratorNote, MutexCmd, RuleAction, RuleMessage, WorldMap
 from pipeline.think.errors import RuleSyntaxError
 from pipeline.think.rules import Rule, RuleContext, RuleRegistry
 
@@ -28,6 +28,7 @@ class RuleChain:
 
     def __init__(self, registry: RuleRegistry) -> None:
         self.registry = registry
+        self.notes: list[GeneratorNote] = []
         self.active: list[Rule] = []
         self.held: dict[str, Rule] = {}
         self.removed: dict[str, Rule] = {}
@@ -56,7 +57,14 @@ class RuleChain:
         if self.locked:
             return []
         ctx = RuleContext(now_ms=now_ms)
-        return [rule.decide(world_map, ctx) for rule in list(self.active)]
+        decisions = [rule.decide(world_map, ctx) for rule in list(self.active)]
+        self.notes += ctx.notes
+        return decisions
+
+    def take_notes(self) -> list[GeneratorNote]:
+        """The rules' messages to generators since the last call, in the order written."""
+        notes, self.notes = self.notes, []
+        return notes
 
     def names(self) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
         """The ids of the active, held and removed rules (active in chain order)."""

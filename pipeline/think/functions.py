@@ -15,7 +15,6 @@ text; defaults and ``*args`` are supported.
 from __future__ import annotations
 
 import enum
-import functools
 import hashlib
 import inspect
 import types
@@ -252,11 +251,3 @@ class FunctionRegistry:
 
     def __contains__(self, name: object) -> bool:
         return name in self._specs
-
-
-@functools.cache
-def default_registry() -> FunctionRegistry:
-    """The standard library (``pipeline.think.stdlib``) as a registry, built once."""
-    from pipeline.think import stdlib
-
-    return FunctionRegistry.from_module(stdlib)

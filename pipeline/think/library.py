@@ -14,14 +14,10 @@ from typing import Final
 from pipeline.messages import AudioOut, InstructionBlock, Led, Move, WorldMap
 from pipeline.think import rulecodes
 from pipeline.think.conditions import Evaluation
-from pipeline.think.rules import Rule, RuleContext, RuleRegistry
+from pipeline.think.rules import Effect, Rule, RuleContext
 
 IDLE_ACTIVITY: Final = "idle_activity"
 WAITING_ACTIVITY: Final = "wait_for_child"
-
-RULES = RuleRegistry()
-"""The shipped rules, by rule code."""
-
 
 def replace_block(world_map: WorldMap, block: InstructionBlock) -> None:
     """Put ``block`` in place of the current one and ask the actuator to restart."""
@@ -41,7 +37,6 @@ def _led(r: float, g: float, b: float, *, duration: int, wait_t: int = 0) -> Led
     return Led(r=r, g=g, b=b, turnas=1, wait_t=wait_t, duration=duration)
 
 
-@RULES.register
 class KickStarter(Rule):
     """While idle, welcomes a child who comes in front within 2 m with a green glow, once."""
 
@@ -52,28 +47,29 @@ class KickStarter(Rule):
     rulecode = rulecodes.KICK_STARTER
     condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         child = found.entity(world_map, "?child")
         if child is None or child.attributes.get("welcomed") == "yes":
-            return False
+            return Effect.UNCHANGED
         if world_map.scriptinfo.currentactivity != IDLE_ACTIVITY:
-            return False
+            return Effect.UNCHANGED
         child.attributes["welcomed"] = "yes"
         replace_block(
             world_map,
             InstructionBlock(led=(_led(0.1, 0.8, 0.3, duration=1500),), flagged="welcome"),
         )
+        return Effect.CHANGED
 
 
 def soften(
     world_map: WorldMap, found: Evaluation, ctx: RuleContext, alias: str | None = None
-) -> bool | None:
+) -> Effect:
     """Stop moving and dim the lights, unless the block does not move or is already softened;
     the entity bound to ``alias``, if any, is marked with the time (``$too_close_at``)."""
     block = world_map.scriptinfo.block
     moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
     if not moving or (block is not None and block.flagged == "softened"):
-        return False
+        return Effect.UNCHANGED
     entity = found.entity(world_map, alias) if alias else None
     if entity is not None:
         entity.attributes["too_close_at"] = str(ctx.now_ms)
@@ -81,9 +77,9 @@ def soften(
         world_map,
         InstructionBlock(led=(_led(0.3, 0.15, 0.05, duration=2000),), flagged="softened"),
     )
+    return Effect.CHANGED
 
 
-@RULES.register
 class ChildTooClose(Rule):
     """A child closer than 0.8 m (centre to centre, a gap of about 0.25 m): stop moving and
     soften the lights (the block is replaced)."""
@@ -91,22 +87,20 @@ class ChildTooClose(Rule):
     rulecode = rulecodes.CHILD_TOO_CLOSE
     condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx, "?child")
 
 
-@RULES.register
 class ObstacleTooClose(Rule):
     """Furniture closer than 0.45 m (sonar): stop moving and soften the lights."""
 
     rulecode = rulecodes.OBSTACLE_TOO_CLOSE
     condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx, "?thing")
 
 
-@RULES.register
 class SensorsBlind(Rule):
     """The camera is offline: the robot cannot see a child coming, so it stops moving
     (the block is softened, as for a child too close) until the camera is back."""
@@ -118,38 +112,38 @@ class SensorsBlind(Rule):
     rulecode = rulecodes.SENSORS_BLIND
     condition_text = "! {E: camera_offline ()}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx)
 
 
-@RULES.register
 class ChildLeft(Rule):
     """The child tracked by the activity went farther than 3 m: switch to the waiting script."""
 
     rulecode = rulecodes.CHILD_LEFT
     condition_text = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         current = world_map.scriptinfo.currentactivity
         if current in (WAITING_ACTIVITY, IDLE_ACTIVITY) or world_map.scriptinfo.overridecmd:
-            return False
+            return Effect.UNCHANGED
         world_map.variables["@left_during"] = current
         force_switch(world_map, WAITING_ACTIVITY)
+        return Effect.CHANGED
 
 
-def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> bool | None:
+def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> Effect:
     """Play ``block`` once for the latest touch of ``touchtype`` (remembered in a variable)."""
     touches = [t for t in world_map.robotstatus.touch if t.touchtype == touchtype]
     if not touches:
-        return False
+        return Effect.UNCHANGED
     key, stamp = f"@rewarded_{touchtype}", str(touches[-1].startingtime)
     if world_map.variables.get(key) == stamp:
-        return False
+        return Effect.UNCHANGED
     world_map.variables[key] = stamp
     replace_block(world_map, block)
+    return Effect.CHANGED
 
 
-@RULES.register
 class TouchReward(Rule):
     """A caress (``C``) is rewarded with a rainbow of light and a chime, once per touch."""
 
@@ -166,11 +160,10 @@ class TouchReward(Rule):
         flagged="reward",
     )
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return reward_touch(world_map, "C", self.reward)
 
 
-@RULES.register
 class HugReward(Rule):
     """A hug (``H``) is answered with a slow warm glow and a purr, once per hug."""
 
@@ -182,11 +175,10 @@ class HugReward(Rule):
         flagged="reward",
     )
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return reward_touch(world_map, "H", self.reward)
 
 
-@RULES.register
 class AttentionLost(Rule):
     """No child in front for 5 s: a call-back block (a wiggle, a warm light, a call), every 10 s."""
 
@@ -194,10 +186,10 @@ class AttentionLost(Rule):
     condition_text = "{CLASS #Human L ?child} ! {E: attention_low (?child, 5000)}"
     repeat_ms: Final = 10_000
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         last = int(world_map.variables.get("@called_back_at", str(-self.repeat_ms)))
         if ctx.now_ms - last < self.repeat_ms:
-            return False
+            return Effect.UNCHANGED
         world_map.variables["@called_back_at"] = str(ctx.now_ms)
         wiggle = (
             Move(v_x=0.0, v_y=0.0, v_theta=0.6, wait_t=0, duration=400),
@@ -212,24 +204,24 @@ class AttentionLost(Rule):
                 flagged="call_back",
             ),
         )
+        return Effect.CHANGED
 
 
-@RULES.register
 class BatteryLow(Rule):
     """Battery below 2 minutes: drop the waiting activities and go to the idle activity."""
 
     rulecode = rulecodes.BATTERY_LOW
     condition_text = "! {E: battery_below (120000)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         info = world_map.scriptinfo
         if info.currentactivity == IDLE_ACTIVITY and not info.script_vect:
-            return False
+            return Effect.UNCHANGED
         info.script_vect = []
         force_switch(world_map, IDLE_ACTIVITY)
+        return Effect.CHANGED
 
 
-@RULES.register
 class JoystickNote(Rule):
     """Notes in the map when the operator took the robot over with the joystick."""
 
@@ -240,26 +232,41 @@ class JoystickNote(Rule):
     rulecode = rulecodes.JOYSTICK_NOTE
     condition_text = "! {E: joystick_engaged ()}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         since = str(world_map.robotstatus.joystick_engagedtime)
         if world_map.variables.get("@joystick_engaged_since") == since:
-            return False
+            return Effect.UNCHANGED
         world_map.variables["@joystick_engaged_since"] = since
         count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
         world_map.variables["@joystick_takeovers"] = str(count)
-        return True
+        return Effect.CHANGED
 
 
-@RULES.register
 class ToyNearby(Rule):
     """The target toy is within 1 m: noted on the toy (``$nearby_since``) for scripts to use."""
 
     rulecode = rulecodes.TOY_NEARBY
     condition_text = "{CLASS #Object L ?toy ?THIS>&istarget OP= 1} ! {E: near (?toy, 1.0)}"
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         toy = found.entity(world_map, "?toy")
         if toy is None or "nearby_since" in toy.attributes:
-            return False
+            return Effect.UNCHANGED
         toy.attributes["nearby_since"] = str(ctx.now_ms)
-        return True
+        return Effect.CHANGED
+
+
+BUILTIN_RULES: Final[tuple[type[Rule], ...]] = (
+    KickStarter,
+    ChildTooClose,
+    ChildLeft,
+    TouchReward,
+    AttentionLost,
+    BatteryLow,
+    JoystickNote,
+    ObstacleTooClose,
+    HugReward,
+    ToyNearby,
+    SensorsBlind,
+)
+"""The shipped rule classes, in rule-code order (a session's rule registry starts from them)."""

@@ -46,6 +46,8 @@ from pipeline.messages import (
 )
 from pipeline.think.conditions import Condition, compile_condition
 from pipeline.think.errors import RuleSyntaxError
+from pipeline.think.functions import FunctionRegistry
+from pipeline.think.stdlib import default_registry
 
 MAX_BLOCKS_PER_READ: Final = 1000
 """Blocks read in one pass before the reader calls the script a runaway loop and ends it."""
@@ -125,8 +127,11 @@ class BlockReader:
         idle: ScriptEntry,
         resolve: ScriptResolver,
         register_capacity: int = REGISTER_CAPACITY,
+        functions: FunctionRegistry | None = None,
     ) -> None:
+        """``functions``: what jump conditions may call (the standard library when omitted)."""
         self.map = world_map
+        self.functions = functions or default_registry()
         self.idle = idle
         self.resolve = resolve
         self.capacity = register_capacity
@@ -522,7 +527,9 @@ class BlockReader:
                             return f"{where}: jump to {target!r}, which does not exist"
                     if block.toparse not in self._conditions:
                         try:
-                            self._conditions[block.toparse] = compile_condition(block.toparse)
+                            self._conditions[block.toparse] = compile_condition(
+                                block.toparse, registry=self.functions
+                            )
                         except RuleSyntaxError as error:
                             return f"{where}: bad condition: {error}"
         return ""

@@ -1,21 +1,25 @@
 """Rules: a condition in the rule language and a body that may change the map (section 4.3).
 
-A rule class is registered under its ``rulecode``; alfa/omega messages name the
-code, and the chain instantiates the class with the message's id and topics.
+A rule class is listed in a session's :class:`RuleRegistry` under its ``rulecode``;
+alfa/omega messages name the code, and the chain instantiates the class with the
+message's id and topics.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+import enum
+import hashlib
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import msgspec
 
 from pipeline.events import MapChange, RuleDecision
-from pipeline.messages import RuleMessage, WorldMap
+from pipeline.messages import GeneratorNote, RuleMessage, WorldMap
 from pipeline.think.conditions import Condition, Evaluation, compile_condition
 from pipeline.think.errors import RuleSyntaxError
+from pipeline.think.functions import FunctionRegistry
 
 MAX_CHANGE_TEXT = 120
 """Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""
@@ -30,32 +34,59 @@ class RuleContext:
     snapshot: bytes | None = None
     """The map's JSON as the last fired rule left it (saves encoding it again); reset when
     a condition binds scope-U aliases or variables, so a body's diff is its own."""
+    notes: list[GeneratorNote] = field(default_factory=list)
+    """Messages the rules wrote to script generators this tick (delivered by the loop)."""
+
+
+class Effect(enum.Enum):
+    """What a rule body says it did to the map (so the chain knows whether to look)."""
+
+    UNCHANGED = "unchanged"
+    """The body left the map as it was (the usual early return): no diff is computed."""
+    CHANGED = "changed"
+    """The body may have changed the map: it is compared before and after, changes reported."""
 
 
 class Rule:
-    """Base of every rule: subclasses set ``rulecode``, ``condition_text`` and ``act``."""
+    """Base of every rule: subclasses set ``rulecode``, ``condition_text`` and ``act``.
+
+    A rule compiles its conditions with the function registry of its session's
+    :class:`RuleRegistry` (built-ins plus the extensions' functions).
+    """
 
     rulecode: ClassVar[int]
     condition_text: ClassVar[str] = "! {TRUE}"
     description: ClassVar[str] = ""
+    housekeeping: ClassVar[bool] = False
+    """A rule that keeps the robot's mind running (kick-starting, blind stops, notes) rather
+    than one a therapist reads: reports fold its firings away by default."""
 
-    def __init__(self, message: RuleMessage) -> None:
+    def __init__(self, message: RuleMessage, *, functions: FunctionRegistry) -> None:
         self.name = message.id
         self.intopic = message.intopic
         self.outtopic = message.outtopic
-        self.condition: Condition = compile_condition(self.condition_text)
+        self.functions = functions
+        self.condition: Condition = compile_condition(self.condition_text, registry=functions)
 
     def set_condition(self, text: str) -> None:
         """Change the condition at run time (the thesis lets a rule do this itself)."""
-        self.condition = compile_condition(text)
+        self.condition = compile_condition(text, registry=self.functions)
 
-    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> bool | None:
+    def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         """The body, run when the condition holds; it may change the map freely.
 
-        Return ``False`` when it left the map as it was (the usual early return): the
-        chain then skips encoding the map to find what changed. Anything else means
-        "look": the map is compared before and after and the changes are reported.
+        Return :attr:`Effect.UNCHANGED` when it left the map as it was (the chain then
+        skips encoding the map), :attr:`Effect.CHANGED` when it may have changed it.
         """
+        return Effect.UNCHANGED
+
+    def tell(self, ctx: RuleContext, generator: str, text: str) -> None:
+        """Send ``text`` to the selected generator ``generator`` (it hears it after this tick)."""
+        ctx.notes.append(GeneratorNote(generator=generator, rule=self.name, text=text))
+
+    def quiesce(self, ctx: RuleContext, generator: str) -> None:
+        """Set the generator ``generator`` back to quiescence (the button shows Get Ready)."""
+        ctx.notes.append(GeneratorNote(generator=generator, rule=self.name, quiesce=True))
 
     def decide(self, world_map: WorldMap, ctx: RuleContext) -> RuleDecision:
         """Evaluate the condition, run the body if it holds, and report what changed."""
@@ -66,7 +97,7 @@ class Rule:
         changes: tuple[MapChange, ...] = ()
         if found.result:
             before = ctx.snapshot = ctx.snapshot or msgspec.json.encode(world_map)
-            if self.act(world_map, found, ctx) is not False:
+            if self.act(world_map, found, ctx) is not Effect.UNCHANGED:
                 after = ctx.snapshot = msgspec.json.encode(world_map)
                 if after != before:
                     changes = tuple(diff(msgspec.json.decode(before), msgspec.json.decode(after)))
@@ -80,31 +111,44 @@ class Rule:
 
 
 class RuleRegistry:
-    """Maps rule codes to rule classes; filled with ``register``."""
+    """A session's rule classes by rule code, and the functions their conditions may call.
 
-    def __init__(self) -> None:
-        self._classes: dict[int, type[Rule]] = {}
+    Built by the composition root (built-ins plus extensions) and handed to the rule
+    chain; immutable once built. Codes are unique; every condition text is compiled here.
+    """
 
-    def register(self, cls: type[Rule]) -> type[Rule]:
-        """Class decorator: make ``cls`` loadable by its ``rulecode``; codes are unique."""
-        if cls.rulecode in self._classes:
-            raise ValueError(f"rule code {cls.rulecode} is taken by {self._classes[cls.rulecode]}")
-        try:
-            compile_condition(cls.condition_text)
-        except RuleSyntaxError as error:
-            raise ValueError(f"{cls.__name__}.condition_text: {error}") from error
-        self._classes[cls.rulecode] = cls
-        return cls
+    def __init__(self, classes: Iterable[type[Rule]], *, functions: FunctionRegistry) -> None:
+        self.functions = functions
+        found: dict[int, type[Rule]] = {}
+        for cls in classes:
+            if cls.rulecode in found:
+                taken = found[cls.rulecode].__name__
+                raise ValueError(f"rule code {cls.rulecode} of {cls.__name__} is taken by {taken}")
+            try:
+                compile_condition(cls.condition_text, registry=functions)
+            except RuleSyntaxError as error:
+                raise ValueError(f"{cls.__name__}.condition_text: {error}") from error
+            found[cls.rulecode] = cls
+        self._classes = dict(sorted(found.items()))
 
     def create(self, message: RuleMessage) -> Rule:
         """A new rule instance for an alfa/omega message; unknown codes raise ``KeyError``."""
-        return self._classes[message.rulecode](message)
+        return self._classes[message.rulecode](message, functions=self.functions)
 
     def __contains__(self, rulecode: object) -> bool:
         return rulecode in self._classes
 
     def codes(self) -> Mapping[int, type[Rule]]:
-        return dict(sorted(self._classes.items()))
+        """The rule classes by code, sorted."""
+        return dict(self._classes)
+
+    @property
+    def version(self) -> str:
+        """Hash of the codes, class names and condition texts, for recordings."""
+        text = ";".join(
+            f"{code}:{cls.__name__}:{cls.condition_text}" for code, cls in self._classes.items()
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:

@@ -7,10 +7,19 @@ simulated clock.
 
 from __future__ import annotations
 
+import functools
+import sys
 from typing import Final
 
 from pipeline.messages import ActivityTracking, Entity, GoalTracking, Object
-from pipeline.think.functions import Bound, FunctionContext, boolean, evaluation, string
+from pipeline.think.functions import (
+    Bound,
+    FunctionContext,
+    FunctionRegistry,
+    boolean,
+    evaluation,
+    string,
+)
 
 FRONT_ANGLE_RAD: Final = 0.5
 """Default half-width of "in front of the robot", rad."""
@@ -360,3 +369,9 @@ def camera_offline(ctx: FunctionContext) -> bool:
     Example: ! {E: camera_offline ()}
     """
     return any(not camera.isonline for camera in ctx.world_map.cameras)
+
+
+@functools.cache
+def default_registry() -> FunctionRegistry:
+    """The functions of this module as a registry (immutable, built once)."""
+    return FunctionRegistry.from_module(sys.modules[__name__])

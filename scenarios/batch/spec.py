@@ -87,6 +87,8 @@ class Task(msgspec.Struct, frozen=True, kw_only=True):
     """Where the recording and the result sidecar go."""
     allow_outside_paths: bool = False
     """Scripts may be outside the scenario's folder and the library (``--allow-outside-paths``)."""
+    extensions: tuple[str, ...] = ()
+    """``--extension`` modules (names, or absolute paths) loaded besides the scenario's own."""
 
     @property
     def mcap(self) -> Path:
@@ -221,13 +223,14 @@ def expand(
     seed_range: range | None,
     out_dir: Path,
     allow_outside_paths: bool = False,
+    extensions: Sequence[str] = (),
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
     each combination once, so bad files or overrides fail here, before anything runs."""
     tasks: list[Task] = []
     combos = grid(params)
     for path in scenarios:
-        loaded = load_scenario(path, allow_outside=allow_outside_paths)
+        loaded = load_scenario(path, allow_outside=allow_outside_paths, extensions=extensions)
         for combo in combos:
             apply_overrides(loaded.scenario, dict(combo))
             for seed in seeds_for(loaded.scenario.seed, seeds=seeds, seed_range=seed_range):
@@ -239,6 +242,7 @@ def expand(
                         overrides=combo,
                         out_dir=str(out_dir),
                         allow_outside_paths=allow_outside_paths,
+                        extensions=tuple(extensions),
                     )
                 )
     return tasks
@@ -253,6 +257,7 @@ def expand_spec(
     seeds: int | None = None,
     seed_range: range | None = None,
     allow_outside_paths: bool = False,
+    extensions: Sequence[str] = (),
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
     groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds."""
@@ -285,6 +290,7 @@ def expand_spec(
             seed_range=group_range,
             out_dir=out_dir,
             allow_outside_paths=allow_outside_paths,
+            extensions=extensions,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))

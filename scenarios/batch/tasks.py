@@ -48,7 +48,11 @@ def run_task(task: Task) -> ResultRow:
     part = mcap.with_name(mcap.name + ".part")
     try:
         session = Session(
-            load_scenario(task.scenario, allow_outside=task.allow_outside_paths),
+            load_scenario(
+                task.scenario,
+                allow_outside=task.allow_outside_paths,
+                extensions=task.extensions,
+            ),
             seed=task.seed,
             overrides=dict(task.overrides),
         )

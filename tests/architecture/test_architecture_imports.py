@@ -68,3 +68,19 @@ def test_the_import_walker_sees_a_forbidden_import(tmp_path: Path) -> None:
     module = tmp_path / "bad.py"
     module.write_text("import time\nfrom recorder.mcap_sink import McapSink\n")
     assert imported_modules(module) == [(1, "time"), (2, "recorder.mcap_sink")]
+
+
+STAGES = ("sense", "think", "act")
+"""The loop's stages: they talk through ``pipeline.messages`` and ``pipeline.events``."""
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_sense_think_and_act_never_import_each_other(stage: str) -> None:
+    others = {f"pipeline.{s}" for s in (*STAGES, "operator") if s != stage}
+    broken = [
+        f"{path.relative_to(ROOT)}:{line}: imports {name}"
+        for path in sorted((ROOT / "pipeline" / stage).rglob("*.py"))
+        for line, name in imported_modules(path)
+        if any(name == o or name.startswith(o + ".") for o in others)
+    ]
+    assert not broken, "\n".join(broken)

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 from pipeline.messages import Script
-from pipeline.operator.generator import Catalogue
+from pipeline.operator.generator import Catalogue, Generator
 from pipeline.operator.generators.blink import BlinkGenerator
 from pipeline.operator.generators.dance import DanceGenerator
 from pipeline.operator.generators.greeting import GreetingGenerator
@@ -22,8 +22,13 @@ __all__ = [
 ]
 
 
-def default_catalogue(scripts: Mapping[str, Script] | None = None) -> Catalogue:
-    """The shipped generators, then one :class:`StaticScriptGenerator` per named script."""
+def default_catalogue(
+    scripts: Mapping[str, Script] | None = None,
+    *,
+    extra: Mapping[str, Callable[[], Generator]] | None = None,
+) -> Catalogue:
+    """The shipped generators, ``extra`` ones (an extension's), then one
+    :class:`StaticScriptGenerator` per named script."""
     factories = {
         DanceGenerator.name: DanceGenerator,
         GreetingGenerator.name: GreetingGenerator,
@@ -31,6 +36,8 @@ def default_catalogue(scripts: Mapping[str, Script] | None = None) -> Catalogue:
         BlinkGenerator.name: BlinkGenerator,
     }
     catalogue = Catalogue(factories)
+    if extra:
+        catalogue = catalogue.with_factories(extra)
     if scripts:
         catalogue = catalogue.with_factories(
             {name: _static(name, script) for name, script in scripts.items()}

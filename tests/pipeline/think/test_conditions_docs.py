@@ -11,7 +11,7 @@ import pytest
 
 from pipeline.messages import WorldMap
 from pipeline.think.conditions import compile_condition
-from pipeline.think.functions import default_registry
+from pipeline.think.stdlib import default_registry
 
 DOC = Path(__file__).resolve().parents[3] / "docs" / "condition-language.md"
 FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)

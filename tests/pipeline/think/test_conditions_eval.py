@@ -13,16 +13,16 @@ from pipeline.messages import (
     RobotStatus,
     WorldMap,
 )
-from pipeline.think import conditions
+from pipeline.think import condition_parse
 from pipeline.think.conditions import Evaluation, compile_condition, release_alias
 from pipeline.think.errors import RuleSyntaxError
 from pipeline.think.functions import (
     FunctionContext,
     FunctionRegistry,
-    default_registry,
     evaluation,
     string,
 )
+from pipeline.think.stdlib import default_registry
 
 
 def _map(*humans: Human, **fields) -> WorldMap:
@@ -307,7 +307,7 @@ def test_evaluation_never_parses(monkeypatch):
     def refuse():
         raise AssertionError("parsed at evaluation time")
 
-    monkeypatch.setattr(conditions, "_parser", refuse)
+    monkeypatch.setattr(condition_parse, "_parser", refuse)
     assert condition.evaluate(_map(_human("c1")), now_ms=0).result is True
 
 

@@ -8,17 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.think.conditions import (
-    ClassClause,
-    Comparison,
-    Condition,
-    EvalClause,
-    Op,
-    Scope,
-    TrueClause,
-    compile_condition,
-    parse_condition,
-)
+from pipeline.think.condition_ast import ClassClause, Comparison, EvalClause, TrueClause
+from pipeline.think.conditions import Condition, Op, Scope, compile_condition, parse_condition
 from pipeline.think.errors import RuleSyntaxError
 
 THESIS_EXAMPLE = (

@@ -28,10 +28,10 @@ from pipeline.think.functions import (
     FunctionContext,
     FunctionRegistry,
     boolean,
-    default_registry,
     evaluation,
     string,
 )
+from pipeline.think.stdlib import default_registry
 
 
 def _true(text: str, world: WorldMap, now_ms: int = 10_000) -> bool:

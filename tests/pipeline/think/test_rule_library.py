@@ -16,10 +16,11 @@ from pipeline.messages import (
     RuleMessage,
     WorldMap,
 )
+from pipeline.registries import Registries
 from pipeline.sense.producer import MapProducer
 from pipeline.think import rulecodes
 from pipeline.think.chain import RuleChain
-from pipeline.think.library import RULES, WAITING_ACTIVITY
+from pipeline.think.library import WAITING_ACTIVITY
 
 ALL = [
     ("kick_starter", rulecodes.KICK_STARTER),
@@ -69,7 +70,7 @@ class Session:
         self.map.robotstatus.batterytimeleft = 3_600_000
         self.map.robotstatus.setfields = ["batterytimeleft"]
         self.producer = MapProducer(self.map)
-        self.chain = RuleChain(RULES)
+        self.chain = RuleChain(Registries.build().rules)
         self.chain.apply(
             [
                 RuleMessage(

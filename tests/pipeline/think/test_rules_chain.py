@@ -8,9 +8,12 @@ from hypothesis import strategies as st
 
 from pipeline.events import Level
 from pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
+from pipeline.registries import Registries
 from pipeline.think.chain import RuleChain
-from pipeline.think.library import RULES
 from pipeline.think.rules import Rule, RuleRegistry, diff
+from pipeline.think.stdlib import default_registry
+
+RULES = Registries.build().rules
 
 
 def msg(code: int, name: str, action: str, mutex: str = "M") -> RuleMessage:
@@ -75,9 +78,6 @@ def test_l_locks_propagation_until_u() -> None:
 
 
 def test_a_decision_names_bindings_and_the_map_fields_the_body_changed() -> None:
-    registry = RuleRegistry()
-
-    @registry.register
     class Tag(Rule):
         rulecode = 7
         condition_text = "{CLASS #Human L ?kid ?THIS>&positionrho OP< 1.0} ! {TRUE}"
@@ -85,7 +85,7 @@ def test_a_decision_names_bindings_and_the_map_fields_the_body_changed() -> None
         def act(self, world_map, found, ctx) -> None:
             world_map.humans[0].attributes["tagged"] = "yes"
 
-    chain = RuleChain(registry)
+    chain = RuleChain(RuleRegistry([Tag], functions=default_registry()))
     chain.apply([msg(7, "tag", "A", "U")])
     world = WorldMap(humans=[Human(id="c1", creationtime=0, positionrho=0.5)])
     (decision,) = chain.propagate(world, now_ms=40)
@@ -99,14 +99,23 @@ def test_a_decision_names_bindings_and_the_map_fields_the_body_changed() -> None
 
 
 def test_registering_a_rule_with_a_bad_condition_fails_at_load_time() -> None:
-    registry = RuleRegistry()
-
     class Bad(Rule):
         rulecode = 1
         condition_text = "! {E: no_such_function ()}"
 
     with pytest.raises(ValueError, match="no_such_function"):
-        registry.register(Bad)
+        RuleRegistry([Bad], functions=default_registry())
+
+
+def test_two_rules_with_one_code_are_refused_naming_both() -> None:
+    class First(Rule):
+        rulecode = 1000
+
+    class Second(Rule):
+        rulecode = 1000
+
+    with pytest.raises(ValueError, match="1000 of Second is taken by First"):
+        RuleRegistry([First, Second], functions=default_registry())
 
 
 def test_diff_reports_leaves_only() -> None:

@@ -1,0 +1,149 @@
+"""oimi's public Python API: what a notebook or a script calls instead of the command line.
+
+Nothing here prints; long work reports through an optional ``progress(tick, total)``.
+Errors are the toolkit's located errors (``ScenarioError``, ``ScriptError``,
+``RuleSyntaxError``, ``RecordingError``, all ``pipeline.errors.LocatedError``).
+
+    import oimi
+    scenario = oimi.load_scenario("examples/bubbles/bubbles.toml")
+    outcome = oimi.run(scenario, output="out/bubbles.mcap")
+    frames = oimi.open_recording(outcome.recording)
+    frames["/rules/decisions"]
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from pipeline.errors import LocatedError
+from pipeline.messages import Script, WorldMap
+from pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
+from pipeline.think.conditions import Condition, Evaluation, compile_condition
+from scenarios.extensions import Extension as Extension  # re-exported: the registration API
+from scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from scenarios.loader import LoadedScenario
+from scenarios.loader import load_scenario as _load_scenario
+from scenarios.recording import recorded
+from scenarios.runner import RunResult, Session, Summary
+from scenarios.schema import Scenario as Scenario  # re-exported
+
+if TYPE_CHECKING:
+    from analysis.load import SessionData
+
+PathLike = str | os.PathLike[str]
+Progress = Callable[[int, int], None]
+"""Called after each tick with (ticks done, ticks in all)."""
+
+
+def toolkit(extensions: Sequence[str] = ()) -> Toolkit:
+    """The built-in functions, rules, generators and behaviours plus these extensions (module
+    names or paths) and the installed ones."""
+    return build_toolkit(load_extensions(extensions))
+
+
+def load_scenario(
+    path: PathLike, *, extensions: Sequence[str] = (), allow_outside: bool = False
+) -> LoadedScenario:
+    """Read and check a scenario file (its scripts, generators, behaviours, extensions);
+    raises ``ScenarioError`` (``FILE:LINE:COL: ...``) on any problem."""
+    return _load_scenario(path, extensions=extensions, allow_outside=allow_outside)
+
+
+def check_scenario(path: PathLike, *, extensions: Sequence[str] = ()) -> list[LocatedError]:
+    """The problems ``oimi run`` would refuse the scenario for (empty when it is fine)."""
+    try:
+        load_scenario(path, extensions=extensions)
+    except LocatedError as error:
+        return [error]
+    return []
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What a run did: its summary, the expectations' verdicts and where it was recorded."""
+
+    result: RunResult
+    recording: Path | None
+
+    @property
+    def summary(self) -> Summary:
+        return self.result.summary
+
+    @property
+    def ok(self) -> bool:
+        """Every expectation held."""
+        return self.result.ok
+
+
+def run(
+    scenario: LoadedScenario | PathLike,
+    *,
+    output: PathLike | None = None,
+    seed: int | None = None,
+    overrides: Mapping[str, str] | None = None,
+    extensions: Sequence[str] = (),
+    progress: Progress | None = None,
+) -> RunOutcome:
+    """Run a scenario faster than real time, recording to ``output`` (MCAP) when given."""
+    loaded = (
+        scenario
+        if isinstance(scenario, LoadedScenario)
+        else load_scenario(scenario, extensions=extensions)
+    )
+    session = Session(loaded, seed=seed, overrides=overrides)
+    mcap = Path(output) if output is not None else None
+    with recorded(session, mcap=mcap, rrd=None):
+        result = session.run(progress=progress)
+    return RunOutcome(result=result, recording=mcap)
+
+
+def compile_script(
+    source: PathLike | bytes, *, extensions: Sequence[str] = (), name: str = "<script>"
+) -> Script:
+    """A script from a DSL or JSON file (or its bytes), its jump conditions compiled against
+    the built-ins plus ``extensions``; raises the first located error."""
+    if isinstance(source, bytes):
+        data = source
+    else:
+        name = os.fspath(source)
+        data = Path(source).read_bytes()
+    parsed: ParsedScript = parse_script(data, source=name)
+    functions = toolkit(extensions).registries.functions
+    errors = condition_errors(parsed, lambda text: compile_condition(text, registry=functions))
+    if errors:
+        raise errors[0]
+    return parsed.script
+
+
+def script_json(script: Script) -> str:
+    """The thesis's Script JSON of a script (what ``oimi compile`` writes)."""
+    return dump_script_json(script)
+
+
+def condition(text: str, *, extensions: Sequence[str] = ()) -> Condition:
+    """A compiled rule condition (raises ``RuleSyntaxError`` with ``<condition>:L:C``)."""
+    return compile_condition(text, registry=toolkit(extensions).registries.functions)
+
+
+def evaluate(
+    text: str | Condition,
+    world_map: WorldMap,
+    *,
+    now_ms: int = 0,
+    extensions: Sequence[str] = (),
+) -> Evaluation:
+    """Evaluate a condition once against ``world_map`` (scope-U bindings are written to it)."""
+    compiled = text if isinstance(text, Condition) else condition(text, extensions=extensions)
+    return compiled.evaluate(world_map, now_ms=now_ms)
+
+
+def open_recording(path: PathLike, *, topics: Sequence[str] | None = None) -> SessionData:
+    """A recording's topics as polars frames (``frames["/rules/decisions"]``),
+    with its metadata and attachments."""
+    from analysis.load import load_session
+
+    return load_session(path, topics=topics)
