@@ -11,6 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from oimi import jsonout
 from pipeline.errors import LocatedError
 from pipeline.script import ParsedScript, ScriptError
 from pipeline.think.conditions import compile_condition
@@ -33,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a rule condition to check (repeatable)",
     )
     add_outside_paths_argument(parser)
+    jsonout.add_json_argument(parser)
 
 
 def add_outside_paths_argument(parser: argparse.ArgumentParser) -> None:
@@ -50,8 +52,10 @@ def run(args: argparse.Namespace) -> int:
         report("nothing to check: give FILEs or --condition TEXT")
         return EXIT_BAD_INPUT
     failed = False
+    checked: list[dict[str, object]] = []
     for name in args.files:
         errors = check_file(Path(name), allow_outside=args.allow_outside_paths)
+        checked.append({"file": name, "ok": not errors, "errors": [_error_json(e) for e in errors]})
         if errors:
             failed = True
             for error in errors:
@@ -60,12 +64,25 @@ def run(args: argparse.Namespace) -> int:
             print(f"{name}: ok")
     for number, text in enumerate(args.condition, start=1):
         message = check_condition(text, number)
+        errors = [message] if message else []
+        checked.append({"condition": text, "ok": not message, "errors": errors})
         if message:
             failed = True
             report(message)
         else:
             print(f"<condition {number}>: ok")
+    jsonout.emit(args, {"command": "check", "ok": not failed, "checked": checked})
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _error_json(error: LocatedError) -> dict[str, object]:
+    return {
+        "source": error.source,
+        "line": error.line,
+        "column": error.column,
+        "message": error.message,
+        "text": str(error),
+    }
 
 
 def check_file(path: Path, *, allow_outside: bool = False) -> list[LocatedError]:

@@ -13,6 +13,9 @@ import argparse
 import sys
 from pathlib import Path
 
+import msgspec
+
+from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.ros2.network import missing_extra
 from replay.compare import format_report
@@ -36,6 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rosbag.add_argument("--scenario", type=Path, help="the scenario whose pipeline is driven")
     rosbag.add_argument("-o", "--output", type=Path, help="record the drive (default: out/)")
     rosbag.add_argument("--seed", type=int, help="override the scenario's seed")
+    jsonout.add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,6 +50,9 @@ def run(args: argparse.Namespace) -> int:
         return 2
     comparison = MODES[args.mode](args.recording)
     print(format_report(comparison))
+    jsonout.emit(
+        args, {"command": "replay", "ok": comparison.ok, **msgspec.to_builtins(comparison)}
+    )
     return 0 if comparison.ok else 1
 
 
@@ -77,4 +84,17 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
     print(f"rosbag2 {args.recording}: {ticks} ticks driven")
     print_result(result)
     print(f"recording: {output}")
+    jsonout.emit(
+        args,
+        {
+            "command": "replay",
+            "ok": True,
+            "mode": "rosbag2",
+            "recording": str(args.recording),
+            "ticks": ticks,
+            "notes": list(notes),
+            **jsonout.result_summary(result),
+            "output": str(output),
+        },
+    )
     return 0

@@ -9,7 +9,7 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from oimi import console
+from oimi import console, jsonout
 from oimi.cmd_check import add_outside_paths_argument
 from scenarios.batch.spec import parse_param
 from scenarios.errors import ScenarioError
@@ -35,6 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_outside_paths_argument(parser)
+    jsonout.add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,6 +57,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"rerun:     {args.rrd}")
     if args.junit is not None:
         console.write_junit(args.junit, [(args.scenario.stem, result)])
+    jsonout.emit(
+        args,
+        {
+            "command": "run",
+            "ok": result.ok,
+            **jsonout.result_summary(result),
+            "recording": None if output is None else str(output),
+            "rrd": None if args.rrd is None else str(args.rrd),
+        },
+    )
     return 0 if result.ok else 1
 
 
