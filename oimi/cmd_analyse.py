@@ -18,6 +18,7 @@ from analysis.dataset import build_dataset, recordings, safe_name
 from analysis.load import AnalysisWarning, SessionData
 from analysis.metrics import SessionMetrics
 from analysis.report import transposed, write_comparison_report, write_session_report
+from scenarios.session_info import SESSION_RECORD
 
 SESSION_TABLES = (
     "activities",
@@ -58,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
 
     def on_session(data: SessionData, metrics: SessionMetrics) -> None:
         if single:
+            print_session_fields(data.metadata)
             print_session(metrics)
         if args.out is not None:
             folder = args.out if single else args.out / "sessions" / safe_name(data.session_id)
@@ -92,6 +94,17 @@ def _table_config() -> pl.Config:
         float_precision=3,
         fmt_str_lengths=40,
     )
+
+
+def print_session_fields(metadata: dict[str, dict[str, str]]) -> None:
+    """A live session's date, child pseudonym, therapist and notes (from its ``session``
+    metadata record); nothing for a scripted run."""
+    record = metadata.get(SESSION_RECORD)
+    if not record:
+        return
+    print(f"live session on {record.get('date', '?')}")
+    for name in ("child", "therapist", "notes", "duration_s", "ticks"):
+        print(f"  {name}: {record.get(name) or '-'}")
 
 
 def print_session(metrics: SessionMetrics) -> None:

@@ -19,6 +19,7 @@ from oimi.cmd_run import print_result
 from oimi.cmd_serve import _announce as announce
 from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
+from oimi.live_options import print_session, session_info
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from scenarios.live.server import LiveServer, ServeConfig
 from scenarios.loader import load_scenario
@@ -54,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
         session = BridgeSession(loaded, node, seed=args.seed, on_note=note)
         server = LiveServer(session, config, on_ready=announce, on_note=note)
         session.attach(server.guard)
-        with recorded(session, mcap=output, rrd=args.rrd):
+        info = session_info(args, session.scenario)
+        with recorded(session, mcap=output, rrd=args.rrd, info=info):
             try:
                 asyncio.run(server.run())
             except OSError as error:
@@ -63,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
             finally:
                 session.stand_still()
     print(f"stopped after {server.ticks} ticks ({server.ticks * session.tick_ms / 1000:.1f} s)")
-    print_result(session.result())
+    print_session(info)
+    print_result(session.result(), live=True)
     print(f"recording: {output}", flush=True)
     return 0

@@ -81,8 +81,9 @@ def parse_params(items: Sequence[str]) -> dict[str, str]:
     return params
 
 
-def print_result(result: RunResult) -> None:
-    """The end-of-run summary and each expectation's verdict."""
+def print_result(result: RunResult, *, live: bool = False) -> None:
+    """The end-of-run summary and each expectation's verdict (``live``: a live session's,
+    to which the scenario's scripted expectations do not apply)."""
     s = result.summary
     print(f"scenario {s.scenario} (seed {s.seed}): {s.ticks} ticks, {s.duration_s:.1f} s simulated")
     for name, state in s.activities.items():
@@ -104,5 +105,8 @@ def print_result(result: RunResult) -> None:
     for verdict in result.verdicts:
         mark = "PASS" if verdict.ok else "FAIL"
         print(f"  {mark} {verdict.name}: {verdict.detail}")
+    if live:
+        print("expectations: not applicable to a live session")
+        return
     passed = sum(v.ok for v in result.verdicts)
     print(f"{passed} passed, {len(result.verdicts) - passed} failed")

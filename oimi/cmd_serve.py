@@ -17,6 +17,7 @@ from pathlib import Path
 
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
+from oimi.live_options import add_session_arguments, print_session, session_info
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.live.session import LiveSession
 from scenarios.loader import load_scenario
@@ -42,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration-s", type=float, help="stop after this much session time (default: Ctrl-C)"
     )
     add_outside_paths_argument(parser)
+    add_session_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,15 +66,17 @@ def run(args: argparse.Namespace) -> int:
         duration_s=args.duration_s,
     )
     session = LiveSession(loaded, seed=args.seed)
+    info = session_info(args, session.scenario)
     server = LiveServer(session, config, on_ready=_announce, on_note=_note)
-    with recorded(session, mcap=output, rrd=args.rrd):
+    with recorded(session, mcap=output, rrd=args.rrd, info=info):
         try:
             asyncio.run(server.run())
         except OSError as error:
             print(f"oimi serve: cannot listen on {args.host}: {error}", file=sys.stderr)
             return 2
     print(f"stopped after {server.ticks} ticks ({server.ticks * session.tick_ms / 1000:.1f} s)")
-    print_result(session.result())
+    print_session(info)
+    print_result(session.result(), live=True)
     print(f"recording: {output}", flush=True)
     return 0
 

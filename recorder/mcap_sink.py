@@ -163,13 +163,21 @@ class McapSink:
         oimi = {**metadata.get(METADATA_OIMI, {}), FORMAT_VERSION_KEY: str(FORMAT_VERSION)}
         records = {METADATA_OIMI: oimi, **{k: v for k, v in metadata.items() if k != METADATA_OIMI}}
         for name, record in records.items():
-            bad = [k for k, v in record.items() if not isinstance(k, str) or not isinstance(v, str)]
-            if bad:
-                raise RecordingError(
-                    f"metadata record {name!r}: keys and values must be strings, not at {bad[0]!r}",
-                    source=self._name,
-                )
-            self._writer.add_metadata(name, dict(sorted(record.items())))
+            self.add_metadata(name, record)
+
+    def add_metadata(self, name: str, record: Mapping[str, str]) -> None:
+        """Write one metadata record now, keys sorted: those given at open, or one written
+        later (a live session's ``session`` record again at its end, with its true length).
+        Readers that key records by name see the last record of a name."""
+        if self._closed:
+            raise RecordingError(f"add_metadata({name!r}) after close()", source=self._name)
+        bad = [k for k, v in record.items() if not isinstance(k, str) or not isinstance(v, str)]
+        if bad:
+            raise RecordingError(
+                f"metadata record {name!r}: keys and values must be strings, not at {bad[0]!r}",
+                source=self._name,
+            )
+        self._writer.add_metadata(name, dict(sorted(record.items())))
 
     # ---------------------------------------------------------------- Sink
 
