@@ -19,7 +19,7 @@ from oimi.cmd_run import print_result
 from oimi.cmd_serve import _announce as announce
 from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
-from oimi.live_options import print_session, session_info
+from oimi.live_options import foxglove_sinks, print_session, session_info
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from scenarios.live.server import LiveServer, ServeConfig
 from scenarios.loader import load_scenario
@@ -56,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
         server = LiveServer(session, config, on_ready=announce, on_note=note)
         session.attach(server.guard)
         info = session_info(args, session.scenario)
-        with recorded(session, mcap=output, rrd=args.rrd, info=info):
+        sinks = foxglove_sinks(args, session)
+        with recorded(session, mcap=output, rrd=args.rrd, info=info, sinks=sinks):
             try:
                 asyncio.run(server.run())
             except OSError as error:

@@ -17,7 +17,13 @@ from pathlib import Path
 
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
-from oimi.live_options import add_session_arguments, print_session, session_info
+from oimi.live_options import (
+    add_foxglove_argument,
+    add_session_arguments,
+    foxglove_sinks,
+    print_session,
+    session_info,
+)
 from scenarios.live.server import Addresses, LiveServer, ServeConfig
 from scenarios.live.session import LiveSession
 from scenarios.loader import load_scenario
@@ -44,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_outside_paths_argument(parser)
     add_session_arguments(parser)
+    add_foxglove_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
     session = LiveSession(loaded, seed=args.seed)
     info = session_info(args, session.scenario)
     server = LiveServer(session, config, on_ready=_announce, on_note=_note)
-    with recorded(session, mcap=output, rrd=args.rrd, info=info):
+    sinks = foxglove_sinks(args, session)
+    with recorded(session, mcap=output, rrd=args.rrd, info=info, sinks=sinks):
         try:
             asyncio.run(server.run())
         except OSError as error:

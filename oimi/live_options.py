@@ -1,4 +1,5 @@
-"""Options shared by ``oimi serve`` and ``oimi bridge``: the session's fields for its record."""
+"""Options shared by ``oimi serve`` and ``oimi bridge``: the session's fields for its record,
+and ``--foxglove [PORT]`` (also ``oimi replay``) for Foxglove's live connection."""
 
 from __future__ import annotations
 
@@ -6,6 +7,9 @@ import argparse
 import secrets
 from datetime import UTC, datetime
 
+from recorder.foxglove_live import DEFAULT_PORT, FoxgloveLiveSink
+from scenarios.recording import scene_of
+from scenarios.runner import Session
 from scenarios.schema import Scenario
 from scenarios.session_info import SessionInfo, new_session_info
 
@@ -37,3 +41,23 @@ def print_session(info: SessionInfo) -> None:
         if value:
             print(f"  {name}: {value}")
 
+
+def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--foxglove",
+        nargs="?",
+        type=int,
+        const=DEFAULT_PORT,
+        metavar="PORT",
+        help=f"serve the session to Foxglove over WebSocket on 127.0.0.1:PORT"
+        f" ({DEFAULT_PORT} when no PORT is given; 0: any free port)",
+    )
+
+
+def foxglove_sinks(args: argparse.Namespace, session: Session) -> list[FoxgloveLiveSink]:
+    """With ``--foxglove``: the live Foxglove server as a sink (its address printed)."""
+    if args.foxglove is None:
+        return []
+    sink = FoxgloveLiveSink(port=args.foxglove, scene=scene_of(session.scenario))
+    print(f"foxglove: {sink.url}  (Foxglove: Open connection > Foxglove WebSocket)", flush=True)
+    return [sink]

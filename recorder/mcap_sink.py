@@ -122,7 +122,6 @@ class McapSink:
         else:
             self._file = None
             stream = path_or_stream
-        self._scene = scene
         self._every = foxglove_every_n_ticks
         self._closed = False
         self._encode = msgspec.json.Encoder().encode
@@ -149,8 +148,7 @@ class McapSink:
                 create_time=0, log_time=0, name=name, media_type=media_type(name), data=data
             )
         self._writer.flush()
-        self._scene_ids: tuple[str, ...] = ()
-        self._static_sent = False
+        self._views = foxglove.Views(scene, foxglove_every_n_ticks)
 
     def _register(self, topic: str, name: str, data: bytes) -> None:
         schema_id = self._writer.register_schema(name=name, encoding=SCHEMA_ENCODING, data=data)
@@ -189,7 +187,8 @@ class McapSink:
         if not self._every:
             return
         if isinstance(message, WorldState):
-            self._world_views(message, time_ns)
+            for view_topic, view in self._views.world(message, time_ns):
+                self._add(view_topic, time_ns, self._encode(view))
         elif isinstance(message, LogEntries):
             for log in foxglove.log_messages(message, time_ns):
                 self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
@@ -202,20 +201,6 @@ class McapSink:
         sequence = self._sequence[topic]
         self._sequence[topic] = sequence + 1
         self._messages.add(channel, sequence, time_ns, payload)
-
-    def _world_views(self, state: WorldState, time_ns: int) -> None:
-        if not self._static_sent:
-            self._static_sent = True
-            if self._scene is not None:
-                static = foxglove.static_scene(self._scene, time_ns)
-                self._add(FoxgloveTopic.SCENE, time_ns, self._encode(static))
-        elif state.tick % self._every:
-            return
-        update = foxglove.dynamic_scene(state, time_ns, previous_ids=self._scene_ids)
-        self._scene_ids = foxglove.dynamic_entity_ids(state)
-        self._add(FoxgloveTopic.SCENE, time_ns, self._encode(update))
-        tf = foxglove.robot_transform(state, time_ns)
-        self._add(FoxgloveTopic.TF, time_ns, self._encode(tf))
 
     # ----------------------------------------------------------- lifecycle
 
