@@ -148,3 +148,8 @@ def test_zsh_and_fish_scripts_name_every_command_and_parse(shell: str, tmp_path:
     path.write_text(script)
     done = subprocess.run([shell, "-n", str(path)], capture_output=True, text=True, timeout=30)
     assert done.returncode == 0, done.stderr
+    if shell == "fish":  # fish completes a command line on request
+        asked = f"source {path}; complete -C 'oimi replay --mode '; complete -C 'oimi inf'"
+        done = subprocess.run(["fish", "-c", asked], capture_output=True, text=True, timeout=30)
+        words = [line.split("\t")[0] for line in done.stdout.splitlines()]
+        assert words == ["redrive", "rerun", "info"], done.stdout + done.stderr
