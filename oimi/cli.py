@@ -1,4 +1,7 @@
-"""The ``oimi`` command line: each sub-command parses, calls one library function, prints."""
+"""The ``oimi`` command line: each sub-command parses, calls one library function, prints.
+
+What ``--help`` says to users is in ``oimi/usage.py``, not in the modules' docstrings.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +12,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from oimi import jsonout, usage
 from oimi.extension_args import EXTENDABLE, add_extension_argument
 from pipeline.errors import LocatedError
 
@@ -28,13 +32,21 @@ COMMANDS: tuple[str, ...] = (
     "bridge",
     "sim",
     "export",
+    "info",
+    "completion",
 )
 """Sub-commands, each in ``oimi/cmd_<name>.py`` with ``add_arguments(parser)`` and ``run(args)``."""
 
 
 def build_parser(names: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
     """The parser with the given sub-commands (importing only their modules)."""
-    parser = argparse.ArgumentParser(prog="oimi", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="oimi",
+        description=usage.DESCRIPTION,
+        epilog=usage.EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"oimi {usage.version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in names:
         try:
@@ -43,13 +55,31 @@ def build_parser(names: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
             if error.name != f"oimi.cmd_{name}":
                 raise
             continue
-        doc = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
-        command = sub.add_parser(name, help=doc, description=module.__doc__)
+        command = sub.add_parser(
+            name,
+            help=usage.COMMANDS[name].summary,
+            description=usage.description(name),
+            epilog=usage.epilog(name),
+            formatter_class=HelpFormatter,
+        )
         module.add_arguments(command)
         if name in EXTENDABLE:
             add_extension_argument(command)
         command.set_defaults(handler=module.run)
     return parser
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the description's paragraphs and the examples' lines as written, and shows
+    each option's default when its help does not already."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text or action.default in (None, False, "", [], argparse.SUPPRESS):
+            return text
+        if action.option_strings and action.nargs != 0:
+            return f"{text} (default: %(default)s)"
+        return text
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -71,9 +101,11 @@ def _run(argv: Sequence[str] | None) -> int:
     wanted = next((word for word in argv if not word.startswith("-")), None)
     args = build_parser([wanted] if wanted in COMMANDS else COMMANDS).parse_args(argv)
     try:
-        return int(args.handler(args) or EXIT_OK)
+        with jsonout.human_to_stderr(args):
+            code = int(args.handler(args) or EXIT_OK)
     except LocatedError as error:
         print(error, file=sys.stderr)
+        jsonout.finish(args, EXIT_BAD_INPUT, str(error))
         return EXIT_BAD_INPUT
     except BrokenPipeError:
         raise
@@ -85,3 +117,5 @@ def _run(argv: Sequence[str] | None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    jsonout.finish(args, code)
+    return code

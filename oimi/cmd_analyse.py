@@ -23,6 +23,7 @@ from pipeline.errors import LocatedError
 from recorder.reader import open_recording
 from replay.rebuild import rebuilt_session
 from scenarios.expectations import Tracker
+from scenarios.session_info import SESSION_RECORD
 
 SESSION_TABLES = (
     "expectations",
@@ -68,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
 
     def on_session(data: SessionData, metrics: SessionMetrics) -> None:
         if single:
+            print_session_fields(data.metadata)
             print_session(metrics)
         if args.out is not None:
             folder = args.out if single else args.out / "sessions" / safe_name(data.session_id)
@@ -120,6 +122,17 @@ def _table_config() -> pl.Config:
         float_precision=3,
         fmt_str_lengths=60,
     )
+
+
+def print_session_fields(metadata: dict[str, dict[str, str]]) -> None:
+    """A live session's date, child pseudonym, therapist and notes (from its ``session``
+    metadata record); nothing for a scripted run."""
+    record = metadata.get(SESSION_RECORD)
+    if not record:
+        return
+    print(f"live session on {record.get('date', '?')}")
+    for name in ("child", "therapist", "notes", "duration_s", "ticks"):
+        print(f"  {name}: {record.get(name) or '-'}")
 
 
 def print_session(metrics: SessionMetrics) -> None:

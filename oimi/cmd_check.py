@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from oimi import jsonout
 from oimi.extension_args import extensions_of
 from pipeline.errors import LocatedError
 from pipeline.script import ParsedScript, ScriptError
@@ -37,6 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a rule condition to check (repeatable)",
     )
     add_outside_paths_argument(parser)
+    jsonout.add_json_argument(parser)
 
 
 def add_outside_paths_argument(parser: argparse.ArgumentParser) -> None:
@@ -56,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     failed = False
     extensions = extensions_of(args)
     toolkit = build_toolkit(load_extensions(extensions))
+    checked: list[dict[str, object]] = []
     for name in args.files:
         errors = check_file(
             Path(name),
@@ -63,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
             extensions=extensions,
             toolkit=toolkit,
         )
+        checked.append({"file": name, "ok": not errors, "errors": [_error_json(e) for e in errors]})
         if errors:
             failed = True
             for error in errors:
@@ -71,12 +75,25 @@ def run(args: argparse.Namespace) -> int:
             print(f"{name}: ok")
     for number, text in enumerate(args.condition, start=1):
         message = check_condition(text, number, toolkit.registries.functions)
+        errors = [message] if message else []
+        checked.append({"condition": text, "ok": not message, "errors": errors})
         if message:
             failed = True
             report(message)
         else:
             print(f"<condition {number}>: ok")
+    jsonout.emit(args, {"command": "check", "ok": not failed, "checked": checked})
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _error_json(error: LocatedError) -> dict[str, object]:
+    return {
+        "source": error.source,
+        "line": error.line,
+        "column": error.column,
+        "message": error.message,
+        "text": str(error),
+    }
 
 
 def check_file(

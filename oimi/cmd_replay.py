@@ -13,8 +13,12 @@ import argparse
 import sys
 from pathlib import Path
 
+import msgspec
+
+from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
+from oimi.live_options import add_foxglove_argument
 from oimi.ros2.network import missing_extra
 from replay.compare import format_report
 from replay.redrive import redrive
@@ -33,13 +37,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="redrive",
         help="redrive: recorded inputs -> pipeline (default); rerun: the scenario again",
     )
+    add_foxglove_argument(parser)
+    parser.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="with --foxglove: stream at this multiple of the recorded pace (0: at once)",
+    )
     rosbag = parser.add_argument_group("a rosbag2 folder (docs/ros2.md)")
     rosbag.add_argument("--scenario", type=Path, help="the scenario whose pipeline is driven")
     rosbag.add_argument("-o", "--output", type=Path, help="record the drive (default: out/)")
     rosbag.add_argument("--seed", type=int, help="override the scenario's seed")
+    jsonout.add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.foxglove is not None and args.recording.is_dir():
+        print("oimi replay: --foxglove streams an MCAP recording, not a rosbag2", file=sys.stderr)
+        return 2
+    if not args.speed >= 0:  # NaN too
+        print("oimi replay: --speed must be 0 or more", file=sys.stderr)
+        return 2
     if args.recording.is_dir():
         return _drive_rosbag(args)
     if args.scenario is not None or args.output is not None or args.seed is not None:
@@ -54,7 +72,25 @@ def run(args: argparse.Namespace) -> int:
         return 2
     comparison = MODES[args.mode](args.recording)
     print(format_report(comparison))
+    if args.foxglove is not None:
+        _serve_to_foxglove(args.recording, args.foxglove, speed=args.speed)
+    jsonout.emit(
+        args, {"command": "replay", "ok": comparison.ok, **msgspec.to_builtins(comparison)}
+    )
     return 0 if comparison.ok else 1
+
+
+def _serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
+    """Stream the recording to a Foxglove client at its recorded pace, once one connects."""
+    from recorder.foxglove_live import FoxgloveServer, serve_recording
+
+    server = FoxgloveServer(port=port)
+    try:
+        print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
+        sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)
+        print(f"foxglove: {sent} messages streamed", flush=True)
+    finally:
+        server.close()
 
 
 def _drive_rosbag(args: argparse.Namespace) -> int:
@@ -88,4 +124,17 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
     print(f"rosbag2 {args.recording}: {ticks} ticks driven")
     print_result(result)
     print(f"recording: {output}")
+    jsonout.emit(
+        args,
+        {
+            "command": "replay",
+            "ok": True,
+            "mode": "rosbag2",
+            "recording": str(args.recording),
+            "ticks": ticks,
+            "notes": list(notes),
+            **jsonout.result_summary(result),
+            "output": str(output),
+        },
+    )
     return 0

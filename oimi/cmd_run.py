@@ -12,7 +12,7 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from oimi import console
+from oimi import console, jsonout
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
 from scenarios.batch.spec import parse_param
@@ -42,6 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_outside_paths_argument(parser)
+    jsonout.add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,6 +67,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"rerun:     {args.rrd}")
     if args.junit is not None:
         console.write_junit(args.junit, [(args.scenario.stem, result)])
+    jsonout.emit(
+        args,
+        {
+            "command": "run",
+            "ok": result.ok,
+            **jsonout.result_summary(result),
+            "recording": None if output is None else str(output),
+            "rrd": None if args.rrd is None else str(args.rrd),
+        },
+    )
     return 0 if result.ok else 1
 
 
@@ -80,8 +91,9 @@ def parse_params(items: Sequence[str]) -> dict[str, str]:
     return params
 
 
-def print_result(result: RunResult) -> None:
-    """The end-of-run summary and each expectation's verdict."""
+def print_result(result: RunResult, *, live: bool = False) -> None:
+    """The end-of-run summary and each expectation's verdict (``live``: a live session's,
+    to which the scenario's scripted expectations do not apply)."""
     s = result.summary
     print(f"scenario {s.scenario} (seed {s.seed}): {s.ticks} ticks, {s.duration_s:.1f} s simulated")
     for name, state in s.activities.items():
@@ -105,5 +117,8 @@ def print_result(result: RunResult) -> None:
     for verdict in result.verdicts:
         mark = "PASS" if verdict.ok else "FAIL"
         print(f"  {mark} {verdict.name}: {verdict.detail}")
+    if live:
+        print("expectations: not applicable to a live session")
+        return
     passed = sum(v.ok for v in result.verdicts)
     print(f"{passed} passed, {len(result.verdicts) - passed} failed")

@@ -24,6 +24,13 @@ from typing import Final
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
+from oimi.live_options import (
+    add_foxglove_argument,
+    add_session_arguments,
+    foxglove_sinks,
+    print_session,
+    session_info,
+)
 from scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
 from scenarios.live.session import LiveSession
 from scenarios.loader import LoadedScenario, load_scenario
@@ -68,6 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration-s", type=float, help="stop after this much session time (default: Ctrl-C)"
     )
     add_outside_paths_argument(parser)
+    add_session_arguments(parser)
+    add_foxglove_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -115,6 +124,7 @@ def serve(
     listeners = listen(config)  # ports first: a busy port opens no recording
     try:
         with open_session(loaded) as session:
+            info = session_info(args, session.scenario)
             server = LiveServer(session, config, on_ready=_announce, on_note=_note)
             if on_server is not None:
                 on_server(session, server)
@@ -124,12 +134,15 @@ def serve(
                 rrd=args.rrd,
                 overwrite=args.overwrite,
                 chunk_size_bytes=LIVE_CHUNK_BYTES,
+                info=info,
+                sinks=foxglove_sinks(args, session),
             ):
                 asyncio.run(server.run(listeners))
     finally:
         listeners.close()
     print(f"stopped after {server.ticks} ticks ({server.ticks * session.tick_ms / 1000:.1f} s)")
-    print_result(session.result())
+    print_session(info)
+    print_result(session.result(), live=True)
     print(f"recording: {output}", flush=True)
     return 0
 

@@ -17,6 +17,7 @@ import msgspec
 
 from pipeline.events import BodyState, Level, LogEntries, WorldState
 from recorder.scene import ObstacleGeometry, SceneGeometry
+from recorder.topics import FoxgloveTopic
 
 WORLD_FRAME: Final = "world"
 ROBOT_FRAME: Final = "robot"
@@ -186,8 +187,15 @@ LOG_LEVELS: Final[dict[Level, LogLevel]] = {
     Level.ERROR: LogLevel.ERROR,
 }
 
-LED_OFF_COLOR: Final = Color(r=0.55, g=0.55, b=0.55)
-"""The robot's body colour while its LEDs are off."""
+LED_OFF_COLOR: Final = Color(r=0.25, g=0.25, b=0.28)
+"""The LED strips' colour while the LEDs are off (unlit, dark)."""
+ROBOT_BODY_COLOR: Final = Color(r=0.86, g=0.87, b=0.9)
+"""The robot's body: a fixed light colour, so the robot is visible whatever its LEDs do."""
+LED_STRIP_HEIGHTS_M: Final = (0.12, 0.34)
+"""Heights of the centres of the robot's two LED strips, rings around its body."""
+LED_STRIP_THICKNESS_M: Final = 0.05
+LED_STRIP_OUTSET: Final = 1.06
+"""A strip's diameter as a share of the body's (it sits proud of the body)."""
 ROLE_COLORS: Final[dict[str, Color]] = {
     "child": Color(r=1.0, g=0.6, b=0.1),
     "therapist": Color(r=0.2, g=0.45, b=0.95),
@@ -213,7 +221,7 @@ def yaw(theta_rad: float) -> Quaternion:
 
 
 def led_color(led: tuple[float, float, float]) -> Color:
-    """The robot's colour: its LED colour, or grey when all channels are 0."""
+    """The LED strips' colour: the LED colour, or unlit dark grey when all channels are 0."""
     if not any(led):
         return LED_OFF_COLOR
     r, g, b = led
@@ -293,12 +301,29 @@ def _radius(body: BodyState) -> float:
 
 
 def _robot(state: WorldState, t: Time) -> SceneEntity:
+    """The body (a light cylinder), its two LED strips in the LED colour, its heading and
+    name; the cylinders are the body first, then the strips from the bottom up."""
     body = state.robot
     r = _radius(body)
-    cylinder = CylinderPrimitive(
+    shell = CylinderPrimitive(
         pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M / 2)),
         size=Vector3(x=2 * r, y=2 * r, z=ROBOT_HEIGHT_M),
-        color=led_color(state.led),
+        color=ROBOT_BODY_COLOR,
+    )
+    led = led_color(state.led)
+    d = 2 * r * LED_STRIP_OUTSET
+    strips = tuple(
+        CylinderPrimitive(
+            pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=z)),
+            size=Vector3(x=d, y=d, z=LED_STRIP_THICKNESS_M),
+            color=led,
+        )
+        for z in LED_STRIP_HEIGHTS_M
+    )
+    label = TextPrimitive(
+        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M + 0.25)),
+        color=LABEL_COLOR,
+        text=f"robot: {state.audio}" if state.audio else "robot",
     )
     arrow = ArrowPrimitive(
         pose=Pose(
@@ -313,7 +338,12 @@ def _robot(state: WorldState, t: Time) -> SceneEntity:
     )
     metadata = (KeyValuePair(key="audio", value=state.audio),) if state.audio else ()
     return SceneEntity(
-        timestamp=t, id="robot", metadata=metadata, cylinders=(cylinder,), arrows=(arrow,)
+        timestamp=t,
+        id="robot",
+        metadata=metadata,
+        cylinders=(shell, *strips),
+        arrows=(arrow,),
+        texts=(label,),
     )
 
 
@@ -340,6 +370,33 @@ def _object(body: BodyState, t: Time) -> SceneEntity:
         color=OBJECT_COLOR,
     )
     return SceneEntity(timestamp=t, id=f"object/{body.id}", spheres=(sphere,))
+
+
+class Views:
+    """Foxglove's view messages for a session's events, as the MCAP sink and the live
+    server both send them: the static scene with the first world state, then the robot,
+    people and objects and the robot's transform every ``every_n_ticks`` ticks."""
+
+    def __init__(self, scene: SceneGeometry | None, every_n_ticks: int) -> None:
+        self.scene = scene
+        self.every = every_n_ticks
+        self._ids: tuple[str, ...] = ()
+        self._static_sent = False
+
+    def world(self, state: WorldState, time_ns: int) -> list[tuple[FoxgloveTopic, _Fox]]:
+        """The views due for this world state (none between thinned ticks)."""
+        views: list[tuple[FoxgloveTopic, _Fox]] = []
+        if not self._static_sent:
+            self._static_sent = True
+            if self.scene is not None:
+                views.append((FoxgloveTopic.SCENE, static_scene(self.scene, time_ns)))
+        elif state.tick % self.every:
+            return views
+        update = dynamic_scene(state, time_ns, previous_ids=self._ids)
+        self._ids = dynamic_entity_ids(state)
+        views.append((FoxgloveTopic.SCENE, update))
+        views.append((FoxgloveTopic.TF, robot_transform(state, time_ns)))
+        return views
 
 
 def robot_transform(state: WorldState, time_ns: int) -> FrameTransforms:

@@ -122,7 +122,6 @@ class McapSink:
         else:
             self._file = None
             stream = path_or_stream
-        self._scene = scene
         self._every = foxglove_every_n_ticks
         self._closed = False
         self._encode = msgspec.json.Encoder().encode
@@ -149,8 +148,7 @@ class McapSink:
                 create_time=0, log_time=0, name=name, media_type=media_type(name), data=data
             )
         self._writer.flush()
-        self._scene_ids: tuple[str, ...] = ()
-        self._static_sent = False
+        self._views = foxglove.Views(scene, foxglove_every_n_ticks)
 
     def _register(self, topic: str, name: str, data: bytes) -> None:
         schema_id = self._writer.register_schema(name=name, encoding=SCHEMA_ENCODING, data=data)
@@ -163,13 +161,21 @@ class McapSink:
         oimi = {**metadata.get(METADATA_OIMI, {}), FORMAT_VERSION_KEY: str(FORMAT_VERSION)}
         records = {METADATA_OIMI: oimi, **{k: v for k, v in metadata.items() if k != METADATA_OIMI}}
         for name, record in records.items():
-            bad = [k for k, v in record.items() if not isinstance(k, str) or not isinstance(v, str)]
-            if bad:
-                raise RecordingError(
-                    f"metadata record {name!r}: keys and values must be strings, not at {bad[0]!r}",
-                    source=self._name,
-                )
-            self._writer.add_metadata(name, dict(sorted(record.items())))
+            self.add_metadata(name, record)
+
+    def add_metadata(self, name: str, record: Mapping[str, str]) -> None:
+        """Write one metadata record now, keys sorted: those given at open, or one written
+        later (a live session's ``session`` record again at its end, with its true length).
+        Readers that key records by name see the last record of a name."""
+        if self._closed:
+            raise RecordingError(f"add_metadata({name!r}) after close()", source=self._name)
+        bad = [k for k, v in record.items() if not isinstance(k, str) or not isinstance(v, str)]
+        if bad:
+            raise RecordingError(
+                f"metadata record {name!r}: keys and values must be strings, not at {bad[0]!r}",
+                source=self._name,
+            )
+        self._writer.add_metadata(name, dict(sorted(record.items())))
 
     # ---------------------------------------------------------------- Sink
 
@@ -181,7 +187,8 @@ class McapSink:
         if not self._every:
             return
         if isinstance(message, WorldState):
-            self._world_views(message, time_ns)
+            for view_topic, view in self._views.world(message, time_ns):
+                self._add(view_topic, time_ns, self._encode(view))
         elif isinstance(message, LogEntries):
             for log in foxglove.log_messages(message, time_ns):
                 self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
@@ -194,20 +201,6 @@ class McapSink:
         sequence = self._sequence[topic]
         self._sequence[topic] = sequence + 1
         self._messages.add(channel, sequence, time_ns, payload)
-
-    def _world_views(self, state: WorldState, time_ns: int) -> None:
-        if not self._static_sent:
-            self._static_sent = True
-            if self._scene is not None:
-                static = foxglove.static_scene(self._scene, time_ns)
-                self._add(FoxgloveTopic.SCENE, time_ns, self._encode(static))
-        elif state.tick % self._every:
-            return
-        update = foxglove.dynamic_scene(state, time_ns, previous_ids=self._scene_ids)
-        self._scene_ids = foxglove.dynamic_entity_ids(state)
-        self._add(FoxgloveTopic.SCENE, time_ns, self._encode(update))
-        tf = foxglove.robot_transform(state, time_ns)
-        self._add(FoxgloveTopic.TF, time_ns, self._encode(tf))
 
     # ----------------------------------------------------------- lifecycle
 

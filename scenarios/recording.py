@@ -7,15 +7,18 @@ import datetime
 import os
 import signal
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import Protocol
 
+from pipeline.events import Event, Topic
 from recorder.errors import RecordingError
 from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from recorder.rerun_sink import RerunSink
 from recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from scenarios.runner import Session
 from scenarios.schema import Scenario
+from scenarios.session_info import SESSION_RECORD, SessionInfo, TickCounter
 
 
 def scene_of(scenario: Scenario) -> SceneGeometry:
@@ -50,6 +53,14 @@ def recording_id(scenario: Scenario) -> str:
 
 
 _Sink = McapSink | RerunSink
+
+
+class ClosingSink(Protocol):
+    """A sink that ``recorded`` closes at the end (a live Foxglove server, for one)."""
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None: ...
+
+    def close(self) -> None: ...
 
 
 class OutputError(RecordingError):
@@ -165,6 +176,8 @@ def recorded(
     rrd: Path | None,
     overwrite: bool = True,
     chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
+    info: SessionInfo | None = None,
+    sinks: Sequence[ClosingSink] = (),
 ) -> Iterator[Session]:
     """Attach the MCAP (and Rerun) sinks to a session, and close them whatever happens.
 
@@ -175,15 +188,23 @@ def recorded(
     The sinks open before the first tick, with the session's metadata and
     attachments at the start of the file; Ctrl-C or an error still closes them, and
     a second Ctrl-C while they close is ignored. ``chunk_size_bytes`` bounds what a
-    killed session loses (the open chunk).
+    killed session loses (the open chunk). ``info`` makes it a live session's
+    recording: its own recording id, and a ``session`` record written at the start
+    and again at the end with the true ``ticks`` and ``duration_s``. ``sinks`` are
+    added after the recorders and closed with them.
     """
     check_outputs((mcap, rrd), overwrite=overwrite)
     claimed: list[tuple[Path, Path]] = []
     opened: list[tuple[_Sink, Path, Path]] = []
+    closers: list[ClosingSink] = list(sinks)
     started = False
     scene = scene_of(session.scenario)
-    ident = recording_id(session.scenario)
+    ident = recording_id(session.scenario) if info is None else info.recording_id
+    counter = TickCounter(session.tick_ms)
+    mcap_sink: McapSink | None = None
     try:
+        if info is not None:
+            session.sink.add(counter)
         for path in (mcap, rrd):
             if path is not None:
                 claimed.append((path, _claim(path, overwrite=overwrite)))
@@ -191,28 +212,39 @@ def recorded(
             if path is mcap:
                 metadata = session.metadata()
                 metadata["oimi"]["recording_id"] = ident
-                sink: _Sink = McapSink(
+                if info is not None:
+                    metadata[SESSION_RECORD] = info.record()
+                mcap_sink = McapSink(
                     partial,
                     metadata=metadata,
                     attachments=session.attachments(),
                     scene=scene,
                     chunk_size_bytes=chunk_size_bytes,
                 )
+                sink: _Sink = mcap_sink
             else:
                 sink = RerunSink(partial, recording_id=ident, scene=scene)
             opened.append((sink, partial, path))
             session.sink.add(sink)
+        for extra in sinks:
+            session.sink.add(extra)
         started = True
         yield session
     finally:
         with interrupts_held():
-            for sink, _, _ in opened:
-                sink.close()
-            for path, partial in claimed:
-                if started:
-                    _finish(partial, path, overwrite=overwrite)
-                else:  # it never recorded anything: withdraw the claim
-                    partial.unlink(missing_ok=True)
+            try:
+                if info is not None and mcap_sink is not None:
+                    mcap_sink.add_metadata(SESSION_RECORD, {**info.record(), **counter.elapsed()})
+            finally:
+                for closer in closers:
+                    closer.close()
+                for sink, _, _ in opened:
+                    sink.close()
+                for path, partial in claimed:
+                    if started:
+                        _finish(partial, path, overwrite=overwrite)
+                    else:  # it never recorded anything: withdraw the claim
+                        partial.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager

@@ -318,10 +318,23 @@ def test_foxglove_scene_draws_the_static_scene_once_then_thins_dynamic_updates(
     ids = [e["id"] for e in updates[1][1]["entities"]]
     assert ids == ["robot", "human/child1", "human/therapist1", "object/ball"]
     robot = updates[1][1]["entities"][0]
-    assert robot["cylinders"][0]["color"] == msgspec.to_builtins(foxglove.LED_OFF_COLOR)
+    body, *strips = robot["cylinders"]
+    assert body["color"] == msgspec.to_builtins(foxglove.ROBOT_BODY_COLOR)
+    assert [s["color"] for s in strips] == [msgspec.to_builtins(foxglove.LED_OFF_COLOR)] * 2
     tfs = [json.loads(m.data) for _, c, m in raw_messages(path) if c.topic == FoxgloveTopic.TF]
     assert len(tfs) == 3
     assert tfs[0]["transforms"][0]["parent_frame_id"] == "world"
+
+
+def test_the_robot_is_drawn_with_a_fixed_body_and_led_strips_in_the_led_colour() -> None:
+    lit = msgspec.structs.replace(world_state(1), led=(0.0, 0.0, 1.0), audio="hello.wav")
+    robot = foxglove.dynamic_scene(lit, TICK_NS).entities[0]
+    body, low, high = robot.cylinders
+    assert body.color == foxglove.ROBOT_BODY_COLOR
+    assert low.color == high.color == foxglove.Color(r=0.0, g=0.0, b=1.0)
+    assert low.pose.position.z < high.pose.position.z < body.size.z
+    assert low.size.x > body.size.x, "the strips sit proud of the body"
+    assert robot.texts[0].text == "robot: hello.wav"
 
 
 def test_foxglove_scene_deletes_humans_who_left(tmp_path: Path) -> None:

@@ -1,0 +1,178 @@
+"""Foxglove live: a Foxglove WebSocket client (a plain `websockets` client speaking the
+protocol's subprotocol) sees the MCAP's channels and schemas, and receives messages, from
+the live sink, from `oimi serve --foxglove` and from `oimi replay --foxglove`."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import re
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import msgspec
+import pytest
+import websockets
+from recorder_synthetic import SCENE, session
+
+from pipeline.events import Topic
+from recorder.errors import RecordingError
+from recorder.foxglove_live import FoxgloveLiveSink, loopback_host
+from recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
+
+ROOT = Path(__file__).resolve().parents[2]
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+TIMEOUT_S = 10
+
+
+class Client:
+    """A Foxglove WebSocket client: the advertised channels, subscriptions, messages."""
+
+    def __init__(self, ws: websockets.ClientConnection) -> None:
+        self.ws = ws
+        self.channels: dict[int, dict] = {}
+        self.subscriptions: dict[int, str] = {}
+
+    async def until_advertised(self, count: int) -> None:
+        while len(self.channels) < count:
+            frame = json.loads(await asyncio.wait_for(self.ws.recv(), TIMEOUT_S))
+            if frame["op"] == "advertise":
+                self.channels.update({c["id"]: c for c in frame["channels"]})
+
+    async def subscribe(self, topics: list[str]) -> None:
+        wanted = [c for c in self.channels.values() if c["topic"] in topics]
+        subs = [{"id": i, "channelId": c["id"]} for i, c in enumerate(wanted, start=1)]
+        self.subscriptions = {i: c["topic"] for i, c in enumerate(wanted, start=1)}
+        await self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+
+    async def message(self) -> tuple[str, int, bytes]:
+        """The next message: topic, log time (ns), payload."""
+        while True:
+            frame = await asyncio.wait_for(self.ws.recv(), TIMEOUT_S)
+            if isinstance(frame, bytes) and frame[0] == 1:
+                sub, time_ns = struct.unpack_from("<IQ", frame, 1)
+                return self.subscriptions[sub], time_ns, frame[13:]
+
+
+def connect(port: int) -> websockets.connect:
+    return websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS)
+
+
+MCAP_TOPICS = [*(t.value for t in Topic), *(f.value for f in FoxgloveTopic)]
+
+
+def test_the_live_sink_advertises_the_mcaps_channels_and_streams_its_messages() -> None:
+    sink = FoxgloveLiveSink(port=0, scene=SCENE, every_n_ticks=1)
+    events = session(4)
+
+    async def main() -> list[tuple[str, int, bytes]]:
+        async with connect(sink.server.port) as ws:
+            assert ws.subprotocol in SUBPROTOCOLS
+            client = Client(ws)
+            await client.until_advertised(len(MCAP_TOPICS))
+            by_topic = {c["topic"]: c for c in client.channels.values()}
+            assert sorted(by_topic) == sorted(MCAP_TOPICS)
+            for topic in Topic:
+                channel = by_topic[topic.value]
+                assert channel["schemaName"] == schema_name(topic)
+                assert channel["schema"].encode() == schema_data(topic)
+                assert (channel["encoding"], channel["schemaEncoding"]) == ("json", "jsonschema")
+            title, data = foxglove_schema(FoxgloveTopic.SCENE)
+            assert by_topic["/foxglove/scene"]["schemaName"] == title == "foxglove.SceneUpdate"
+            assert by_topic["/foxglove/scene"]["schema"].encode() == data
+            await client.subscribe(["/world/state", "/foxglove/scene"])
+            for _ in range(100):  # the server takes the subscription in its own time
+                if sink.subscribed("/world/state") and sink.subscribed("/foxglove/scene"):
+                    break
+                await asyncio.sleep(0.05)
+            for topic, time_ns, message in events:
+                sink.record(topic, time_ns, message)
+            return [await client.message() for _ in range(8)]
+
+    try:
+        received = asyncio.run(main())
+    finally:
+        sink.close()
+    states = [(t, m) for topic, t, m in received if topic == "/world/state"]
+    sent = [(t, msgspec.json.encode(m)) for topic, t, m in events if topic == Topic.WORLD_STATE]
+    assert states == sent[: len(states)] and len(states) >= 3, "the MCAP's bytes, in order"
+    scenes = [json.loads(m) for topic, _, m in received if topic == "/foxglove/scene"]
+    ids = [e["id"] for scene in scenes for e in scene["entities"]]
+    assert "arena" in ids and "robot" in ids
+
+
+def test_the_server_refuses_a_non_loopback_address() -> None:
+    assert loopback_host("127.0.0.1") == "127.0.0.1"
+    with pytest.raises(RecordingError, match="loopback only"):
+        loopback_host("0.0.0.0")
+
+
+def first_line_matching(process: subprocess.Popen[str], pattern: str) -> re.Match[str]:
+    for _ in range(50):
+        line = process.stdout.readline()
+        if not line:
+            break
+        if found := re.search(pattern, line):
+            return found
+    process.kill()
+    raise AssertionError(f"no line matching {pattern!r}: {process.communicate()}")
+
+
+def oimi_process(*args: str | Path) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "oimi", *map(str, args)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+async def receive_world_states(port: int, count: int) -> list[int]:
+    async with connect(port) as ws:
+        client = Client(ws)
+        await client.until_advertised(len(MCAP_TOPICS))
+        await client.subscribe(["/world/state"])
+        received = [await client.message() for _ in range(count)]
+    return [msgspec.json.decode(m)["tick"] for _, _, m in received]
+
+
+def test_oimi_serve_foxglove_serves_the_live_session(tmp_path: Path) -> None:
+    scenario = ROOT / "scenarios" / "library" / "greeting.toml"
+    process = oimi_process(
+        "serve", scenario, "--no-tcp", "--no-console", "--foxglove", "0",
+        "--duration-s", "4", "-o", tmp_path / "live.mcap",
+    )  # fmt: skip
+    try:
+        port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
+        ticks = asyncio.run(receive_world_states(port, 3))
+    finally:
+        _, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert ticks == sorted(ticks) and len(set(ticks)) == 3
+
+
+def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) -> None:
+    path = tmp_path / "blink.mcap"
+    blink = ROOT / "scenarios" / "library" / "blink.toml"
+    run = subprocess.run(
+        [sys.executable, "-m", "oimi", "run", blink, "-q", "-o", path],
+        cwd=ROOT,
+        capture_output=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    process = oimi_process("replay", path, "--foxglove", "0", "--speed", "0")
+    started = time.monotonic()
+    try:
+        port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
+        ticks = asyncio.run(receive_world_states(port, 6))
+    finally:
+        out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert ticks == [0, 1, 2, 3, 4, 5]
+    assert re.search(r"foxglove: \d+ messages streamed", out)
+    assert time.monotonic() - started < 60
