@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -46,7 +47,8 @@ def test_every_command_has_a_user_help_line_and_an_example() -> None:
         assert USAGE[name].summary in top
         assert USAGE[name].examples, name
         text = build_parser([name])._subparsers._group_actions[0].choices[name].format_help()
-        assert "example" in text and f"oimi {name}" in text.split("example")[1], name
+        heading = re.search(r"^examples?:$", text, re.MULTILINE)
+        assert heading is not None and f"oimi {name}" in text[heading.end() :], name
         assert "``" not in text and ":func:" not in text and ":class:" not in text, name
 
 
