@@ -34,7 +34,7 @@ class MemoryFigure(msgspec.Struct, frozen=True, kw_only=True):
     ticks: int
     file_mb: float
     peak_mb: float
-    """Peak resident memory of the analysing process (``ru_maxrss``), MB."""
+    """Peak resident memory of the analysing process (``VmHWM``), MB."""
     baseline_mb: float
     """Peak of the same process analysing a one-minute recording (imports included), MB."""
 
@@ -100,12 +100,14 @@ def synthetic_recording(path: Path, *, minutes: float) -> int:
 
 
 _MEASURE: Final = """
-import resource, sys
+import sys
 from analysis.load import load_session
 from analysis.metrics import session_metrics
 metrics = session_metrics(load_session(sys.argv[1], stream=True))
 assert metrics.summary.height == 1
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+# VmHWM, this process's own high-water mark (ru_maxrss would carry the parent's over exec)
+with open("/proc/self/status") as status:
+    print(next(int(l.split()[1]) for l in status if l.startswith("VmHWM:")) / 1024)
 """
 
 

@@ -64,3 +64,20 @@ def bench_analyse(recording: Path, repetitions: int) -> list[Case]:
             target=">= 300,000 rows/s",
         )
     ]
+
+
+def bench_analysis_memory(hours: float, folder: Path) -> Case:
+    """Peak memory of analysing a synthetic recording of ``hours`` (a working day by default),
+    beside the same analysis of a one-minute recording: flat means the same peak."""
+    from analysis.memory import measure_peak_memory
+
+    figure = measure_peak_memory(hours, folder=folder)
+    return beside(
+        f"analyse memory ({hours:g} h recording)",
+        figure.peak_mb,
+        "MB peak",
+        "baseline: a one-minute recording",
+        figure.baseline_mb,
+        target="< 300 MB for 8 h",
+        extra={"ticks": figure.ticks, "file_mb": figure.file_mb},
+    )

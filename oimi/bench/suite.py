@@ -9,7 +9,7 @@ from typing import Final
 
 from oimi.bench.measure import Case
 from oimi.bench.pipeline_cases import bench_conditions, bench_latency
-from oimi.bench.recordings import bench_analyse, bench_replay
+from oimi.bench.recordings import bench_analyse, bench_analysis_memory, bench_replay
 from oimi.bench.report import format_row, header, write_results
 from oimi.bench.runs import bench_crowd, bench_memory, bench_run
 
@@ -18,6 +18,9 @@ FULL_TICKS: Final = 180_000
 QUICK_TICKS: Final = 1_000
 CROWD_TICKS: Final = 30_000
 """Ticks of each run of the cost-per-person case (ten minutes at 50 Hz)."""
+ANALYSIS_HOURS: Final = 8.0
+"""The recording the analysis-memory case analyses: a working day of sessions."""
+QUICK_ANALYSIS_HOURS: Final = 0.05
 MEMORY_SHORT_TICKS: Final = 3_000
 """One minute at 50 Hz: the reference of the flat-memory check (``--quick``: its ticks)."""
 
@@ -54,5 +57,7 @@ def run_suite(
         add([bench_crowd(min(ticks, CROWD_TICKS), repetitions, folder)])
         short_ticks = min(ticks, MEMORY_SHORT_TICKS)
         add([bench_memory(short_ticks, max(ticks, 2 * short_ticks), folder)])
+        hours = QUICK_ANALYSIS_HOURS if quick else ANALYSIS_HOURS
+        add([bench_analysis_memory(hours, Path(folder))])
     write_results(out, cases, quick=quick, ticks=ticks, repetitions=repetitions)
     return cases

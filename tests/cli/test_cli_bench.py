@@ -20,6 +20,7 @@ CASES = {
     "latency operator stop -> command",
     "cost per person (3 vs 12 people)",
     "memory (2000 vs 1000 ticks)",
+    "analyse memory (0.05 h recording)",
 }
 FLOORS = {
     "run + MCAP": {"floor: its events -> MCAP sink", "floor: its world, no pipeline"},
@@ -54,6 +55,9 @@ def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Pat
     assert 0 <= by_name["latency operator stop -> command"]["value"] <= 1
     memory = by_name["memory (2000 vs 1000 ticks)"]["extra"]
     assert memory["short_mb"] > 0 and memory["long_mb"] > 0
+    analysis = by_name["analyse memory (0.05 h recording)"]
+    assert analysis["against"].startswith("baseline") and analysis["value"] > 0
+    assert analysis["extra"]["ticks"] == 0.05 * 3600 * 50  # the recording really is that long
     printed = capsys.readouterr().out
     assert "| run + MCAP " in printed and "| ↳ floor: its world, no pipeline " in printed
 
