@@ -3,13 +3,16 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+DEV    := $(VENV)/.installed-dev
 DEMO   ?= scenarios/library/greeting.toml
 OUT    ?= out
 FUZZ   ?= 20
 
-.PHONY: env demo test fuzz lint golden bench clean
+.PHONY: env dev demo test fuzz lint golden bench clean
 
 env: $(STAMP)
+
+dev: $(DEV)
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,22 +21,27 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q --no-deps -e .
 	touch $(STAMP)
 
+# The tests' and tools' packages, on top of what oimi itself needs (make demo installs only that).
+$(DEV): $(STAMP) requirements-dev.lock
+	$(BIN)/python -m pip install -q -r requirements.lock -r requirements-dev.lock
+	touch $(DEV)
+
 demo: $(STAMP)
 	$(BIN)/python -m oimi demo --out $(OUT)
 
-test: $(STAMP)
+test: $(DEV)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
 
 # The fuzz suite (also part of `test`) with FUZZ times as many examples per property.
-fuzz: $(STAMP)
+fuzz: $(DEV)
 	OIMI_FUZZ_EXAMPLES=$(FUZZ) $(BIN)/python -m pytest tests/fuzz
 
-lint: $(STAMP)
+lint: $(DEV)
 	$(BIN)/ruff check .
 
 golden: $(STAMP)
-	$(BIN)/python -m replay.golden --regenerate
+	$(BIN)/python -m oimi.replay.golden --regenerate
 
 bench: $(STAMP)
 	$(BIN)/python -m oimi bench --out docs/bench.json

@@ -14,10 +14,9 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 import polars as pl
-
-from analysis.load import SessionData, load_session
-from analysis.metrics import SessionMetrics, Verdicts, session_metrics, session_run_name
-from pipeline.errors import LocatedError
+from oimi.analysis.load import SessionData, load_session
+from oimi.analysis.metrics import SessionMetrics, Verdicts, session_metrics, session_run_name
+from oimi.pipeline.errors import LocatedError
 
 SESSION_ID = "session_id"
 

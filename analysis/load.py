@@ -18,12 +18,11 @@ import msgspec
 import polars as pl
 import pyarrow as pa
 import pyarrow.json as pa_json
-
-from analysis.stream import STREAMED, Streamed, StreamFolder
-from pipeline.events import TOPIC_TYPES, Topic
-from recorder.errors import RecordingError
-from recorder.reader import RecoveryReport, open_recording
-from recorder.scan import ChunkScan
+from oimi.analysis.stream import STREAMED, Streamed, StreamFolder
+from oimi.pipeline.events import TOPIC_TYPES, Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import RecoveryReport, open_recording
+from oimi.recorder.scan import ChunkScan
 
 TIME: Final = "time"
 """The simulated time as a ``pl.Duration("ms")`` column (beside ``time_ms``)."""

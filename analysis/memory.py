@@ -18,10 +18,9 @@ from pathlib import Path
 from typing import Final
 
 import msgspec
-
-from pipeline.events import BodyState, RuleDecision, RuleDecisions, Topic, WorldState
-from pipeline.think import rulecodes
-from recorder.mcap_sink import McapSink
+from oimi.pipeline.events import BodyState, RuleDecision, RuleDecisions, Topic, WorldState
+from oimi.pipeline.think import rulecodes
+from oimi.recorder.mcap_sink import McapSink
 
 TICK_MS: Final = 20
 SAFETY_SCHEMA: Final = b'{"title": "oimi.SafetyIntervention", "type": "object"}'
@@ -101,8 +100,8 @@ def synthetic_recording(path: Path, *, minutes: float) -> int:
 
 _MEASURE: Final = """
 import sys
-from analysis.load import load_session
-from analysis.metrics import session_metrics
+from oimi.analysis.load import load_session
+from oimi.analysis.metrics import session_metrics
 metrics = session_metrics(load_session(sys.argv[1], stream=True))
 assert metrics.summary.height == 1
 # VmHWM, this process's own high-water mark (ru_maxrss would carry the parent's over exec)

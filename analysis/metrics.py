@@ -11,12 +11,11 @@ from typing import Final
 
 import msgspec
 import polars as pl
-
-from analysis.load import TIME, SessionData
-from analysis.stream import Streamed
-from pipeline.events import REJECTING_SOURCES, Level, ProgressKind
-from pipeline.proximity import ZONE_NAMES
-from pipeline.think.library import BUILTIN_RULES
+from oimi.analysis.load import TIME, SessionData
+from oimi.analysis.stream import Streamed
+from oimi.pipeline.events import REJECTING_SOURCES, Level, ProgressKind
+from oimi.pipeline.proximity import ZONE_NAMES
+from oimi.pipeline.think.library import BUILTIN_RULES
 
 _STARTS: Final = (ProgressKind.LOAD.value, ProgressKind.IDLE.value)
 _ENDS: Final = (ProgressKind.END.value, ProgressKind.SWITCH.value)

@@ -14,12 +14,11 @@ import polars as pl
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Rectangle
-
-from analysis.load import SessionData
-from analysis.metrics import SessionMetrics, end_ms
-from pipeline.proximity import ZONES_M
-from recorder.scene import SceneGeometry
-from recorder.topics import SCENE_ATTACHMENT
+from oimi.analysis.load import SessionData
+from oimi.analysis.metrics import SessionMetrics, end_ms
+from oimi.pipeline.proximity import ZONES_M
+from oimi.recorder.scene import SceneGeometry
+from oimi.recorder.topics import SCENE_ATTACHMENT
 
 DPI: Final = 100
 ZONE_COLOURS: Final = {

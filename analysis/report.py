@@ -12,11 +12,10 @@ from pathlib import Path
 from typing import Final
 
 import polars as pl
-
-from analysis.compare import AGGREGATED, group_runs, swept_parameters
-from analysis.load import SessionData
-from analysis.metrics import SessionMetrics
-from analysis.plots import comparison_plot, draw_all, png
+from oimi.analysis.compare import AGGREGATED, group_runs, swept_parameters
+from oimi.analysis.load import SessionData
+from oimi.analysis.metrics import SessionMetrics
+from oimi.analysis.plots import comparison_plot, draw_all, png
 
 HTML_ROWS: Final = 50
 """Rows of a table shown in the HTML page (the files hold them all)."""

@@ -16,9 +16,8 @@ from typing import Final
 
 import msgspec
 import polars as pl
-
-from pipeline.events import RuleDecisions, Topic, WorldState
-from pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
+from oimi.pipeline.events import RuleDecisions, Topic, WorldState
+from oimi.pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
 
 SAFETY_TOPIC: Final = "/safety"
 """The safety supervisor's interventions (``SafetyIntervention``), read by name: a recording

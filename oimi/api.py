@@ -19,20 +19,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pipeline.errors import LocatedError
-from pipeline.messages import Script, WorldMap
-from pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
-from pipeline.think.conditions import Condition, Evaluation, compile_condition
-from scenarios.extensions import Extension as Extension  # re-exported: the registration API
-from scenarios.extensions import Toolkit, build_toolkit, load_extensions
-from scenarios.loader import LoadedScenario
-from scenarios.loader import load_scenario as _load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import RunResult, Session, Summary
-from scenarios.schema import Scenario as Scenario  # re-exported
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import Script, WorldMap
+from oimi.pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
+from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
+from oimi.scenarios.extensions import Extension as Extension  # re-exported: the registration API
+from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.loader import load_scenario as _load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import RunResult, Session, Summary
+from oimi.scenarios.schema import Scenario as Scenario  # re-exported
 
 if TYPE_CHECKING:
-    from analysis.load import SessionData
+    from oimi.analysis.load import SessionData
 
 PathLike = str | os.PathLike[str]
 Progress = Callable[[int, int], None]
@@ -144,6 +144,6 @@ def evaluate(
 def open_recording(path: PathLike, *, topics: Sequence[str] | None = None) -> SessionData:
     """A recording's topics as polars frames (``frames["/rules/decisions"]``),
     with its metadata and attachments."""
-    from analysis.load import load_session
+    from oimi.analysis.load import load_session
 
     return load_session(path, topics=topics)

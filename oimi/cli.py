@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from oimi import jsonout, usage
 from oimi.extension_args import EXTENDABLE, add_extension_argument
-from pipeline.errors import LocatedError
+from oimi.pipeline.errors import LocatedError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 

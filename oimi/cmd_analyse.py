@@ -14,16 +14,16 @@ from pathlib import Path
 
 import polars as pl
 
-from analysis.dataset import build_dataset, recordings, safe_name
-from analysis.load import AnalysisWarning, SessionData
-from analysis.metrics import SessionMetrics, Verdicts
-from analysis.report import transposed, write_comparison_report, write_session_report
+from oimi.analysis.dataset import build_dataset, recordings, safe_name
+from oimi.analysis.load import AnalysisWarning, SessionData
+from oimi.analysis.metrics import SessionMetrics, Verdicts
+from oimi.analysis.report import transposed, write_comparison_report, write_session_report
 from oimi.paths import check_output
-from pipeline.errors import LocatedError
-from recorder.reader import open_recording
-from replay.rebuild import rebuilt_session
-from scenarios.expectations import Tracker
-from scenarios.session_info import SESSION_RECORD
+from oimi.pipeline.errors import LocatedError
+from oimi.recorder.reader import open_recording
+from oimi.replay.rebuild import rebuilt_session
+from oimi.scenarios.expectations import Tracker
+from oimi.scenarios.session_info import SESSION_RECORD
 
 SESSION_TABLES = (
     "expectations",

@@ -19,18 +19,18 @@ from pathlib import Path
 import msgspec
 import polars as pl
 
-from analysis.compare import group_runs
-from analysis.dataset import build_dataset
-from analysis.report import write_comparison_report
 from oimi import console
+from oimi.analysis.compare import group_runs
+from oimi.analysis.dataset import build_dataset
+from oimi.analysis.report import write_comparison_report
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
 from oimi.paths import check_output
-from recorder.errors import RecordingError
-from replay.redrive import redrive
-from scenarios.batch import results
-from scenarios.batch.executors import Executor, ProcessPool, RayExecutor, default_workers
-from scenarios.batch.spec import (
+from oimi.recorder.errors import RecordingError
+from oimi.replay.redrive import redrive
+from oimi.scenarios.batch import results
+from oimi.scenarios.batch.executors import Executor, ProcessPool, RayExecutor, default_workers
+from oimi.scenarios.batch.spec import (
     SpecError,
     Task,
     check_unique,
@@ -42,7 +42,7 @@ from scenarios.batch.spec import (
     parse_seed_range,
     scenario_files,
 )
-from scenarios.batch.tasks import ResultRow, finished_row, run_task
+from oimi.scenarios.batch.tasks import ResultRow, finished_row, run_task
 
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"

@@ -19,9 +19,9 @@ from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
 from oimi.cmd_serve import serve
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from scenarios.live.server import LiveServer
-from scenarios.live.session import LiveSession
-from scenarios.loader import LoadedScenario
+from oimi.scenarios.live.server import LiveServer
+from oimi.scenarios.live.session import LiveSession
+from oimi.scenarios.loader import LoadedScenario
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

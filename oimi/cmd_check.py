@@ -14,14 +14,14 @@ from pathlib import Path
 
 from oimi import jsonout
 from oimi.extension_args import extensions_of
-from pipeline.errors import LocatedError
-from pipeline.script import ParsedScript, ScriptError
-from pipeline.think.conditions import compile_condition
-from pipeline.think.functions import FunctionRegistry
-from pipeline.think.rules import RuleRegistry
-from scenarios.activities import check_script_file
-from scenarios.extensions import Toolkit, build_toolkit, load_extensions
-from scenarios.loader import load_scenario
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.script import ParsedScript, ScriptError
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.rules import RuleRegistry
+from oimi.scenarios.activities import check_script_file
+from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.loader import load_scenario
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 

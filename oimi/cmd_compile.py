@@ -15,8 +15,8 @@ from pathlib import Path
 from oimi.cmd_check import report, report_error
 from oimi.extension_args import toolkit_of
 from oimi.paths import check_output, output_error
-from pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
-from pipeline.think.conditions import compile_condition
+from oimi.pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
+from oimi.pipeline.think.conditions import compile_condition
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 

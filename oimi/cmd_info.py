@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from oimi import jsonout
-from pipeline.events import Topic
-from recorder.reader import Recording, open_recording
-from recorder.topics import METADATA_OIMI
+from oimi.pipeline.events import Topic
+from oimi.recorder.reader import Recording, open_recording
+from oimi.recorder.topics import METADATA_OIMI
 
 EXTENSIONS_RECORD = "extensions"
 """The metadata record listing the extensions a session used (name -> version)."""

@@ -19,10 +19,10 @@ from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
 from oimi.live_options import add_foxglove_argument
+from oimi.replay.compare import format_report
+from oimi.replay.redrive import redrive
+from oimi.replay.rerun import rerun
 from oimi.ros2.network import missing_extra
-from replay.compare import format_report
-from replay.redrive import redrive
-from replay.rerun import rerun
 
 MODES = {"redrive": redrive, "rerun": rerun}
 
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
     """Stream the recording to a Foxglove client at its recorded pace, once one connects."""
-    from recorder.foxglove_live import FoxgloveServer, serve_recording
+    from oimi.recorder.foxglove_live import FoxgloveServer, serve_recording
 
     server = FoxgloveServer(port=port)
     try:
@@ -110,7 +110,7 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
         )
         return 2
     from oimi.ros2.bag import replay_rosbag
-    from scenarios.loader import load_scenario
+    from oimi.scenarios.loader import load_scenario
 
     output = args.output or Path("out") / f"{args.recording.name}-replay.mcap"
     result, ticks, notes = replay_rosbag(

@@ -31,10 +31,10 @@ from oimi.live_options import (
     print_session,
     session_info,
 )
-from scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
-from scenarios.live.session import LiveSession
-from scenarios.loader import LoadedScenario, load_scenario
-from scenarios.recording import check_outputs, dated_path, recorded
+from oimi.scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
+from oimi.scenarios.live.session import LiveSession
+from oimi.scenarios.loader import LoadedScenario, load_scenario
+from oimi.scenarios.recording import check_outputs, dated_path, recorded
 
 LIVE_CHUNK_BYTES: Final = 128 * 1024
 """A live session's MCAP chunks (uncompressed): a killed session loses at most the open

@@ -16,9 +16,9 @@ from pathlib import Path
 
 from oimi.cmd_serve import _note as note
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from scenarios.live.server import Addresses, LiveServer, ServeConfig
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
+from oimi.scenarios.live.server import Addresses, LiveServer, ServeConfig
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

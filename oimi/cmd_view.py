@@ -23,10 +23,10 @@ from pathlib import Path
 from typing import Final
 
 from oimi.paths import check_output
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.rerun_sink import mcap_to_rrd
+from oimi.recorder.rrd import check_rrd
 from oimi.web_viewer import PrivateViewer
-from recorder.errors import RecordingError
-from recorder.rerun_sink import mcap_to_rrd
-from recorder.rrd import check_rrd
 
 EXIT_OK, EXIT_FAILED = 0, 1
 BIND_ADDRESS: Final = "127.0.0.1"

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from xml.etree import ElementTree
 
-from scenarios.runner import RunResult
+from oimi.scenarios.runner import RunResult
 
 
 class Progress:

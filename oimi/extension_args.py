@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Final
 
-from scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 
 EXTENDABLE: Final = ("compile", "check", "run", "serve", "replay", "batch")
 """The sub-commands that take ``--extension``."""

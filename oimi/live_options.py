@@ -7,11 +7,11 @@ import argparse
 import secrets
 from datetime import UTC, datetime
 
-from recorder.foxglove_live import DEFAULT_PORT, FoxgloveLiveSink
-from scenarios.recording import scene_of
-from scenarios.runner import Session
-from scenarios.schema import Scenario
-from scenarios.session_info import SessionInfo, new_session_info
+from oimi.recorder.foxglove_live import DEFAULT_PORT, FoxgloveLiveSink
+from oimi.scenarios.recording import scene_of
+from oimi.scenarios.runner import Session
+from oimi.scenarios.schema import Scenario
+from oimi.scenarios.session_info import SessionInfo, new_session_info
 
 
 def add_session_arguments(parser: argparse.ArgumentParser) -> None:

@@ -12,7 +12,7 @@ import errno
 import os
 from pathlib import Path
 
-from pipeline.errors import LocatedError
+from oimi.pipeline.errors import LocatedError
 
 
 class OutputError(LocatedError):

@@ -11,8 +11,7 @@ import enum
 from typing import ClassVar, Final
 
 import msgspec
-
-from pipeline.messages import InstructionBlock, MapUpdate, Message, RuleMessage, WorldMap
+from oimi.pipeline.messages import InstructionBlock, MapUpdate, Message, RuleMessage, WorldMap
 
 
 class Topic(enum.StrEnum):

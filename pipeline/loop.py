@@ -10,11 +10,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import msgspec
-
-from pipeline.act.actuator import Actuator, ActuatorStep
-from pipeline.act.limits import RobotLimits, Velocity
-from pipeline.act.safety import SafetyConfig, SafetySupervisor
-from pipeline.events import (
+from oimi.pipeline.act.actuator import Actuator, ActuatorStep
+from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor
+from oimi.pipeline.events import (
     ActuatorCommands,
     Event,
     JoystickInput,
@@ -31,7 +30,7 @@ from pipeline.events import (
     SensorUpdates,
     Topic,
 )
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
     ActuatorOutputs,
     MapUpdate,
@@ -39,12 +38,12 @@ from pipeline.messages import (
     Script,
     WorldMap,
 )
-from pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
-from pipeline.registries import Registries
-from pipeline.sense.producer import MapProducer
-from pipeline.sink import Sink
-from pipeline.think.chain import RuleChain
-from pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
+from oimi.pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
+from oimi.pipeline.registries import Registries
+from oimi.pipeline.sense.producer import MapProducer
+from oimi.pipeline.sink import Sink
+from oimi.pipeline.think.chain import RuleChain
+from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
 
 
 class PipelineConfig(Message):

@@ -18,8 +18,7 @@ import math
 from typing import Final
 
 import msgspec
-
-from pipeline.events import BodyState, WorldState
+from oimi.pipeline.events import BodyState, WorldState
 
 ZONES_M: Final = (
     ("contact", -math.inf, 0.0),

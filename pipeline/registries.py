@@ -13,13 +13,13 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from pipeline.messages import Script
-from pipeline.operator.generator import Catalogue, Generator
-from pipeline.operator.generators import default_catalogue
-from pipeline.think.functions import FunctionRegistry
-from pipeline.think.library import BUILTIN_RULES
-from pipeline.think.rules import Rule, RuleRegistry
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.generator import Catalogue, Generator
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.library import BUILTIN_RULES
+from oimi.pipeline.think.rules import Rule, RuleRegistry
+from oimi.pipeline.think.stdlib import default_registry
 
 GeneratorFactory = Callable[[], Generator]
 """Makes a fresh, quiescent generator (one per operator selection)."""

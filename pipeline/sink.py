@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from pipeline.events import Event, Topic
+from oimi.pipeline.events import Event, Topic
 
 
 class Sink(Protocol):

@@ -14,10 +14,9 @@ from collections.abc import Iterable
 from typing import Final
 
 import msgspec
-
-from pipeline.events import BodyState, Level, LogEntries, WorldState
-from recorder.scene import ObstacleGeometry, SceneGeometry
-from recorder.topics import FoxgloveTopic
+from oimi.pipeline.events import BodyState, Level, LogEntries, WorldState
+from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
+from oimi.recorder.topics import FoxgloveTopic
 
 WORLD_FRAME: Final = "world"
 ROBOT_FRAME: Final = "robot"

@@ -23,13 +23,12 @@ from mcap.exceptions import McapError
 from mcap.reader import McapReader, make_reader
 from mcap.records import Channel, Schema
 from mcap.summary import Summary
-
-from pipeline.events import Event, LogEntries, Topic, WorldState
-from recorder import foxglove
-from recorder.errors import RecordingError
-from recorder.mcap_sink import DEFAULT_FOXGLOVE_EVERY_N_TICKS
-from recorder.scene import SceneGeometry
-from recorder.topics import (
+from oimi.pipeline.events import Event, LogEntries, Topic, WorldState
+from oimi.recorder import foxglove
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.mcap_sink import DEFAULT_FOXGLOVE_EVERY_N_TICKS
+from oimi.recorder.scene import SceneGeometry
+from oimi.recorder.topics import (
     MESSAGE_ENCODING,
     SCHEMA_ENCODING,
     FoxgloveTopic,

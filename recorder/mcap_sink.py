@@ -26,13 +26,12 @@ from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import MessageIndex
 from mcap.writer import CompressionType, Writer
-
-from pipeline.events import Event, LogEntries, Topic, WorldState
-from pipeline.messages import FORMAT_VERSION
-from recorder import foxglove
-from recorder.errors import RecordingError
-from recorder.scene import SceneGeometry
-from recorder.topics import (
+from oimi.pipeline.events import Event, LogEntries, Topic, WorldState
+from oimi.pipeline.messages import FORMAT_VERSION
+from oimi.recorder import foxglove
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.scene import SceneGeometry
+from oimi.recorder.topics import (
     FORMAT_VERSION_KEY,
     MESSAGE_ENCODING,
     METADATA_OIMI,

@@ -19,12 +19,11 @@ import zstandard
 from mcap.exceptions import EndOfFile, InvalidMagic, McapError
 from mcap.reader import SeekingReader
 from mcap.records import AttachmentIndex
-
-from pipeline.events import TOPIC_TYPES, Event, Topic
-from pipeline.messages import FORMAT_VERSION
-from recorder.errors import RecordingError
-from recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
-from recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
+from oimi.pipeline.events import TOPIC_TYPES, Event, Topic
+from oimi.pipeline.messages import FORMAT_VERSION
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
+from oimi.recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
 
 _READ_ERRORS: Final = (
     McapError,

@@ -18,8 +18,7 @@ from typing import Final
 import msgspec
 import rerun as rr
 import rerun.blueprint as rrb
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     ActuatorCommands,
     BodyState,
     Event,
@@ -35,13 +34,13 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.messages import InstructionBlock
-from recorder import palette
-from recorder.errors import RecordingError
-from recorder.palette import RGB
-from recorder.reader import Recording, open_recording
-from recorder.scene import SafetyZones, SceneGeometry
-from recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
+from oimi.pipeline.messages import InstructionBlock
+from oimi.recorder import palette
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.palette import RGB
+from oimi.recorder.reader import Recording, open_recording
+from oimi.recorder.scene import SafetyZones, SceneGeometry
+from oimi.recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
 
 DEFAULT_WORLD_EVERY_N_TICKS: Final = 5
 DEFAULT_TRAIL_SAMPLES: Final = 100

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import warnings
 
-from recorder.errors import RecordingError
+from oimi.recorder.errors import RecordingError
 
 REASON_CHARS = 200
 """Rerun's reasons can hold a whole Arrow error trace: cut to this."""

@@ -8,8 +8,7 @@ from importlib import resources
 from typing import Final
 
 import msgspec
-
-from pipeline.events import TOPIC_TYPES, Topic
+from oimi.pipeline.events import TOPIC_TYPES, Topic
 
 SCHEMA_ENCODING: Final = "jsonschema"
 MESSAGE_ENCODING: Final = "json"
@@ -77,6 +76,6 @@ def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -
 def foxglove_schema(topic: FoxgloveTopic) -> tuple[str, bytes]:
     """``(title, file bytes)`` of a Foxglove schema shipped in ``recorder/foxglove_schemas``."""
     data = (
-        resources.files("recorder") / "foxglove_schemas" / FOXGLOVE_SCHEMA_FILES[topic]
+        resources.files("oimi.recorder") / "foxglove_schemas" / FOXGLOVE_SCHEMA_FILES[topic]
     ).read_bytes()
     return msgspec.json.decode(data)["title"], data

@@ -15,10 +15,9 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Final
 
 import msgspec
-
-from pipeline.events import Event, Topic, encode
-from recorder.errors import RecordingError
-from recorder.reader import RecordedMessage, Recording
+from oimi.pipeline.events import Event, Topic, encode
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import RecordedMessage, Recording
 
 CONTEXT_MESSAGES: Final = 5
 """How many matched messages a divergence report shows before the difference."""

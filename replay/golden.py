@@ -10,7 +10,7 @@ Rule decisions that did not fire are only counted; a fired decision (or a
 contact) repeated unchanged at consecutive ticks is one line with its count
 and last time. Sensor updates and the map are only counted and digested.
 
-``python -m replay.golden --regenerate`` (``make golden``) rewrites the files on
+``python -m oimi.replay.golden --regenerate`` (``make golden``) rewrites the files on
 purpose; ``--check`` compares (exit 1 with a unified diff on a difference).
 """
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
 
-from pipeline.errors import LocatedError
-from pipeline.events import (
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.events import (
     ActuatorCommand,
     ActuatorCommands,
     Event,
@@ -43,15 +43,15 @@ from pipeline.events import (
     WorldState,
     encode,
 )
-from recorder.reader import open_recording
-from scenarios.loader import load_scenario
-from scenarios.runner import Session, library_scenarios
+from oimi.recorder.reader import open_recording
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.runner import Session, library_scenarios
 
 GOLDEN_DIR: Final = Path(__file__).resolve().parents[1] / "tests" / "golden"
 SUFFIX: Final = ".golden.txt"
 WORLD_SAMPLE_MS: Final = 1000
 """One world line per this much simulated time."""
-REGENERATE: Final = "make golden  (python -m replay.golden --regenerate)"
+REGENERATE: Final = "make golden  (python -m oimi.replay.golden --regenerate)"
 DIFF_LINES: Final = 200
 """Longest diff shown by ``check``."""
 
@@ -324,7 +324,7 @@ def stale_goldens(scenarios: Iterable[Path], directory: Path = GOLDEN_DIR) -> li
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m replay.golden", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m oimi.replay.golden", description=__doc__)
     action = parser.add_mutually_exclusive_group(required=True)
     action.add_argument("--regenerate", action="store_true", help="rewrite the golden files")
     action.add_argument("--check", action="store_true", help="compare; exit 1 on a difference")

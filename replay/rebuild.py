@@ -18,13 +18,12 @@ from pathlib import Path, PurePosixPath
 from typing import Final
 
 import msgspec
-
-from pipeline.errors import LocatedError
-from recorder.errors import RecordingError
-from recorder.reader import Recording
-from scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_extension
-from scenarios.loader import parse_scenario
-from scenarios.runner import Session
+from oimi.pipeline.errors import LocatedError
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import Recording
+from oimi.scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_extension
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.runner import Session
 
 SCENARIO_RECORD: Final = "scenario"
 CONFIGURATION_RECORD: Final = "configuration"

@@ -13,10 +13,10 @@ from __future__ import annotations
 import os
 from typing import Final
 
-from pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
-from recorder.reader import Recording, open_recording
-from replay.compare import Comparator, Comparison, compare_ticks
-from replay.rebuild import rebuild_notes, rebuilt_session
+from oimi.pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
+from oimi.recorder.reader import Recording, open_recording
+from oimi.replay.compare import Comparator, Comparison, compare_ticks
+from oimi.replay.rebuild import rebuild_notes, rebuilt_session
 
 REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
 """What the pipeline emits (every topic but the world's state)."""

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import os
 
-from pipeline.events import Topic
-from recorder.reader import Recording, open_recording
-from replay.compare import Comparator, Comparison, compare_ticks
-from replay.rebuild import rebuild_notes, rebuilt_session
+from oimi.pipeline.events import Topic
+from oimi.recorder.reader import Recording, open_recording
+from oimi.replay.compare import Comparator, Comparison, compare_ticks
+from oimi.replay.rebuild import rebuild_notes, rebuilt_session
 
 
 def rerun(path: str | os.PathLike[str]) -> Comparison:

@@ -6,15 +6,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Final
 
-from pipeline.errors import LocatedError
-from pipeline.messages import Script
-from pipeline.script import ParsedScript, condition_errors
-from pipeline.script.errors import ScriptError
-from pipeline.script.files import parse_script
-from pipeline.think.conditions import compile_condition
-from pipeline.think.functions import FunctionRegistry
-from pipeline.think.reader import ScriptEntry
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import Script
+from oimi.pipeline.script import ParsedScript, condition_errors
+from oimi.pipeline.script.errors import ScriptError
+from oimi.pipeline.script.files import parse_script
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.reader import ScriptEntry
+from oimi.pipeline.think.stdlib import default_registry
 
 LIBRARY: Final = Path(__file__).resolve().parent / "library"
 """The shipped scenarios; their activities are in ``LIBRARY / "activities"``."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pipeline.errors import LocatedError
+from oimi.pipeline.errors import LocatedError
 
 
 class ScenarioError(LocatedError):

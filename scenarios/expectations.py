@@ -10,8 +10,7 @@ import math
 from collections import Counter
 
 import msgspec
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     REJECTING_SOURCES,
     Event,
     Level,
@@ -26,8 +25,8 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
-from scenarios.schema import (
+from oimi.pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
+from oimi.scenarios.schema import (
     ActivityCompleted,
     ActivityState,
     ClosingSpeedAtContact,

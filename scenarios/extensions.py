@@ -30,15 +30,14 @@ from types import MappingProxyType, ModuleType
 from typing import Final
 
 import msgspec
-
-from pipeline.operator.generators import default_catalogue
-from pipeline.registries import GeneratorFactory, Registries
-from pipeline.think.functions import spec_of
-from pipeline.think.library import BUILTIN_RULES
-from pipeline.think.rules import Rule
-from pipeline.think.stdlib import default_registry
-from scenarios.errors import ScenarioError
-from scenarios.humans import BUILTIN_BEHAVIOURS, BehaviourFactory
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.registries import GeneratorFactory, Registries
+from oimi.pipeline.think.functions import spec_of
+from oimi.pipeline.think.library import BUILTIN_RULES
+from oimi.pipeline.think.rules import Rule
+from oimi.pipeline.think.stdlib import default_registry
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.humans import BUILTIN_BEHAVIOURS, BehaviourFactory
 
 ENTRY_POINT_GROUP: Final = "oimi.extensions"
 """Installed packages declare their extensions under this entry-point group."""

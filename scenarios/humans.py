@@ -16,7 +16,7 @@ import random
 from collections.abc import Callable, Mapping
 from typing import Final, NamedTuple, Protocol
 
-from scenarios.schema import (
+from oimi.scenarios.schema import (
     Approach,
     BehaviourSegment,
     Custom,

@@ -18,22 +18,21 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
-
-from pipeline.act.safety import safety_problems
-from pipeline.messages import Script
-from pipeline.operator.generator import Catalogue, GeneratorError
-from pipeline.operator.generators import default_catalogue
-from scenarios.activities import check_script_file
-from scenarios.errors import ScenarioError
-from scenarios.extensions import (
+from oimi.pipeline.act.safety import safety_problems
+from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.generator import Catalogue, GeneratorError
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.scenarios.activities import check_script_file
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.extensions import (
     ExtensionError,
     LoadedExtension,
     Toolkit,
     build_toolkit,
     load_extensions,
 )
-from scenarios.profile import THESIS_ROBOT
-from scenarios.schema import (
+from oimi.scenarios.profile import THESIS_ROBOT
+from oimi.scenarios.schema import (
     BehaviourEvent,
     Custom,
     FaultEvent,

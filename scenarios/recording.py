@@ -11,14 +11,14 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
 
-from pipeline.events import Event, Topic
-from recorder.errors import RecordingError
-from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
-from recorder.rerun_sink import RerunSink
-from recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
-from scenarios.runner import Session
-from scenarios.schema import Scenario
-from scenarios.session_info import SESSION_RECORD, SessionInfo, TickCounter
+from oimi.pipeline.events import Event, Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
+from oimi.recorder.rerun_sink import RerunSink
+from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
+from oimi.scenarios.runner import Session
+from oimi.scenarios.schema import Scenario
+from oimi.scenarios.session_info import SESSION_RECORD, SessionInfo, TickCounter
 
 
 def scene_of(scenario: Scenario) -> SceneGeometry:

@@ -13,10 +13,9 @@ from importlib import metadata as package_metadata
 from pathlib import Path
 
 import msgspec
-
-from pipeline.act.joystick import SAFETY_LOCK
-from pipeline.act.limits import RobotLimits
-from pipeline.events import (
+from oimi.pipeline.act.joystick import SAFETY_LOCK
+from oimi.pipeline.act.limits import RobotLimits
+from oimi.pipeline.events import (
     JoystickInput,
     LockRelease,
     OperatorCommand,
@@ -24,17 +23,17 @@ from pipeline.events import (
     SafetyZone,
     Topic,
 )
-from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
-from pipeline.operator.handler import GeneratorHandler
-from pipeline.registries import Registries
-from pipeline.sink import FanOut, Sink
-from pipeline.think import library as rule_library
-from scenarios.activities import ACTIVITIES, ActivityLibrary
-from scenarios.expectations import Tracker, Verdict
-from scenarios.extensions import extension_attachments, extensions_metadata
-from scenarios.loader import LoadedScenario, apply_overrides
-from scenarios.schema import (
+from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.registries import Registries
+from oimi.pipeline.sink import FanOut, Sink
+from oimi.pipeline.think import library as rule_library
+from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
+from oimi.scenarios.expectations import Tracker, Verdict
+from oimi.scenarios.extensions import extension_attachments, extensions_metadata
+from oimi.scenarios.loader import LoadedScenario, apply_overrides
+from oimi.scenarios.schema import (
     BehaviourEvent,
     FaultEvent,
     JoystickEvent,
@@ -42,8 +41,8 @@ from scenarios.schema import (
     Scenario,
     TouchEvent,
 )
-from scenarios.sensors import Sensors
-from scenarios.world import World, stream_rng
+from oimi.scenarios.sensors import Sensors
+from oimi.scenarios.world import World, stream_rng
 
 AUTO_START_VERBS = (OperatorVerb.GET_READY, OperatorVerb.START)
 """A scenario whose events use one of these drives the session itself; others auto-start."""

@@ -20,9 +20,8 @@ from typing import Annotated, Final
 
 import msgspec
 from msgspec import Meta
-
-from pipeline.act.safety import SafetyConfig
-from pipeline.events import MotionSource, OperatorVerb, SafetyZone
+from oimi.pipeline.act.safety import SafetyConfig
+from oimi.pipeline.events import MotionSource, OperatorVerb, SafetyZone
 
 DEFAULT_TICK_HZ: Final = 50
 """Simulated clock rate when a scenario gives none (a tick of 20 ms)."""

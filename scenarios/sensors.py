@@ -23,10 +23,16 @@ import random
 from typing import Final
 
 import msgspec
-
-from pipeline.messages import MapUpdate, Policy
-from scenarios.schema import FaultEvent, FaultMode, Scenario, SensorKind, SensorSpec, TouchEvent
-from scenarios.world import World, wrap_angle
+from oimi.pipeline.messages import MapUpdate, Policy
+from oimi.scenarios.schema import (
+    FaultEvent,
+    FaultMode,
+    Scenario,
+    SensorKind,
+    SensorSpec,
+    TouchEvent,
+)
+from oimi.scenarios.world import World, wrap_angle
 
 DECIMALS: Final = 4
 TRUE: Final = "s_true"

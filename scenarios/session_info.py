@@ -12,9 +12,8 @@ from __future__ import annotations
 from datetime import datetime
 
 import msgspec
-
-from pipeline.events import Topic, WorldState
-from scenarios.errors import ScenarioError
+from oimi.pipeline.events import Topic, WorldState
+from oimi.scenarios.errors import ScenarioError
 
 SESSION_RECORD = "session"
 """The metadata record holding a live session's fields."""

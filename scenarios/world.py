@@ -24,11 +24,10 @@ from typing import Final, NamedTuple
 import msgspec
 import pymunk
 import pymunk.batch
-
-from pipeline.events import BodyState, WorldState
-from pipeline.messages import ActuatorOutputs
-from scenarios.humans import Arena, BehaviourFactory, HumanDriver
-from scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+from oimi.pipeline.events import BodyState, WorldState
+from oimi.pipeline.messages import ActuatorOutputs
+from oimi.scenarios.humans import Arena, BehaviourFactory, HumanDriver
+from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
 
 WALL_THICKNESS_M: Final = 0.1
 CONTACT_TOLERANCE_M: Final = 0.02

@@ -14,9 +14,9 @@ EVALUATIONS: Final = 20_000
 
 def bench_conditions(repetitions: int) -> list[Case]:
     """Compiling the rule library's conditions; evaluating one beside a hand-written predicate."""
-    from pipeline.messages import Human, WorldMap
-    from pipeline.think.conditions import compile_condition
-    from pipeline.think.library import BUILTIN_RULES
+    from oimi.pipeline.messages import Human, WorldMap
+    from oimi.pipeline.think.conditions import compile_condition
+    from oimi.pipeline.think.library import BUILTIN_RULES
 
     texts = [cls.condition_text for cls in BUILTIN_RULES]
     rounds = COMPILED // len(texts) + 1
@@ -54,8 +54,8 @@ def bench_conditions(repetitions: int) -> list[Case]:
 
 def bench_latency() -> list[Case]:
     """Ticks from an input to the actuator command it causes (0: the same tick)."""
-    from pipeline.events import JoystickInput, OperatorVerb, Source, Topic
-    from pipeline.sink import MemorySink
+    from oimi.pipeline.events import JoystickInput, OperatorVerb, Source, Topic
+    from oimi.pipeline.sink import MemorySink
 
     session = bench_session(400)
     sink = MemorySink()

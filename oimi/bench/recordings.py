@@ -9,8 +9,8 @@ from oimi.bench.measure import Case, beside, interleaved, per_second
 
 def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> list[Case]:
     """Redrive beside its floor: reading and decoding every message of the recording."""
-    from recorder.reader import open_recording
-    from replay.redrive import redrive
+    from oimi.recorder.reader import open_recording
+    from oimi.replay.redrive import redrive
 
     def decode_all() -> int:
         return sum(1 for m in open_recording(recording).iter_messages() if m.decoded())
@@ -40,8 +40,8 @@ def bench_analyse(recording: Path, repetitions: int) -> list[Case]:
     import polars as pl
     from mcap.reader import make_reader
 
-    from analysis.load import load_session, topic_schema
-    from pipeline.events import Topic
+    from oimi.analysis.load import load_session, topic_schema
+    from oimi.pipeline.events import Topic
 
     def baseline() -> None:
         payloads: dict[str, list[bytes]] = {}
@@ -69,7 +69,7 @@ def bench_analyse(recording: Path, repetitions: int) -> list[Case]:
 def bench_analysis_memory(hours: float, folder: Path) -> Case:
     """Peak memory of analysing a synthetic recording of ``hours`` (a working day by default),
     beside the same analysis of a one-minute recording: flat means the same peak."""
-    from analysis.memory import measure_peak_memory
+    from oimi.analysis.memory import measure_peak_memory
 
     figure = measure_peak_memory(hours, folder=folder)
     return beside(

@@ -30,13 +30,8 @@ from rosbags.rosbag2.errors import ReaderError, WriterError
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from oimi.ros2 import topics, types
-from oimi.ros2.bridge import rule_message, script_info
-from oimi.ros2.joy import joy_of, pad_of
-from oimi.ros2.remote import make_remote, odometry
-from oimi.ros2.topics import RosTopic
-from pipeline.errors import LocatedError
-from pipeline.events import (
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.events import (
     ActuatorCommands,
     JoystickInput,
     MapSnapshot,
@@ -47,12 +42,17 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.messages import WorldMap
-from recorder.reader import open_recording
-from scenarios.live.inputs import JoystickGuard, Pad
-from scenarios.loader import LoadedScenario
-from scenarios.recording import recorded
-from scenarios.runner import RunResult, Session
+from oimi.pipeline.messages import WorldMap
+from oimi.recorder.reader import open_recording
+from oimi.ros2 import topics, types
+from oimi.ros2.bridge import rule_message, script_info
+from oimi.ros2.joy import joy_of, pad_of
+from oimi.ros2.remote import make_remote, odometry
+from oimi.ros2.topics import RosTopic
+from oimi.scenarios.live.inputs import JoystickGuard, Pad
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import RunResult, Session
 
 BAG_VERSION: Final = 9
 JOY_REPEAT_MS: Final = 100

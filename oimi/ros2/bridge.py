@@ -24,11 +24,7 @@ from typing import Final
 import msgspec
 from cyclonedds.util import duration
 
-from oimi.ros2 import topics, types
-from oimi.ros2.dds import DEEP, Node, take_all
-from oimi.ros2.joy import pad_of
-from oimi.ros2.remote import make_remote, outputs_message
-from pipeline.events import (
+from oimi.pipeline.events import (
     Event,
     JoystickInput,
     MapSnapshot,
@@ -37,10 +33,14 @@ from pipeline.events import (
     RuleDecisions,
     Topic,
 )
-from pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
-from scenarios.live.inputs import JoystickGuard
-from scenarios.live.session import LiveSession
-from scenarios.loader import LoadedScenario
+from oimi.pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from oimi.ros2 import topics, types
+from oimi.ros2.dds import DEEP, Node, take_all
+from oimi.ros2.joy import pad_of
+from oimi.ros2.remote import make_remote, outputs_message
+from oimi.scenarios.live.inputs import JoystickGuard
+from oimi.scenarios.live.session import LiveSession
+from oimi.scenarios.loader import LoadedScenario
 
 JOY_OWNER: Final = "ros2:/joy"
 """The joystick guard's owner for pad states that arrive over DDS."""

@@ -15,9 +15,9 @@ from typing import Final
 
 import msgspec
 
+from oimi.pipeline.act.joystick import Button
 from oimi.ros2 import types
-from pipeline.act.joystick import Button
-from scenarios.live.inputs import Pad
+from oimi.scenarios.live.inputs import Pad
 
 
 class JoyMapping(msgspec.Struct, frozen=True, kw_only=True):

@@ -20,7 +20,7 @@ from xml.sax.saxutils import quoteattr
 
 import msgspec
 
-from pipeline.errors import LocatedError
+from oimi.pipeline.errors import LocatedError
 
 MAX_DOMAIN_ID: Final = 232
 """The largest domain id ROS 2 allows."""

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import math
 
+from oimi.pipeline.events import BodyState, WorldState
+from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.ros2 import types
-from pipeline.events import BodyState, WorldState
-from pipeline.messages import ActuatorOutputs, MapUpdate, Policy
-from scenarios.runner import Session
-from scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
+from oimi.scenarios.runner import Session
+from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
 
 
 class RemoteSensors:

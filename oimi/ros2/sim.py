@@ -12,14 +12,14 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 from typing import Final
 
+from oimi.pipeline.events import JoystickInput, OperatorCommand
+from oimi.pipeline.loop import Pipeline
+from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.remote import odometry, outputs_of
-from pipeline.events import JoystickInput, OperatorCommand
-from pipeline.loop import Pipeline
-from pipeline.messages import ActuatorOutputs, MapUpdate
-from scenarios.loader import LoadedScenario
-from scenarios.runner import Session
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.runner import Session
 
 CMD_VEL_TIMEOUT_MS: Final = 500
 """Simulated time without a ``cmd_vel`` after which the robot stands still."""

@@ -1,10 +1,10 @@
 """Act: the Actuator that runs instruction blocks, the robot's limits, the joystick and the
 safety supervisor below them."""
 
-from pipeline.act.actuator import Actuator, ActuatorStep
-from pipeline.act.joystick import Button, read_pad
-from pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
-from pipeline.act.safety import SafetyConfig, SafetySupervisor
+from oimi.pipeline.act.actuator import Actuator, ActuatorStep
+from oimi.pipeline.act.joystick import Button, read_pad
+from oimi.pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
+from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor
 
 __all__ = [
     "Actuator",

@@ -15,11 +15,18 @@ from __future__ import annotations
 
 import math
 
-from pipeline.act.channels import CHANNEL_ORDER, Channel, ChannelCursor, Due, Phase
-from pipeline.act.joystick import read_pad
-from pipeline.act.limits import STILL, RobotLimits, Velocity, clamp_velocity, fmt, ramp_velocity
-from pipeline.events import ActuatorCommand, JoystickInput, MotionSource, Source
-from pipeline.messages import ActuatorOutputs, AudioOut, InstructionBlock, Led, Message, Move
+from oimi.pipeline.act.channels import CHANNEL_ORDER, Channel, ChannelCursor, Due, Phase
+from oimi.pipeline.act.joystick import read_pad
+from oimi.pipeline.act.limits import (
+    STILL,
+    RobotLimits,
+    Velocity,
+    clamp_velocity,
+    fmt,
+    ramp_velocity,
+)
+from oimi.pipeline.events import ActuatorCommand, JoystickInput, MotionSource, Source
+from oimi.pipeline.messages import ActuatorOutputs, AudioOut, InstructionBlock, Led, Message, Move
 
 LIGHTS_OFF: tuple[float, float, float] = (0.0, 0.0, 0.0)
 

@@ -20,8 +20,8 @@ import enum
 import math
 from typing import Final, NamedTuple
 
-from pipeline.act.limits import RobotLimits, Velocity, fmt
-from pipeline.events import JoystickInput
+from oimi.pipeline.act.limits import RobotLimits, Velocity, fmt
+from oimi.pipeline.events import JoystickInput
 
 DEAD_ZONE: Final = 0.1
 """Stick deflections below this (of 1) count as 0."""

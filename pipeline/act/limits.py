@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from pipeline.messages import Message
+from oimi.pipeline.messages import Message
 
 
 class RobotLimits(Message):

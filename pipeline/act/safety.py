@@ -40,9 +40,9 @@ from collections import deque
 from collections.abc import Iterator
 from typing import Final, NamedTuple
 
-from pipeline.act.limits import RobotLimits, Velocity
-from pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
-from pipeline.messages import Human, Message, WorldMap
+from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
+from oimi.pipeline.messages import Human, Message, WorldMap
 
 DEFAULT_ROBOT_RADIUS_M: Final = 0.3
 """The robot's radius when the configuration gives none (a pipeline without a scenario)."""

@@ -20,9 +20,8 @@ from collections.abc import Callable, Mapping
 from typing import Final, Protocol
 
 import msgspec
-
-from pipeline.errors import LocatedError
-from pipeline.messages import GeneratorNote, Message, Script, WorldMap
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import GeneratorNote, Message, Script, WorldMap
 
 Colour = tuple[float, float, float]
 OptionValue = str | float | int | Colour | tuple[Colour, ...]

@@ -24,16 +24,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import msgspec
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     ActivityEntry,
     OperatorCommand,
     OperatorReply,
     OperatorState,
     OperatorVerb,
 )
-from pipeline.messages import GeneratorNote, Message, Script, WorldMap
-from pipeline.operator.generator import (
+from oimi.pipeline.messages import GeneratorNote, Message, Script, WorldMap
+from oimi.pipeline.operator.generator import (
     Catalogue,
     Generator,
     GeneratorError,
@@ -41,7 +40,7 @@ from pipeline.operator.generator import (
     GeneratorView,
     resolve_options,
 )
-from pipeline.script.validate import script_errors
+from oimi.pipeline.script.validate import script_errors
 
 
 class Button(enum.StrEnum):

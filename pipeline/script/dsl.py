@@ -18,8 +18,7 @@ from typing import Final, NoReturn
 
 from lark import Lark, Token, Transformer, UnexpectedInput
 from lark.exceptions import VisitError
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Action,
     AudioOut,
     Block,
@@ -35,10 +34,10 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script.errors import ScriptError
-from pipeline.script.numbers import not_a_number, parse_float, parse_int
-from pipeline.script.sourcemap import LineIndex, ParsedScript, Position, SourceMap, decode_text
-from pipeline.script.validate import block_path, script_errors
+from oimi.pipeline.script.errors import ScriptError
+from oimi.pipeline.script.numbers import not_a_number, parse_float, parse_int
+from oimi.pipeline.script.sourcemap import LineIndex, ParsedScript, Position, SourceMap, decode_text
+from oimi.pipeline.script.validate import block_path, script_errors
 
 RULE_FIELDS: Final = ("rulecode", "id", "intopic", "outtopic", "action", "mutexcmd")
 MOVE_FIELDS: Final = ("v_x", "v_y", "v_theta", "wait_t", "duration")

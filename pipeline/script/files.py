@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from pipeline.script.dsl import parse_dsl
-from pipeline.script.json_format import parse_script_json
-from pipeline.script.sourcemap import ParsedScript
+from oimi.pipeline.script.dsl import parse_dsl
+from oimi.pipeline.script.json_format import parse_script_json
+from oimi.pipeline.script.sourcemap import ParsedScript
 
 
 def is_json_name(source: str) -> bool:

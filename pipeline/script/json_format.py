@@ -15,7 +15,7 @@ import re
 from collections.abc import Callable
 from typing import Any, Final, NoReturn
 
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Action,
     AudioOut,
     Block,
@@ -31,16 +31,16 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script.errors import ScriptError
-from pipeline.script.numbers import format_number, not_a_number, parse_float, parse_int
-from pipeline.script.sourcemap import (
+from oimi.pipeline.script.errors import ScriptError
+from oimi.pipeline.script.numbers import format_number, not_a_number, parse_float, parse_int
+from oimi.pipeline.script.sourcemap import (
     LineIndex,
     ParsedScript,
     SourceMap,
     child_path,
     decode_text,
 )
-from pipeline.script.validate import script_errors
+from oimi.pipeline.script.validate import script_errors
 
 _NUMBERED: Final = {
     "goal": re.compile(r"goal(\d+)"),

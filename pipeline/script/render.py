@@ -10,7 +10,7 @@ import json
 import re
 from typing import Final
 
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Block,
     InstructionBlock,
     JumpBlock,
@@ -19,9 +19,9 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script.errors import ScriptError
-from pipeline.script.numbers import format_number
-from pipeline.script.validate import TARGET, block_path, iter_blocks
+from oimi.pipeline.script.errors import ScriptError
+from oimi.pipeline.script.numbers import format_number
+from oimi.pipeline.script.validate import TARGET, block_path, iter_blocks
 
 _BARE: Final = re.compile(r"[A-Za-z0-9_.\-/\\]+")
 _RESERVED: Final = frozenset({"action"})

@@ -6,8 +6,8 @@ import bisect
 import re
 from typing import Final
 
-from pipeline.messages import Script
-from pipeline.script.errors import ScriptError
+from oimi.pipeline.messages import Script
+from oimi.pipeline.script.errors import ScriptError
 
 _LAST_STEP: Final = re.compile(r"^(.*?)(\.[^./\[\]]+|\[\d+\]|/[^/.\[\]]+)$")
 _STEP_KEY: Final = re.compile(r"(?:act|blk)\d+")

@@ -11,8 +11,8 @@ import re
 from collections.abc import Callable, Iterator
 from typing import Final
 
-from pipeline.errors import LocatedError
-from pipeline.messages import (
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import (
     Action,
     AudioOut,
     Goal,
@@ -27,8 +27,8 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script.errors import ScriptError
-from pipeline.script.sourcemap import ParsedScript, SourceMap
+from oimi.pipeline.script.errors import ScriptError
+from oimi.pipeline.script.sourcemap import ParsedScript, SourceMap
 
 TARGET: Final = re.compile(r"goal(\d+)/act(\d+)/blk(\d+)")
 """A jump target: ``goalX/actY/blkZ``."""

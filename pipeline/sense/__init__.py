@@ -1,8 +1,8 @@
 """The world map's producer: sensors' MapUpdates judged (tables 4.1/4.2) and applied."""
 
-from pipeline.sense.invariants import map_invariants
-from pipeline.sense.producer import MAX_ENTITIES, MapProducer, Rejection
-from pipeline.sense.updates import (
+from oimi.pipeline.sense.invariants import map_invariants
+from oimi.pipeline.sense.producer import MAX_ENTITIES, MapProducer, Rejection
+from oimi.pipeline.sense.updates import (
     UPDATE_TABLE,
     DecodedUpdate,
     EntityClass,

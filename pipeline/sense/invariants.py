@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pipeline.messages import REGISTER_CAPACITY, WorldMap
+from oimi.pipeline.messages import REGISTER_CAPACITY, WorldMap
 
 _ENTITY_LISTS = ("humans", "obstacles", "objects")
 _DEVICE_LISTS = ("cameras", "sonars")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Final
 
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
     Camera,
     Entity,
@@ -27,7 +27,7 @@ from pipeline.messages import (
     State,
     WorldMap,
 )
-from pipeline.sense.updates import (
+from oimi.pipeline.sense.updates import (
     DecodedUpdate,
     EntityClass,
     MapUpdateError,

@@ -25,9 +25,8 @@ from collections.abc import Callable, Mapping
 from typing import Annotated, Final, Literal, TypeVar
 
 import msgspec
-
-from pipeline.errors import LocatedError
-from pipeline.messages import (
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import (
     AudioStatus,
     GoalEvent,
     LedStatus,

@@ -17,10 +17,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from pipeline.events import Level, LogEntry, RuleDecision
-from pipeline.messages import GeneratorNote, MutexCmd, RuleAction, RuleMessage, WorldMap
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.rules import Rule, RuleContext, RuleRegistry
+from oimi.pipeline.events import Level, LogEntry, RuleDecision
+from oimi.pipeline.messages import GeneratorNote, MutexCmd, RuleAction, RuleMessage, WorldMap
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.rules import Rule, RuleContext, RuleRegistry
 
 
 class RuleChain:

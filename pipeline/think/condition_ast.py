@@ -13,9 +13,8 @@ from typing import Final
 
 import msgspec
 from lark import Token
-
-from pipeline.messages import ActivityTracking, Human, Object, Obstacle
-from pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.messages import ActivityTracking, Human, Object, Obstacle
+from oimi.pipeline.think.errors import RuleSyntaxError
 
 THIS: Final = "?THIS"
 """The entity under test inside a ``CLASS`` clause."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Callable, Sequence
 
-from pipeline.think.condition_ast import (
+from oimi.pipeline.think.condition_ast import (
     ALL_FIELDS,
     CLASS_FIELDS,
     THIS,
@@ -29,10 +29,10 @@ from pipeline.think.condition_ast import (
     VarRef,
     located,
 )
-from pipeline.think.condition_parse import (
+from oimi.pipeline.think.condition_parse import (
     parse_condition,
 )
-from pipeline.think.condition_runtime import (
+from oimi.pipeline.think.condition_runtime import (
     FAIL,
     GO,
     MISSING,
@@ -49,14 +49,14 @@ from pipeline.think.condition_runtime import (
     to_number,
     to_text,
 )
-from pipeline.think.functions import (
+from oimi.pipeline.think.functions import (
     ArgKind,
     Bound,
     Family,
     FunctionRegistry,
     FunctionSpec,
 )
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.think.stdlib import default_registry
 
 
 def _suggest(name: str, options: Sequence[str]) -> str:

@@ -14,8 +14,7 @@ from typing import Final
 
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
-
-from pipeline.think.condition_ast import (
+from oimi.pipeline.think.condition_ast import (
     IDENT,
     THIS,
     AliasRef,
@@ -38,8 +37,8 @@ from pipeline.think.condition_ast import (
     located,
     token_pos,
 )
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.functions import (
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import (
     CLASS_NAMES,
     Family,
 )

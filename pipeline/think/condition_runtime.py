@@ -13,13 +13,12 @@ from collections.abc import Callable, Sequence
 from typing import Final
 
 import msgspec
-
-from pipeline.messages import ActivityTracking, WorldMap
-from pipeline.think.condition_ast import (
+from oimi.pipeline.messages import ActivityTracking, WorldMap
+from oimi.pipeline.think.condition_ast import (
     Op,
     Scope,
 )
-from pipeline.think.functions import (
+from oimi.pipeline.think.functions import (
     Bound,
     FunctionContext,
 )

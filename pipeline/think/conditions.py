@@ -9,17 +9,17 @@ their public names. The language itself is described in ``docs/condition-languag
 
 from __future__ import annotations
 
-from pipeline.think.condition_ast import CLASS_FIELDS, THIS, ConditionAst, Op, Scope
-from pipeline.think.condition_compile import compile_condition
-from pipeline.think.condition_parse import parse_condition
-from pipeline.think.condition_runtime import (
+from oimi.pipeline.think.condition_ast import CLASS_FIELDS, THIS, ConditionAst, Op, Scope
+from oimi.pipeline.think.condition_compile import compile_condition
+from oimi.pipeline.think.condition_parse import parse_condition
+from oimi.pipeline.think.condition_runtime import (
     Condition,
     Evaluation,
     entity_ref,
     find_entity,
     release_alias,
 )
-from pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.errors import RuleSyntaxError
 
 __all__ = [
     "CLASS_FIELDS",

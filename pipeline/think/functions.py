@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Final
 
-from pipeline.messages import ActivityTracking, Entity, WorldMap
+from oimi.pipeline.messages import ActivityTracking, Entity, WorldMap
 
 Bound = Entity | ActivityTracking
 """What an alias can be bound to: a human, obstacle, object or activity of the map."""

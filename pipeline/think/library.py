@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from typing import Final
 
-from pipeline.messages import AudioOut, InstructionBlock, Led, Move, WorldMap
-from pipeline.think import rulecodes
-from pipeline.think.conditions import Evaluation
-from pipeline.think.rules import Effect, Rule, RuleContext
+from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move, WorldMap
+from oimi.pipeline.think import rulecodes
+from oimi.pipeline.think.conditions import Evaluation
+from oimi.pipeline.think.rules import Effect, Rule, RuleContext
 
 IDLE_ACTIVITY: Final = "idle_activity"
 WAITING_ACTIVITY: Final = "wait_for_child"

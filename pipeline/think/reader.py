@@ -27,9 +27,8 @@ from collections.abc import Callable, Iterable
 from typing import Final
 
 import msgspec
-
-from pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
-from pipeline.messages import (
+from oimi.pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
+from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
     ActivityTracking,
     GoalEvent,
@@ -44,10 +43,10 @@ from pipeline.messages import (
     TerminusBlock,
     WorldMap,
 )
-from pipeline.think.conditions import Condition, compile_condition
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.functions import FunctionRegistry
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.think.conditions import Condition, compile_condition
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.stdlib import default_registry
 
 MAX_BLOCKS_PER_READ: Final = 1000
 """Blocks read in one pass before the reader calls the script a runaway loop and ends it."""

@@ -14,12 +14,11 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import msgspec
-
-from pipeline.events import MapChange, RuleDecision
-from pipeline.messages import GeneratorNote, RuleMessage, WorldMap
-from pipeline.think.conditions import Condition, Evaluation, compile_condition
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.events import MapChange, RuleDecision
+from oimi.pipeline.messages import GeneratorNote, RuleMessage, WorldMap
+from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import FunctionRegistry
 
 MAX_CHANGE_TEXT = 120
 """Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""

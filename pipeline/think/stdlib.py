@@ -11,8 +11,8 @@ import functools
 import sys
 from typing import Final
 
-from pipeline.messages import ActivityTracking, Entity, GoalTracking, Object
-from pipeline.think.functions import (
+from oimi.pipeline.messages import ActivityTracking, Entity, GoalTracking, Object
+from oimi.pipeline.think.functions import (
     Bound,
     FunctionContext,
     FunctionRegistry,

@@ -17,7 +17,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Final, Protocol, TypeVar
 
-from scenarios.errors import ScenarioError
+from oimi.scenarios.errors import ScenarioError
 
 Item = TypeVar("Item")
 Result = TypeVar("Result")

@@ -22,8 +22,7 @@ from pathlib import Path
 from typing import Any, Final
 
 import polars as pl
-
-from scenarios.batch.tasks import ResultRow
+from oimi.scenarios.batch.tasks import ResultRow
 
 PARQUET: Final = "results.parquet"
 CSV: Final = "results.csv"

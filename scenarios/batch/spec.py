@@ -26,9 +26,8 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
-
-from scenarios.errors import ScenarioError
-from scenarios.loader import (
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.loader import (
     TomlLocator,
     _located_validation_error,
     apply_overrides,

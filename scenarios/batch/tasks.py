@@ -15,12 +15,11 @@ import traceback
 from pathlib import Path
 
 import msgspec
-
-from scenarios.batch.spec import Task
-from scenarios.expectations import Verdict
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import RunResult, Session, Summary
+from oimi.scenarios.batch.spec import Task
+from oimi.scenarios.expectations import Verdict
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import RunResult, Session, Summary
 
 RUN_COMPLETED = "run completed"
 """Name of the failing verdict a run that crashed gets instead of its expectations."""

@@ -16,13 +16,12 @@ import socket
 from typing import Any, Final
 
 import msgspec
+from oimi.pipeline.errors import LocatedError
+from oimi.scenarios.live import protocol
+from oimi.scenarios.live.protocol import encode_message
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request as HttpRequest
-
-from pipeline.errors import LocatedError
-from scenarios.live import protocol
-from scenarios.live.protocol import encode_message
 
 OUT_QUEUE: Final = 256
 """Messages waiting for a client; one that falls this far behind is dropped."""

@@ -16,8 +16,7 @@ from __future__ import annotations
 from typing import Final
 
 import msgspec
-
-from pipeline.events import JoystickInput, LockRelease
+from oimi.pipeline.events import JoystickInput, LockRelease
 
 HEARTBEAT_TIMEOUT_S: Final = 0.5
 """Silence after which a held safety lock counts as released."""

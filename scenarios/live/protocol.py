@@ -18,15 +18,14 @@ from __future__ import annotations
 from typing import Final
 
 import msgspec
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     ActivityEntry,
     BodyState,
     LogEntry,
     OperatorVerb,
 )
-from pipeline.operator.generator import GeneratorInfo
-from recorder.scene import SceneGeometry
+from oimi.pipeline.operator.generator import GeneratorInfo
+from oimi.recorder.scene import SceneGeometry
 
 MAX_LINE_BYTES: Final = 64 * 1024
 """The longest request accepted; a longer one is refused and the connection closed."""

@@ -30,15 +30,9 @@ from collections.abc import Callable
 from typing import Any, Final
 
 import msgspec
-from websockets.asyncio.server import ServerConnection, serve
-from websockets.datastructures import Headers
-from websockets.exceptions import ConnectionClosed
-from websockets.http11 import Request as HttpRequest
-from websockets.http11 import Response
-
-from pipeline.events import Level, LogEntry, OperatorCommand
-from scenarios.live import protocol
-from scenarios.live.connections import (
+from oimi.pipeline.events import Level, LogEntry, OperatorCommand
+from oimi.scenarios.live import protocol
+from oimi.scenarios.live.connections import (
     HTTP_LINE,
     Addresses,
     Client,
@@ -55,8 +49,8 @@ from scenarios.live.connections import (
     quiet_logger,
     url_host,
 )
-from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
-from scenarios.live.protocol import (
+from oimi.scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
+from oimi.scenarios.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
     Hello,
@@ -65,9 +59,14 @@ from scenarios.live.protocol import (
     StateMessage,
     decode_request,
 )
-from scenarios.live.view import LiveView
-from scenarios.recording import scene_of
-from scenarios.runner import Session
+from oimi.scenarios.live.view import LiveView
+from oimi.scenarios.recording import scene_of
+from oimi.scenarios.runner import Session
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request as HttpRequest
+from websockets.http11 import Response
 
 __all__ = [
     "Addresses",
@@ -517,7 +516,7 @@ class LiveServer:
         if entry is None:
             return connection.respond(404, f"not found: {path}\n")
         name, content_type = entry
-        body = importlib.resources.files("scenarios.live").joinpath("web", name).read_bytes()
+        body = importlib.resources.files("oimi.scenarios.live").joinpath("web", name).read_bytes()
         headers = Headers(
             [
                 ("Content-Type", content_type),

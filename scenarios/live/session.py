@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from scenarios.loader import LoadedScenario
-from scenarios.runner import RunResult, Session
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.runner import RunResult, Session
 
 
 class LiveSession(Session):

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Final
 
-from pipeline.events import (
+from oimi.pipeline.events import (
     Event,
     Level,
     LogEntries,
@@ -22,8 +22,8 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.operator.handler import GeneratorHandler
-from scenarios.live.protocol import Block, SessionState, WorldMessage
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.scenarios.live.protocol import Block, SessionState, WorldMessage
 
 FIRED_WINDOW_MS: Final = 1000
 """A rule stays in the live view's "firing" list this long after its condition held."""

@@ -5,10 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
 
 LIBRARY = Path(__file__).resolve().parents[2] / "scenarios" / "library"
 

@@ -5,12 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from analysis.load import load_session
-from analysis.metrics import session_metrics
-from scenarios.humans import PACE
-from scenarios.loader import load_scenario
-from scenarios.runner import Session
+from oimi.analysis.load import load_session
+from oimi.analysis.metrics import session_metrics
+from oimi.scenarios.humans import PACE
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.runner import Session
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 
@@ -65,8 +64,8 @@ def test_oimi_run_checks_contacts_with_the_same_definitions(name: str, passed: l
 
 
 def test_touches_a_moment_apart_are_one_episode_and_zones_use_the_surfaces() -> None:
-    from pipeline.events import BodyState, WorldState
-    from pipeline.proximity import ProximityTracker, zone_of
+    from oimi.pipeline.events import BodyState, WorldState
+    from oimi.pipeline.proximity import ProximityTracker, zone_of
 
     robot = BodyState(id="robot", kind="robot", x_m=0.0, y_m=0.0, vx_mps=0.2, radius_m=0.3)
 

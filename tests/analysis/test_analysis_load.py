@@ -6,8 +6,7 @@ from pathlib import Path
 import msgspec
 import polars as pl
 import pytest
-
-from analysis.load import (
+from oimi.analysis.load import (
     TIME,
     AnalysisWarning,
     load_session,
@@ -16,9 +15,9 @@ from analysis.load import (
     read_payloads,
     struct_schema,
 )
-from pipeline.events import ActuatorCommand, RuleDecision, RuleDecisions, Topic, encode
-from recorder.errors import RecordingError
-from recorder.reader import open_recording
+from oimi.pipeline.events import ActuatorCommand, RuleDecision, RuleDecisions, Topic, encode
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import open_recording
 
 
 def test_schema_follows_the_struct_and_leaves_out_free_keyed_dicts() -> None:

@@ -4,10 +4,9 @@ from pathlib import Path
 
 import polars as pl
 import pytest
-
-from analysis.load import load_session
-from analysis.metrics import distances, session_metrics
-from scenarios.humans import PACE
+from oimi.analysis.load import load_session
+from oimi.analysis.metrics import distances, session_metrics
+from oimi.scenarios.humans import PACE
 
 
 def _load(path: Path):
@@ -126,11 +125,10 @@ def test_a_rule_firing_is_credited_to_the_activity_running_when_it_began() -> No
     only at the next loop's step 5: the firing belongs to the activity that was running.
     An episode runs from the first evaluation that fired to the first that did not."""
     import msgspec
-
-    from analysis.load import TIME, SessionData
-    from analysis.metrics import rule_episodes
-    from analysis.stream import StreamFolder
-    from pipeline.events import RuleDecision, RuleDecisions
+    from oimi.analysis.load import TIME, SessionData
+    from oimi.analysis.metrics import rule_episodes
+    from oimi.analysis.stream import StreamFolder
+    from oimi.pipeline.events import RuleDecision, RuleDecisions
 
     items = pl.DataFrame(
         [

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import matplotlib.image
 import polars as pl
+from oimi.analysis.dataset import build_dataset
+from oimi.analysis.load import load_session
+from oimi.analysis.metrics import session_metrics
+from oimi.analysis.plots import PLOTS, label_levels
+from oimi.analysis.report import human_duration, readable, write_session_report
 
-from analysis.dataset import build_dataset
-from analysis.load import load_session
-from analysis.metrics import session_metrics
-from analysis.plots import PLOTS, label_levels
-from analysis.report import human_duration, readable, write_session_report
 from oimi.cli import main
 
 

@@ -6,12 +6,12 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
-from analysis.load import load_session
-from analysis.memory import add_safety_channel, write_safety
-from analysis.metrics import session_metrics
-from analysis.stream import MAX_SAMPLES, Samples
-from pipeline.events import BodyState, Topic, WorldState
-from recorder.mcap_sink import McapSink
+from oimi.analysis.load import load_session
+from oimi.analysis.memory import add_safety_channel, write_safety
+from oimi.analysis.metrics import session_metrics
+from oimi.analysis.stream import MAX_SAMPLES, Samples
+from oimi.pipeline.events import BodyState, Topic, WorldState
+from oimi.recorder.mcap_sink import McapSink
 
 METADATA = {"scenario": {"name": "synthetic", "seed": "0", "tick_hz": "50"}}
 

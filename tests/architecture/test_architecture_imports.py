@@ -21,7 +21,12 @@ THIRD_PARTY_IN_CORE = {"msgspec", "lark"}
 FORBIDDEN_IN_CORE = {"threading", "asyncio", "random", "time", "datetime", "multiprocessing"}
 
 
-def imported_modules(path: Path) -> list[tuple[int, str]]:
+FOLDERS = tuple(p for p in PACKAGES if p != "oimi")
+"""The repository's top-level folders, installed as ``oimi.<folder>`` (one import name)."""
+
+
+def raw_imports(path: Path) -> list[tuple[int, str]]:
+    """Every absolute import of a module, as written."""
     tree = ast.parse(path.read_text(), filename=str(path))
     found = []
     for node in ast.walk(tree):
@@ -29,6 +34,17 @@ def imported_modules(path: Path) -> list[tuple[int, str]]:
             found += [(node.lineno, alias.name) for alias in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             found.append((node.lineno, node.module))
+    return found
+
+
+def imported_modules(path: Path) -> list[tuple[int, str]]:
+    """Every absolute import, with ``oimi.pipeline.x`` read as the folder's ``pipeline.x``."""
+    found = []
+    for line, name in raw_imports(path):
+        head, _, rest = name.partition(".")
+        if head == "oimi" and rest.split(".")[0] in FOLDERS:
+            name = rest
+        found.append((line, name))
     return found
 
 
@@ -64,9 +80,22 @@ def test_core_uses_only_stdlib_msgspec_and_lark_and_no_clock_or_threads() -> Non
     assert not broken, "\n".join(broken)
 
 
+@pytest.mark.parametrize("package", PACKAGES)
+def test_the_folders_are_imported_only_through_the_one_import_name(package: str) -> None:
+    """Installed, only ``oimi`` is a top-level name: ``import pipeline`` would work in the
+    repository and fail for a user who installed the wheel."""
+    broken = [
+        f"{path.relative_to(ROOT)}:{line}: imports {name} (write oimi.{name})"
+        for path in modules_of(package)
+        for line, name in raw_imports(path)
+        if name.split(".")[0] in FOLDERS
+    ]
+    assert not broken, "\n".join(broken)
+
+
 def test_the_import_walker_sees_a_forbidden_import(tmp_path: Path) -> None:
     module = tmp_path / "bad.py"
-    module.write_text("import time\nfrom recorder.mcap_sink import McapSink\n")
+    module.write_text("import time\nfrom oimi.recorder.mcap_sink import McapSink\n")
     assert imported_modules(module) == [(1, "time"), (2, "recorder.mcap_sink")]
 
 

@@ -11,10 +11,10 @@ from xml.etree import ElementTree
 import polars as pl
 import pytest
 from batch_scenarios import write_scenario
+from oimi.recorder.reader import open_recording
 from polars.testing import assert_frame_equal
 
 from oimi.cli import main
-from recorder.reader import open_recording
 
 
 def batch(tmp_path: Path, out: str, *extra: str) -> list[str]:
@@ -107,8 +107,8 @@ def test_a_resumed_batch_skips_finished_runs(tmp_path: Path, capsys) -> None:
 
 
 def test_a_finished_run_of_other_inputs_is_not_taken_for_this_one(tmp_path: Path) -> None:
-    from scenarios.batch.spec import expand
-    from scenarios.batch.tasks import finished_row, run_task
+    from oimi.scenarios.batch.spec import expand
+    from oimi.scenarios.batch.tasks import finished_row, run_task
 
     path = write_scenario(tmp_path, "alpha")
     task = expand([path], params={}, seeds=1, seed_range=None, out_dir=tmp_path)[0]

@@ -6,8 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
-
-from scenarios.batch.executors import ExecutorError, ProcessPool
+from oimi.scenarios.batch.executors import ExecutorError, ProcessPool
 
 
 def square(number: int) -> int:

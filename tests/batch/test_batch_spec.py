@@ -6,8 +6,7 @@ from pathlib import Path
 
 import pytest
 from batch_scenarios import write_scenario
-
-from scenarios.batch.spec import (
+from oimi.scenarios.batch.spec import (
     SpecError,
     check_unique,
     expand,
@@ -17,7 +16,7 @@ from scenarios.batch.spec import (
     parse_seed_range,
     task_name,
 )
-from scenarios.errors import ScenarioError
+from oimi.scenarios.errors import ScenarioError
 
 
 def test_scenarios_times_grid_times_seeds_in_order_with_stable_names(tmp_path: Path) -> None:

@@ -9,6 +9,8 @@ import msgspec
 import pytest
 import zstandard
 from mcap.reader import make_reader
+from oimi.pipeline.events import Topic
+from oimi.pipeline.sink import MemorySink
 
 from oimi.bench.measure import bench_session
 from oimi.bench.reference import (
@@ -24,8 +26,6 @@ from oimi.bench.reference import (
     compile_conditions,
     reference_loop,
 )
-from pipeline.events import Topic
-from pipeline.sink import MemorySink
 
 TICKS = 600
 

@@ -8,11 +8,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from oimi.pipeline.script import load_script_json
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.errors import RuleSyntaxError
 
 from oimi.cli import main
-from pipeline.script import load_script_json
-from pipeline.think.conditions import compile_condition
-from pipeline.think.errors import RuleSyntaxError
 
 ROOT = Path(__file__).parents[2]
 ACTIVITIES = ROOT / "scenarios" / "library" / "activities"

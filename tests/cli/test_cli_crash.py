@@ -13,13 +13,13 @@ from pathlib import Path
 import pytest
 from mcap.exceptions import EndOfFile
 from mcap.reader import make_reader
+from oimi.pipeline.events import Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import open_recording
+from oimi.scenarios.recording import partial_path
 from rerun.chunk import RrdReader
 
 from oimi.cli import main
-from pipeline.events import Topic
-from recorder.errors import RecordingError
-from recorder.reader import open_recording
-from scenarios.recording import partial_path
 
 REPO = Path(__file__).resolve().parents[2]
 LONG_SCENARIO = """\

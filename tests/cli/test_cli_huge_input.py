@@ -7,10 +7,10 @@ import re
 from pathlib import Path
 
 import pytest
+from oimi.pipeline.script.dsl import MAX_NESTING
+from oimi.pipeline.script.sourcemap import CONTEXT_CHARS
 
 from oimi.cli import main
-from pipeline.script.dsl import MAX_NESTING
-from pipeline.script.sourcemap import CONTEXT_CHARS
 
 HEAD = "[a]\n[goal:g]\n[action]\n"
 BIG = 200_000

@@ -12,9 +12,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from oimi.scenarios.recording import dated_path, partial_path
 
 from oimi.cli import main
-from scenarios.recording import dated_path, partial_path
 
 ROOT = Path(__file__).parents[2]
 GREETING = ROOT / "scenarios" / "library" / "greeting.toml"

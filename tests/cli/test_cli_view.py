@@ -13,13 +13,13 @@ from pathlib import Path
 
 import psutil
 import pytest
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
 from rerun.chunk import RrdReader
 
 from oimi import cmd_view
 from oimi.cli import main
-from scenarios.loader import parse_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIO = b"""\

@@ -9,12 +9,12 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
 from viewer_browser import REFUSED, browser, missing, viewing, wait_until
 
 from oimi.web_viewer import GUARD, content_security_policy, private_page
-from scenarios.loader import parse_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
 
 SCENARIO = b"""\
 name = "private"

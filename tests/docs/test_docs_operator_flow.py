@@ -5,13 +5,13 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from pipeline.events import OperatorCommand, OperatorVerb, Topic
-from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.operator.generators import default_catalogue
-from pipeline.operator.handler import GeneratorHandler
-from pipeline.sink import MemorySink
-from pipeline.think.rulecodes import RuleCode
-from scenarios.activities import ACTIVITIES, ActivityLibrary
+from oimi.pipeline.events import OperatorCommand, OperatorVerb, Topic
+from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.sink import MemorySink
+from oimi.pipeline.think.rulecodes import RuleCode
+from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 IDLE = ActivityLibrary([ACTIVITIES]).idle()

@@ -7,9 +7,8 @@ import tomllib
 from pathlib import Path
 
 import pytest
-
-from pipeline.think.conditions import compile_condition
-from scenarios.extensions import build_toolkit, load_extension
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.scenarios.extensions import build_toolkit, load_extension
 
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "extending.md"

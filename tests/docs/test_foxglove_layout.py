@@ -8,9 +8,8 @@ import re
 from pathlib import Path
 
 import pytest
-
-from pipeline.events import Topic
-from recorder.topics import FoxgloveTopic, foxglove_schema, schema_data
+from oimi.pipeline.events import Topic
+from oimi.recorder.topics import FoxgloveTopic, foxglove_schema, schema_data
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT = json.loads((ROOT / "docs" / "foxglove-layout.json").read_text())

@@ -6,10 +6,9 @@ import re
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import Human, WorldMap
-from pipeline.script.dsl import compile_dsl
-from pipeline.think.conditions import compile_condition
+from oimi.pipeline.messages import Human, WorldMap
+from oimi.pipeline.script.dsl import compile_dsl
+from oimi.pipeline.think.conditions import compile_condition
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 

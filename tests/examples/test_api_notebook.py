@@ -6,11 +6,11 @@ from pathlib import Path
 
 import polars as pl
 import pytest
+from oimi.pipeline.messages import RobotStatus, Touch, WorldMap
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.scenarios.errors import ScenarioError
 
 import oimi
-from pipeline.messages import RobotStatus, Touch, WorldMap
-from pipeline.think.errors import RuleSyntaxError
-from scenarios.errors import ScenarioError
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "bubbles"

@@ -12,17 +12,17 @@ from types import SimpleNamespace
 
 import msgspec
 import pytest
+from oimi.pipeline.messages import Human, WorldMap
+from oimi.pipeline.operator.generator import GeneratorView
+from oimi.recorder.errors import RecordingError
+from oimi.replay.rebuild import _attached_extensions
+from oimi.replay.redrive import redrive
+from oimi.replay.rerun import rerun
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.extensions import ExtensionError, build_toolkit, load_extension
+from oimi.scenarios.humans import Arena, BehaviourView
 
 import oimi
-from pipeline.messages import Human, WorldMap
-from pipeline.operator.generator import GeneratorView
-from recorder.errors import RecordingError
-from replay.rebuild import _attached_extensions
-from replay.redrive import redrive
-from replay.rerun import rerun
-from scenarios.errors import ScenarioError
-from scenarios.extensions import ExtensionError, build_toolkit, load_extension
-from scenarios.humans import Arena, BehaviourView
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "bubbles"
@@ -41,8 +41,8 @@ def oimi_cli(*args: str) -> subprocess.CompletedProcess[str]:
 def write_extension(folder: Path, name: str, body: str) -> Path:
     path = folder / f"{name}.py"
     path.write_text(
-        "from pipeline.think.functions import evaluation\n"
-        "from pipeline.think.rules import Rule\n\n" + body
+        "from oimi.pipeline.think.functions import evaluation\n"
+        "from oimi.pipeline.think.rules import Rule\n\n" + body
     )
     return path
 
@@ -180,7 +180,7 @@ def test_installed_packages_offer_extensions_through_the_entry_point_group(
 ) -> None:
     from importlib import metadata
 
-    from scenarios import extensions
+    from oimi.scenarios import extensions
 
     monkeypatch.syspath_prepend(str(EXAMPLE))
     point = metadata.EntryPoint(name="bubbles", value="bubbles", group="oimi.extensions")

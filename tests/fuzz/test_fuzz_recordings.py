@@ -17,11 +17,10 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
-from recorder.reader import open_recording
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
+from oimi.recorder.reader import open_recording
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
 
 from .fuzzing import assert_clean_outcome, fuzz_settings, run_cli
 

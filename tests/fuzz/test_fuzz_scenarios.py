@@ -20,12 +20,12 @@ import msgspec
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.loader import LIBRARY_DIR, apply_overrides, load_scenario
+from oimi.scenarios.profile import THESIS_ROBOT
+from oimi.scenarios.runner import Session
 
 from oimi.cli import main
-from scenarios.errors import ScenarioError
-from scenarios.loader import LIBRARY_DIR, apply_overrides, load_scenario
-from scenarios.profile import THESIS_ROBOT
-from scenarios.runner import Session
 
 EXAMPLES = int(os.environ.get("OIMI_FUZZ_EXAMPLES", "60"))
 RUN_S = 0.5

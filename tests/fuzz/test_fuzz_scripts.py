@@ -17,8 +17,7 @@ from types import ModuleType
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
-from pipeline.script import render_dsl
+from oimi.pipeline.script import render_dsl
 
 from .fuzzing import assert_clean_outcome, fuzz_settings, run_cli
 

@@ -9,10 +9,9 @@ from pathlib import Path
 
 import pytest
 from live_helpers import served
-
-from pipeline.events import JoystickInput, Topic
-from recorder.reader import open_recording
-from replay.redrive import redrive
+from oimi.pipeline.events import JoystickInput, Topic
+from oimi.recorder.reader import open_recording
+from oimi.replay.redrive import redrive
 
 CHROMIUM = Path("/usr/bin/chromium")
 FLAGS = [

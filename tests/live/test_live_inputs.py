@@ -5,9 +5,8 @@ from __future__ import annotations
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.events import LockRelease
-from scenarios.live.inputs import NEUTRAL, JoystickGuard, Pad, Taken
+from oimi.pipeline.events import LockRelease
+from oimi.scenarios.live.inputs import NEUTRAL, JoystickGuard, Pad, Taken
 
 DRIVE = Pad(left_y=1.0, buttons=("LB",))
 

@@ -9,11 +9,10 @@ from collections.abc import Awaitable, Callable
 
 import pytest
 from live_helpers import ROOM
-
-from scenarios.live import connections, server
-from scenarios.live.server import LiveServer, ServeConfig, listen
-from scenarios.live.session import LiveSession
-from scenarios.loader import load_scenario
+from oimi.scenarios.live import connections, server
+from oimi.scenarios.live.server import LiveServer, ServeConfig, listen
+from oimi.scenarios.live.session import LiveSession
+from oimi.scenarios.loader import load_scenario
 
 WAIT_S = 10.0
 """Generous: each limit here acts within a second or two."""

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import pytest
-
-from scenarios.live.protocol import (
+from oimi.scenarios.live.protocol import (
     MAX_LINE_BYTES,
     Add,
     ProtocolError,

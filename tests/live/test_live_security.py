@@ -16,9 +16,15 @@ import time
 
 import pytest
 from live_helpers import ROOT, LineClient, http_status, port_of, served, states, upgrade
-
-from pipeline.events import ActuatorCommands, JoystickInput, LockRelease, Source, Topic, WorldState
-from recorder.reader import open_recording
+from oimi.pipeline.events import (
+    ActuatorCommands,
+    JoystickInput,
+    LockRelease,
+    Source,
+    Topic,
+    WorldState,
+)
+from oimi.recorder.reader import open_recording
 
 BURST = 200
 """Joystick states sent at once, toggling a button: 4 s of motion if they queued (one per

@@ -10,10 +10,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
-
-from recorder.reader import open_recording
-from scenarios.errors import ScenarioError
-from scenarios.session_info import new_session_info
+from oimi.recorder.reader import open_recording
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.session_info import new_session_info
 
 ROOT = Path(__file__).resolve().parents[2]
 GREETING = ROOT / "scenarios" / "library" / "greeting.toml"

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import msgspec
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     ActivityEntry,
     ActuatorCommand,
     ActuatorCommands,
@@ -36,7 +35,7 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Human,
     InstructionBlock,
     MapUpdate,
@@ -47,7 +46,7 @@ from pipeline.messages import (
     RuleMessage,
     WorldMap,
 )
-from recorder.scene import ObstacleGeometry, SceneGeometry
+from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
 
 TICK_NS = 20_000_000
 SCENE = SceneGeometry(

@@ -16,12 +16,11 @@ from pathlib import Path
 import msgspec
 import pytest
 import websockets
+from oimi.pipeline.events import Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.foxglove_live import FoxgloveLiveSink, loopback_host
+from oimi.recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
 from recorder_synthetic import SCENE, session
-
-from pipeline.events import Topic
-from recorder.errors import RecordingError
-from recorder.foxglove_live import FoxgloveLiveSink, loopback_host
-from recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
 
 ROOT = Path(__file__).resolve().parents[2]
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]

@@ -15,17 +15,16 @@ from mcap.reader import make_reader
 from mcap.records import Channel
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
+from oimi.pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic
+from oimi.pipeline.messages import FORMAT_VERSION
+from oimi.recorder import foxglove
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.mcap_sink import McapSink
+from oimi.recorder.reader import open_recording
+from oimi.recorder.scene import SceneGeometry
+from oimi.recorder.topics import SCENE_ATTACHMENT, FoxgloveTopic
 from recorder_foxglove_paths import FOXGLOVE_SCHEMAS
 from recorder_synthetic import SCENE, TICK_NS, session, world_state
-
-from pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic
-from pipeline.messages import FORMAT_VERSION
-from recorder import foxglove
-from recorder.errors import RecordingError
-from recorder.mcap_sink import McapSink
-from recorder.reader import open_recording
-from recorder.scene import SceneGeometry
-from recorder.topics import SCENE_ATTACHMENT, FoxgloveTopic
 
 METADATA = {"scenario": {"name": "greeting", "seed": "7"}, "oimi": {"recording_id": "greeting-7"}}
 ATTACHMENTS = [("greeting.toml", b'name = "greeting"\n'), ("notes.txt", b"hello")]

@@ -5,13 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from oimi.pipeline.events import LogEntries, Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.mcap_sink import McapSink
+from oimi.recorder.rerun_sink import RerunSink, mcap_to_rrd
 from recorder_synthetic import SCENE, session
 from rerun.chunk import RrdReader
-
-from pipeline.events import LogEntries, Topic
-from recorder.errors import RecordingError
-from recorder.mcap_sink import McapSink
-from recorder.rerun_sink import RerunSink, mcap_to_rrd
 
 
 def write_rrd(path: Path, ticks: int = 30) -> None:

@@ -9,12 +9,11 @@ from pathlib import Path
 
 import pytest
 import zstandard
+from oimi.pipeline.events import Topic
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.mcap_sink import McapSink
+from oimi.recorder.reader import open_recording
 from recorder_synthetic import SCENE, session
-
-from pipeline.events import Topic
-from recorder.errors import RecordingError
-from recorder.mcap_sink import McapSink
-from recorder.reader import open_recording
 
 METADATA = {"oimi": {"recording_id": "scan-test"}}
 ATTACHMENTS = [("greeting.toml", b'name = "greeting"\n')]

@@ -12,16 +12,15 @@ import jsonschema
 import msgspec
 import pytest
 from mcap.reader import make_reader
+from oimi.pipeline.events import TOPIC_TYPES, Topic
+from oimi.pipeline.sink import MemorySink
+from oimi.recorder.reader import Recording, open_recording
+from oimi.scenarios import loader, runner
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
 from recorder_foxglove_paths import FOXGLOVE_SCHEMAS
 from rerun.chunk import RrdReader
-
-from pipeline.events import TOPIC_TYPES, Topic
-from pipeline.sink import MemorySink
-from recorder.reader import Recording, open_recording
-from scenarios import loader, runner
-from scenarios.loader import parse_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIO = b"""\

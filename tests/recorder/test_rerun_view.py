@@ -7,10 +7,7 @@ from pathlib import Path
 
 import msgspec
 import pytest
-from recorder_synthetic import SCENE, session, world_state
-from rerun.chunk import RrdReader
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     BodyState,
     MotionSource,
     SafetyIntervention,
@@ -18,10 +15,12 @@ from pipeline.events import (
     SafetyZone,
     Topic,
 )
-from pipeline.messages import AudioOut, InstructionBlock, Led, Move
-from recorder import palette
-from recorder.rerun_sink import RerunSink, block_line, zone_rings
-from recorder.scene import SafetyZones
+from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
+from oimi.recorder import palette
+from oimi.recorder.rerun_sink import RerunSink, block_line, zone_rings
+from oimi.recorder.scene import SafetyZones
+from recorder_synthetic import SCENE, session, world_state
+from rerun.chunk import RrdReader
 
 
 def packed(rgb: palette.RGB, alpha: int = 255) -> int:
@@ -205,8 +204,8 @@ def test_the_zone_the_supervisor_reports_on_safety_is_the_one_drawn_bold(tmp_pat
 
 
 def test_the_scene_carries_the_sessions_zones_to_the_view() -> None:
-    from scenarios.recording import scene_of
-    from scenarios.schema import Scenario
+    from oimi.scenarios.recording import scene_of
+    from oimi.scenarios.schema import Scenario
 
     scenario = msgspec.convert(
         {"name": "z", "robot": {"safety": {"stop_distance_m": 0.2, "slow_distance_m": 0.9}}},

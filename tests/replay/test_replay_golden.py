@@ -6,12 +6,10 @@ import re
 from pathlib import Path
 
 import pytest
-from replay_tamper import SHORT
-
-from pipeline.events import RuleDecision, RuleDecisions, Topic
-from pipeline.think import library
-from replay import golden
-from replay.golden import (
+from oimi.pipeline.events import RuleDecision, RuleDecisions, Topic
+from oimi.pipeline.think import library
+from oimi.replay import golden
+from oimi.replay.golden import (
     Projection,
     check,
     digest_recording,
@@ -19,9 +17,10 @@ from replay.golden import (
     regenerate,
     stale_goldens,
 )
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session, library_scenarios
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session, library_scenarios
+from replay_tamper import SHORT
 
 
 @pytest.mark.parametrize("scenario", library_scenarios(), ids=lambda path: path.stem)

@@ -6,14 +6,11 @@ from pathlib import Path
 
 import msgspec
 import pytest
-from replay_tamper import SHORT, rewrite
-
-from oimi.cli import main
-from pipeline.events import Topic
-from pipeline.messages import FORMAT_VERSION
-from recorder.errors import RecordingError
-from recorder.reader import open_recording
-from replay.compare import (
+from oimi.pipeline.events import Topic
+from oimi.pipeline.messages import FORMAT_VERSION
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import open_recording
+from oimi.replay.compare import (
     Comparator,
     Comparison,
     DivergenceKind,
@@ -21,12 +18,15 @@ from replay.compare import (
     first_difference,
     format_report,
 )
-from replay.redrive import REDRIVE_TOPICS, recorded_ticks, redrive
-from replay.rerun import rerun
-from scenarios.activities import ACTIVITIES
-from scenarios.loader import load_scenario
-from scenarios.recording import recorded
-from scenarios.runner import Session
+from oimi.replay.redrive import REDRIVE_TOPICS, recorded_ticks, redrive
+from oimi.replay.rerun import rerun
+from oimi.scenarios.activities import ACTIVITIES
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import recorded
+from oimi.scenarios.runner import Session
+from replay_tamper import SHORT, rewrite
+
+from oimi.cli import main
 
 OUTPUT_TOPICS = (
     Topic.MAP,

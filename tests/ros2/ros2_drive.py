@@ -20,11 +20,12 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from oimi.scenarios.live.inputs import NEUTRAL, Pad
+
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import Node, take_all
 from oimi.ros2.joy import joy_of
 from oimi.ros2.network import Network
-from scenarios.live.inputs import NEUTRAL, Pad
 
 ROOM = Path(__file__).with_name("ros2_room.toml")
 WAIT_S = 20.0

@@ -16,9 +16,10 @@ import pytest
 
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
+from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic
+from oimi.recorder.reader import open_recording
+
 from oimi.cli import main
-from pipeline.events import ActuatorCommands, JoystickInput, Source, Topic
-from recorder.reader import open_recording
 
 DRIVER = Path(__file__).with_name("ros2_drive.py")
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,13 +9,14 @@ import pytest
 
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
+from oimi.pipeline.messages import Policy
+from oimi.scenarios.live.inputs import Pad
+
 from oimi.cli import main
 from oimi.ros2 import types
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.network import Network, NetworkError, domain_id_from
 from oimi.ros2.remote import RemoteSensors
-from pipeline.messages import Policy
-from scenarios.live.inputs import Pad
 
 
 def test_joy_node_axes_are_read_with_x_flipped_and_lb_on_button_4():

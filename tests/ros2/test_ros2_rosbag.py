@@ -12,12 +12,12 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 pytest.importorskip("rosbags", reason="the ros2 extra (rosbags) is not installed")
 
 from mcap.reader import make_reader
+from oimi.pipeline.events import JoystickInput, SensorUpdates, Topic
+from oimi.recorder.reader import open_recording
 from rosbags.highlevel import AnyReader
 
 from oimi.cli import main
 from oimi.ros2.bag import typestore
-from pipeline.events import JoystickInput, SensorUpdates, Topic
-from recorder.reader import open_recording
 
 LIBRARY = Path(__file__).resolve().parents[2] / "scenarios" / "library"
 SCENARIO = LIBRARY / "joystick_takeover.toml"

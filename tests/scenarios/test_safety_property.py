@@ -33,11 +33,10 @@ from pathlib import Path
 
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-
-from pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
-from pipeline.sink import MemorySink
-from scenarios.loader import load_scenario
-from scenarios.runner import Session
+from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
+from oimi.pipeline.sink import MemorySink
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.runner import Session
 
 TICK_MS = 20
 MAX_SPEED_MPS = 0.5

@@ -7,13 +7,12 @@ import math
 from pathlib import Path
 
 import pytest
-
-from pipeline.events import ActuatorCommands, Topic
-from pipeline.operator.generators import GreetingGenerator
-from pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
-from pipeline.sink import MemorySink
-from scenarios.loader import load_scenario
-from scenarios.runner import RunResult, Session, library_scenarios
+from oimi.pipeline.events import ActuatorCommands, Topic
+from oimi.pipeline.operator.generators import GreetingGenerator
+from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
+from oimi.pipeline.sink import MemorySink
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.runner import RunResult, Session, library_scenarios
 
 LIBRARY = {path.stem: path for path in library_scenarios()}
 

@@ -6,14 +6,12 @@ import re
 from pathlib import Path
 
 import pytest
-
-from oimi.cli import main
-from pipeline.events import OperatorVerb
-from pipeline.operator.generator import Catalogue
-from pipeline.operator.generators import DanceGenerator
-from scenarios.errors import ScenarioError
-from scenarios.loader import apply_overrides, load_scenario, parse_scenario
-from scenarios.schema import (
+from oimi.pipeline.events import OperatorVerb
+from oimi.pipeline.operator.generator import Catalogue
+from oimi.pipeline.operator.generators import DanceGenerator
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.loader import apply_overrides, load_scenario, parse_scenario
+from oimi.scenarios.schema import (
     Approach,
     BehaviourEvent,
     FaultEvent,
@@ -28,6 +26,8 @@ from scenarios.schema import (
     Wander,
     Waypoints,
 )
+
+from oimi.cli import main
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scenario-files.md"
 
@@ -313,7 +313,7 @@ def test_scripts_are_found_in_the_library(tmp_path, monkeypatch):
     library = tmp_path / "library"
     (library / "activities").mkdir(parents=True)
     (library / "activities" / "hello.txt").write_text(WAVE)
-    monkeypatch.setattr("scenarios.loader.LIBRARY_DIR", library)
+    monkeypatch.setattr("oimi.scenarios.loader.LIBRARY_DIR", library)
     text = b'name = "x"\n[[activities]]\nscript = "activities/hello.txt"\n'
     loaded = parse_scenario(text, source=tmp_path / "elsewhere" / "s.toml")
     assert loaded.activity_paths == (library / "activities" / "hello.txt",)

@@ -6,10 +6,9 @@ import signal
 from pathlib import Path
 
 import pytest
-
-from scenarios.loader import load_scenario
-from scenarios.recording import interrupts_held, recorded
-from scenarios.runner import Session, library_scenarios
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.recording import interrupts_held, recorded
+from oimi.scenarios.runner import Session, library_scenarios
 
 
 def test_ctrl_c_is_ignored_while_the_files_are_being_finished() -> None:
@@ -20,7 +19,7 @@ def test_ctrl_c_is_ignored_while_the_files_are_being_finished() -> None:
 
 
 def test_an_error_mid_run_still_finishes_a_readable_recording(tmp_path: Path) -> None:
-    from recorder.reader import open_recording
+    from oimi.recorder.reader import open_recording
 
     greeting = next(p for p in library_scenarios() if p.stem == "greeting")
     session = Session(load_scenario(greeting))

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import msgspec
 import pytest
-
-from pipeline.act.safety import SafetyConfig
-from scenarios.errors import ScenarioError
-from scenarios.loader import parse_scenario
-from scenarios.runner import Session, pipeline_config
+from oimi.pipeline.act.safety import SafetyConfig
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.runner import Session, pipeline_config
 
 
 def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:

@@ -10,17 +10,17 @@ import typing
 from pathlib import Path
 
 import pytest
+from oimi.pipeline.events import BodyState, Topic, WorldState
+from oimi.scenarios import schema
+from oimi.scenarios.batch.spec import SpecError, expand, toml_literal
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.expectations import Tracker
+from oimi.scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
+from oimi.scenarios.profile import THESIS_ROBOT
+from oimi.scenarios.runner import Session
+from oimi.scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints, unit_of
 
 from oimi.cli import main
-from pipeline.events import BodyState, Topic, WorldState
-from scenarios import schema
-from scenarios.batch.spec import SpecError, expand, toml_literal
-from scenarios.errors import ScenarioError
-from scenarios.expectations import Tracker
-from scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
-from scenarios.profile import THESIS_ROBOT
-from scenarios.runner import Session
-from scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints, unit_of
 
 BASE = 'name = "bad"\n'
 CHILD = '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n'

@@ -6,12 +6,11 @@ import math
 
 import msgspec
 import pytest
-
-from pipeline.messages import ActuatorOutputs, MapUpdate, Policy
-from scenarios.loader import parse_scenario
-from scenarios.schema import FaultEvent, FaultMode, SensorKind, TouchEvent, TouchType
-from scenarios.sensors import Schedule, Sensors
-from scenarios.world import World, stream_rng
+from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.schema import FaultEvent, FaultMode, SensorKind, TouchEvent, TouchType
+from oimi.scenarios.sensors import Schedule, Sensors
+from oimi.scenarios.world import World, stream_rng
 
 STOP = ActuatorOutputs()
 
@@ -258,7 +257,7 @@ def test_seq_numbers_increase_from_one():
 
 
 def test_every_update_decodes_with_the_map_producers_table():
-    from pipeline.sense.updates import decode_update
+    from oimi.pipeline.sense.updates import decode_update
 
     world, sensors = setup(sensors="noise_rho_m = 0.05\nfov_rad = 6.3", theta=2.0)
     sensors.touch(TouchEvent(at_s=0.0, human="kid", touchtype=TouchType.H), time_ms=0)

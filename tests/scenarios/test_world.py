@@ -7,13 +7,12 @@ import math
 
 import msgspec
 import pytest
-
-from pipeline.events import encode
-from pipeline.messages import ActuatorOutputs
-from scenarios.humans import PACE
-from scenarios.loader import parse_scenario
-from scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
-from scenarios.world import World, stream_rng
+from oimi.pipeline.events import encode
+from oimi.pipeline.messages import ActuatorOutputs
+from oimi.scenarios.humans import PACE
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
+from oimi.scenarios.world import World, stream_rng
 
 STOP = ActuatorOutputs()
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from scenarios.humans import BehaviourView
+from oimi.scenarios.humans import BehaviourView
 
 
 class ChaseBubbles:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pipeline.think.functions import FunctionContext, evaluation
+from oimi.pipeline.think.functions import FunctionContext, evaluation
 
 POPS = "@bubbles_popped"
 """The map variable where ``PopReward`` counts the popped bubbles."""

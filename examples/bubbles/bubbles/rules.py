@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Final
 
-from pipeline.messages import AudioOut, InstructionBlock, Led, WorldMap
-from pipeline.think.conditions import Evaluation
-from pipeline.think.rules import Effect, Rule, RuleContext
+from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, WorldMap
+from oimi.pipeline.think.conditions import Evaluation
+from oimi.pipeline.think.rules import Effect, Rule, RuleContext
 
 from .functions import POPS
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-from pipeline.messages import Script
-from pipeline.operator.generator import Catalogue, Generator
-from pipeline.operator.generators.blink import BlinkGenerator
-from pipeline.operator.generators.dance import DanceGenerator
-from pipeline.operator.generators.greeting import GreetingGenerator
-from pipeline.operator.generators.joint_attention import JointAttentionGenerator
-from pipeline.operator.generators.static import StaticScriptGenerator
+from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.generator import Catalogue, Generator
+from oimi.pipeline.operator.generators.blink import BlinkGenerator
+from oimi.pipeline.operator.generators.dance import DanceGenerator
+from oimi.pipeline.operator.generators.greeting import GreetingGenerator
+from oimi.pipeline.operator.generators.joint_attention import JointAttentionGenerator
+from oimi.pipeline.operator.generators.static import StaticScriptGenerator
 
 __all__ = [
     "BlinkGenerator",

@@ -10,10 +10,21 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Final
 
-from pipeline.messages import RuleAction, Script
-from pipeline.operator.generator import BaseGenerator, Colour, OptionKind, OptionSpec, OptionValue
-from pipeline.operator.generators.build import ScriptBuilder, alfa_messages, led, omega_messages
-from pipeline.think.rulecodes import RuleCode
+from oimi.pipeline.messages import RuleAction, Script
+from oimi.pipeline.operator.generator import (
+    BaseGenerator,
+    Colour,
+    OptionKind,
+    OptionSpec,
+    OptionValue,
+)
+from oimi.pipeline.operator.generators.build import (
+    ScriptBuilder,
+    alfa_messages,
+    led,
+    omega_messages,
+)
+from oimi.pipeline.think.rulecodes import RuleCode
 
 BLUE: Final[Colour] = (0.0, 0.0, 1.0)
 

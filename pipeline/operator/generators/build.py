@@ -6,7 +6,7 @@ Jumps name labels; :meth:`ScriptBuilder.build` turns them into the thesis's
 
 from __future__ import annotations
 
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Action,
     AudioOut,
     Block,
@@ -21,8 +21,8 @@ from pipeline.messages import (
     Script,
     TerminusBlock,
 )
-from pipeline.operator.generator import Colour, GeneratorError
-from pipeline.think.rulecodes import RuleCode
+from oimi.pipeline.operator.generator import Colour, GeneratorError
+from oimi.pipeline.think.rulecodes import RuleCode
 
 RuleSpec = tuple[int, str, RuleAction]
 """``(rulecode, id, action)`` of one alfa/omega message."""

@@ -6,9 +6,15 @@ import hashlib
 from collections.abc import Mapping
 from typing import Final
 
-from pipeline.messages import RuleAction, Script
-from pipeline.operator.generator import BaseGenerator, Colour, OptionKind, OptionSpec, OptionValue
-from pipeline.operator.generators.build import (
+from oimi.pipeline.messages import RuleAction, Script
+from oimi.pipeline.operator.generator import (
+    BaseGenerator,
+    Colour,
+    OptionKind,
+    OptionSpec,
+    OptionValue,
+)
+from oimi.pipeline.operator.generators.build import (
     ScriptBuilder,
     alfa_messages,
     audio,

@@ -14,9 +14,15 @@ import math
 from collections.abc import Mapping
 from typing import Final
 
-from pipeline.messages import RuleAction, Script
-from pipeline.operator.generator import BaseGenerator, Colour, OptionKind, OptionSpec, OptionValue
-from pipeline.operator.generators.build import (
+from oimi.pipeline.messages import RuleAction, Script
+from oimi.pipeline.operator.generator import (
+    BaseGenerator,
+    Colour,
+    OptionKind,
+    OptionSpec,
+    OptionValue,
+)
+from oimi.pipeline.operator.generators.build import (
     ScriptBuilder,
     alfa_messages,
     audio,
@@ -25,7 +31,7 @@ from pipeline.operator.generators.build import (
     omega_messages,
     safety_rules,
 )
-from pipeline.think.rulecodes import RuleCode
+from oimi.pipeline.think.rulecodes import RuleCode
 
 TURN_RADPS: Final = 0.6
 """Speed of one search turn, rad/s."""

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from pipeline.messages import Script
-from pipeline.operator.generator import GeneratorError, OptionSpec
+from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.generator import GeneratorError, OptionSpec
 
 
 class StaticScriptGenerator:

@@ -4,11 +4,10 @@ import msgspec
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.act.actuator import Actuator, ActuatorStep
-from pipeline.act.limits import RobotLimits
-from pipeline.events import Source
-from pipeline.messages import AudioOut, InstructionBlock, Led, Move
+from oimi.pipeline.act.actuator import Actuator, ActuatorStep
+from oimi.pipeline.act.limits import RobotLimits
+from oimi.pipeline.events import Source
+from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
 
 TICK_MS = 20
 LIMITS = RobotLimits()

@@ -1,7 +1,7 @@
 """The timeline of one channel: wait, act, explicit stop, next item."""
 
-from pipeline.act.channels import ChannelCursor, Due, Phase, schedule
-from pipeline.messages import AudioOut, Led, Move
+from oimi.pipeline.act.channels import ChannelCursor, Due, Phase, schedule
+from oimi.pipeline.messages import AudioOut, Led, Move
 
 
 def test_schedule_chains_items_from_due_times():

@@ -2,12 +2,11 @@
 
 import msgspec
 import pytest
-
-from pipeline.act.actuator import Actuator, ActuatorStep
-from pipeline.act.joystick import read_pad
-from pipeline.act.limits import RobotLimits
-from pipeline.events import JoystickInput, Source
-from pipeline.messages import InstructionBlock, Led, Move
+from oimi.pipeline.act.actuator import Actuator, ActuatorStep
+from oimi.pipeline.act.joystick import read_pad
+from oimi.pipeline.act.limits import RobotLimits
+from oimi.pipeline.events import JoystickInput, Source
+from oimi.pipeline.messages import InstructionBlock, Led, Move
 
 TICK_MS = 20
 LIMITS = RobotLimits()

@@ -4,8 +4,7 @@ import math
 
 import msgspec
 import pytest
-
-from pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
 
 LIMITS = RobotLimits()
 

@@ -5,18 +5,17 @@ from __future__ import annotations
 import math
 
 import pytest
-
-from pipeline.act.actuator import Actuator
-from pipeline.act.limits import RobotLimits, Velocity
-from pipeline.act.safety import SafetyConfig, SafetySupervisor, safety_problems
-from pipeline.events import (
+from oimi.pipeline.act.actuator import Actuator
+from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor, safety_problems
+from oimi.pipeline.events import (
     JoystickInput,
     MotionSource,
     SafetyIntervention,
     SafetyPhase,
     SafetyZone,
 )
-from pipeline.messages import Camera, Human, InstructionBlock, Move, Pose, WorldMap
+from oimi.pipeline.messages import Camera, Human, InstructionBlock, Move, Pose, WorldMap
 
 TICK_MS = 20
 LIMITS = RobotLimits()

@@ -6,8 +6,7 @@ import itertools
 import json
 
 import msgspec
-
-from pipeline.events import (
+from oimi.pipeline.events import (
     JoystickInput,
     OperatorCommand,
     OperatorVerb,
@@ -16,8 +15,8 @@ from pipeline.events import (
     Topic,
     encode,
 )
-from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.messages import (
+from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.messages import (
     Action,
     Goal,
     InstructionBlock,
@@ -31,10 +30,10 @@ from pipeline.messages import (
     RuleMessage,
     Script,
 )
-from pipeline.operator.generators import default_catalogue
-from pipeline.operator.handler import GeneratorHandler
-from pipeline.sink import MemorySink
-from pipeline.think.reader import ScriptEntry
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.sink import MemorySink
+from oimi.pipeline.think.reader import ScriptEntry
 
 
 def rm(code: int, name: str, action: str, mutex: str) -> RuleMessage:

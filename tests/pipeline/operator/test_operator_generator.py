@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import msgspec
 import pytest
-
-from pipeline.errors import LocatedError
-from pipeline.messages import Script
-from pipeline.operator.generator import (
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.generator import (
     Catalogue,
     GeneratorError,
     GeneratorInfo,
@@ -16,7 +15,7 @@ from pipeline.operator.generator import (
     parse_options,
     resolve_options,
 )
-from pipeline.operator.generators import (
+from oimi.pipeline.operator.generators import (
     BlinkGenerator,
     DanceGenerator,
     StaticScriptGenerator,

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from pipeline.events import OperatorCommand, OperatorVerb
-from pipeline.messages import GeneratorNote, Human, Script, WorldMap
-from pipeline.operator.generator import BaseGenerator, Catalogue, OptionValue
-from pipeline.operator.generators.build import ScriptBuilder, led
-from pipeline.operator.handler import Button, GeneratorHandler
+from oimi.pipeline.events import OperatorCommand, OperatorVerb
+from oimi.pipeline.messages import GeneratorNote, Human, Script, WorldMap
+from oimi.pipeline.operator.generator import BaseGenerator, Catalogue, OptionValue
+from oimi.pipeline.operator.generators.build import ScriptBuilder, led
+from oimi.pipeline.operator.handler import Button, GeneratorHandler
 
 
 class Looking(BaseGenerator):

@@ -6,18 +6,17 @@ import msgspec
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.messages import InstructionBlock, JumpBlock, MutexCmd, RuleAction, Script
-from pipeline.operator.generators import (
+from oimi.pipeline.messages import InstructionBlock, JumpBlock, MutexCmd, RuleAction, Script
+from oimi.pipeline.operator.generators import (
     BlinkGenerator,
     DanceGenerator,
     GreetingGenerator,
     JointAttentionGenerator,
     default_catalogue,
 )
-from pipeline.script.validate import script_errors
-from pipeline.think.conditions import compile_condition
-from pipeline.think.rulecodes import RuleCode
+from oimi.pipeline.script.validate import script_errors
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.rulecodes import RuleCode
 
 ALL = [DanceGenerator, GreetingGenerator, JointAttentionGenerator, BlinkGenerator]
 

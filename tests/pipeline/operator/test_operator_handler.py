@@ -6,12 +6,19 @@ from collections.abc import Mapping
 
 import msgspec
 import pytest
-
-from pipeline.events import OperatorCommand, OperatorVerb
-from pipeline.messages import Action as ScriptAction
-from pipeline.messages import Goal, InstructionBlock, Led, MutexCmd, RuleAction, RuleMessage, Script
-from pipeline.operator.generator import Catalogue, GeneratorError, OptionKind, OptionSpec
-from pipeline.operator.handler import (
+from oimi.pipeline.events import OperatorCommand, OperatorVerb
+from oimi.pipeline.messages import Action as ScriptAction
+from oimi.pipeline.messages import (
+    Goal,
+    InstructionBlock,
+    Led,
+    MutexCmd,
+    RuleAction,
+    RuleMessage,
+    Script,
+)
+from oimi.pipeline.operator.generator import Catalogue, GeneratorError, OptionKind, OptionSpec
+from oimi.pipeline.operator.handler import (
     ActivityState,
     Button,
     GeneratorHandler,

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from pipeline.errors import LocatedError
-from pipeline.script import condition_errors, parse_script
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.script import condition_errors, parse_script
 
 CONDITION = '! {E: near (?x, "1.5")}, {E: nosuch ()}'
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     AudioOut,
     InstructionBlock,
     JumpBlock,
@@ -17,7 +16,7 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script import ScriptError, compile_dsl, load_script_json
+from oimi.pipeline.script import ScriptError, compile_dsl, load_script_json
 
 FIXTURES = Path(__file__).with_name("fixtures")
 ACTIVITIES = Path(__file__).parents[3] / "scenarios" / "library" / "activities"

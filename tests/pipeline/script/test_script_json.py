@@ -6,8 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     InstructionBlock,
     JumpBlock,
     MutexCmd,
@@ -15,7 +14,7 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script import ScriptError, dump_script_json, load_script_json
+from oimi.pipeline.script import ScriptError, dump_script_json, load_script_json
 
 FIXTURES = Path(__file__).with_name("fixtures")
 LISTING = (FIXTURES / "listing_4_1.json").read_text(encoding="utf-8")

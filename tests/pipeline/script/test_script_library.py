@@ -5,9 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import InstructionBlock, JumpBlock, MutexCmd, RuleAction
-from pipeline.script import compile_dsl, load_script_json, parse_script
+from oimi.pipeline.messages import InstructionBlock, JumpBlock, MutexCmd, RuleAction
+from oimi.pipeline.script import compile_dsl, load_script_json, parse_script
 
 ACTIVITIES = Path(__file__).parents[3] / "scenarios" / "library" / "activities"
 FIXTURES = Path(__file__).with_name("fixtures")

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Action,
     AudioOut,
     Goal,
@@ -20,14 +19,14 @@ from pipeline.messages import (
     SensorBlock,
     TerminusBlock,
 )
-from pipeline.script import (
+from oimi.pipeline.script import (
     compile_dsl,
     dump_script_json,
     load_script_json,
     render_dsl,
     script_errors,
 )
-from pipeline.script.validate import block_path
+from oimi.pipeline.script.validate import block_path
 
 TEXT = st.text(st.characters(blacklist_categories=("Cs",)), max_size=12)
 NAME = TEXT.filter(bool)

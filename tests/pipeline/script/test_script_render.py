@@ -5,9 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import Action, Goal, JumpBlock, Script, TerminusBlock
-from pipeline.script import ScriptError, compile_dsl, load_script_json, render_dsl
+from oimi.pipeline.messages import Action, Goal, JumpBlock, Script, TerminusBlock
+from oimi.pipeline.script import ScriptError, compile_dsl, load_script_json, render_dsl
 
 LISTING = Path(__file__).with_name("fixtures") / "listing_4_1.json"
 

@@ -6,8 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Action,
     Goal,
     InstructionBlock,
@@ -20,7 +19,7 @@ from pipeline.messages import (
     Script,
     TerminusBlock,
 )
-from pipeline.script import ScriptError, load_script_json, script_errors, validate_script
+from oimi.pipeline.script import ScriptError, load_script_json, script_errors, validate_script
 
 LISTING = (Path(__file__).with_name("fixtures") / "listing_4_1.json").read_text(encoding="utf-8")
 

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import msgspec
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     Camera,
     GoalEvent,
     Human,
@@ -15,7 +14,7 @@ from pipeline.messages import (
     Tracking,
     WorldMap,
 )
-from pipeline.sense import MapProducer, Rejection, map_invariants
+from oimi.pipeline.sense import MapProducer, Rejection, map_invariants
 
 
 def pose(rho: float, t: int = 0) -> str:

@@ -7,9 +7,8 @@ import json
 import msgspec
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.messages import MapUpdate, Policy, WorldMap
-from pipeline.sense import UPDATE_TABLE, EntityClass, MapProducer, Storage, map_invariants
+from oimi.pipeline.messages import MapUpdate, Policy, WorldMap
+from oimi.pipeline.sense import UPDATE_TABLE, EntityClass, MapProducer, Storage, map_invariants
 
 CAPACITY = 3
 IDS = ["1", "2", "3"]

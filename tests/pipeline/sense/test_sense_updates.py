@@ -5,8 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     AudioStatus,
     GoalEvent,
     LedStatus,
@@ -17,7 +16,7 @@ from pipeline.messages import (
     Touch,
     Tracking,
 )
-from pipeline.sense.updates import (
+from oimi.pipeline.sense.updates import (
     UPDATE_TABLE,
     EntityClass,
     MapUpdateError,

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from pipeline.events import ProgressKind
-from pipeline.messages import (
+from oimi.pipeline.events import ProgressKind
+from oimi.pipeline.messages import (
     Action,
     Goal,
     GoalStatus,
@@ -18,7 +18,7 @@ from pipeline.messages import (
     TerminusBlock,
     WorldMap,
 )
-from pipeline.think.reader import MAX_BLOCKS_PER_READ, BlockReader, ScriptEntry, parse_path
+from oimi.pipeline.think.reader import MAX_BLOCKS_PER_READ, BlockReader, ScriptEntry, parse_path
 
 
 def inst(tag: str) -> InstructionBlock:

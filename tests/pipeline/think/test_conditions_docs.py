@@ -8,10 +8,9 @@ from pathlib import Path
 
 import msgspec
 import pytest
-
-from pipeline.messages import WorldMap
-from pipeline.think.conditions import compile_condition
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.messages import WorldMap
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.stdlib import default_registry
 
 DOC = Path(__file__).resolve().parents[3] / "docs" / "condition-language.md"
 FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)

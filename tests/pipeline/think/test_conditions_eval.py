@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import msgspec
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     ActivityTracking,
     Human,
     Object,
@@ -13,16 +12,16 @@ from pipeline.messages import (
     RobotStatus,
     WorldMap,
 )
-from pipeline.think import condition_parse
-from pipeline.think.conditions import Evaluation, compile_condition, release_alias
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.functions import (
+from oimi.pipeline.think import condition_parse
+from oimi.pipeline.think.conditions import Evaluation, compile_condition, release_alias
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import (
     FunctionContext,
     FunctionRegistry,
     evaluation,
     string,
 )
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.think.stdlib import default_registry
 
 
 def _map(*humans: Human, **fields) -> WorldMap:

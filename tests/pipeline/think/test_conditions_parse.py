@@ -7,10 +7,9 @@ import re
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.think.condition_ast import ClassClause, Comparison, EvalClause, TrueClause
-from pipeline.think.conditions import Condition, Op, Scope, compile_condition, parse_condition
-from pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.condition_ast import ClassClause, Comparison, EvalClause, TrueClause
+from oimi.pipeline.think.conditions import Condition, Op, Scope, compile_condition, parse_condition
+from oimi.pipeline.think.errors import RuleSyntaxError
 
 THESIS_EXAMPLE = (
     "{CLASS #Human U ?child ?THIS>&positionrho OP< 1.5, B: infront ()}"

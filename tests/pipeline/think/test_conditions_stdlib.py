@@ -5,8 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     ActivityTracking,
     GoalStatus,
     GoalTracking,
@@ -18,10 +17,10 @@ from pipeline.messages import (
     Touch,
     WorldMap,
 )
-from pipeline.think import stdlib
-from pipeline.think.conditions import compile_condition
-from pipeline.think.errors import RuleSyntaxError
-from pipeline.think.functions import (
+from oimi.pipeline.think import stdlib
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import (
     ArgKind,
     Bound,
     Family,
@@ -31,7 +30,7 @@ from pipeline.think.functions import (
     evaluation,
     string,
 )
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.think.stdlib import default_registry
 
 
 def _true(text: str, world: WorldMap, now_ms: int = 10_000) -> bool:

@@ -5,8 +5,7 @@ from __future__ import annotations
 import json
 
 import msgspec
-
-from pipeline.messages import (
+from oimi.pipeline.messages import (
     InstructionBlock,
     MapUpdate,
     Move,
@@ -16,11 +15,11 @@ from pipeline.messages import (
     RuleMessage,
     WorldMap,
 )
-from pipeline.registries import Registries
-from pipeline.sense.producer import MapProducer
-from pipeline.think import rulecodes
-from pipeline.think.chain import RuleChain
-from pipeline.think.library import WAITING_ACTIVITY
+from oimi.pipeline.registries import Registries
+from oimi.pipeline.sense.producer import MapProducer
+from oimi.pipeline.think import rulecodes
+from oimi.pipeline.think.chain import RuleChain
+from oimi.pipeline.think.library import WAITING_ACTIVITY
 
 ALL = [
     ("kick_starter", rulecodes.KICK_STARTER),

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from pipeline.events import OperatorCommand, OperatorVerb, Topic
-from pipeline.loop import Pipeline, PipelineConfig
-from pipeline.operator.generators import default_catalogue
-from pipeline.operator.handler import GeneratorHandler
-from pipeline.sink import MemorySink
-from pipeline.think.library import force_switch
-from scenarios.activities import ACTIVITIES, ActivityLibrary
+from oimi.pipeline.events import OperatorCommand, OperatorVerb, Topic
+from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.sink import MemorySink
+from oimi.pipeline.think.library import force_switch
+from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
 
 IDLE = ActivityLibrary([ACTIVITIES]).idle()
 """The shipped idle activity."""

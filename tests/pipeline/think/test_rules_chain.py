@@ -5,13 +5,12 @@ from __future__ import annotations
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from pipeline.events import Level
-from pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
-from pipeline.registries import Registries
-from pipeline.think.chain import RuleChain
-from pipeline.think.rules import Rule, RuleRegistry, diff
-from pipeline.think.stdlib import default_registry
+from oimi.pipeline.events import Level
+from oimi.pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
+from oimi.pipeline.registries import Registries
+from oimi.pipeline.think.chain import RuleChain
+from oimi.pipeline.think.rules import Rule, RuleRegistry, diff
+from oimi.pipeline.think.stdlib import default_registry
 
 RULES = Registries.build().rules
 
