@@ -37,6 +37,7 @@ from websockets.http11 import Request as HttpRequest
 from websockets.http11 import Response
 
 from pipeline.events import Level, LogEntry, OperatorCommand
+from scenarios.errors import ScenarioError
 from scenarios.live import protocol
 from scenarios.live.connections import (
     HTTP_LINE,
@@ -68,6 +69,7 @@ from scenarios.live.protocol import (
 from scenarios.live.view import LiveView
 from scenarios.recording import scene_of
 from scenarios.runner import Session
+from scenarios.session_info import SessionInfo, with_fields
 
 __all__ = [
     "Addresses",
@@ -120,8 +122,11 @@ class LiveServer:
         *,
         on_ready: Callable[[Addresses], None] | None = None,
         on_note: Callable[[str], None] | None = None,
+        info: SessionInfo | None = None,
     ) -> None:
         self.session = session
+        self.info = info
+        """The session record (its fields as the console last set them), if it keeps one."""
         self.config = config
         self.on_ready = on_ready
         self.on_note = on_note
@@ -420,6 +425,21 @@ class LiveServer:
                 )
                 self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
                 reply(True, tick=self.ticks)
+            case protocol.SetSession():
+                if self.info is None:
+                    reply(False, "this session keeps no session record")
+                    return
+                try:
+                    self.info = with_fields(
+                        self.info,
+                        child=request.child,
+                        therapist=request.therapist,
+                        notes=request.notes,
+                    )
+                except ScenarioError as error:
+                    reply(False, error.message)
+                    return
+                reply(True, "session fields saved", session=self._fields())
 
     # -------------------------------------------------------------- transports
 
@@ -430,6 +450,14 @@ class LiveServer:
             tick_ms=self.session.tick_ms,
             auth_required=self.config.token is not None,
             scene=scene_of(self.session.scenario),
+            session=self._fields(),
+        )
+
+    def _fields(self) -> protocol.SessionFields | None:
+        if self.info is None:
+            return None
+        return protocol.SessionFields(
+            child=self.info.child, therapist=self.info.therapist, notes=self.info.notes
         )
 
     def _connect(self, client: Client) -> None:
