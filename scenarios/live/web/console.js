@@ -365,6 +365,8 @@ function drawWorld() {
   g.clearRect(0, 0, canvas.width, canvas.height);
   if (!scene || !frame) return;
   const margin = 16;
+  // Text and lines keep their size on screen however far the drawing is scaled down.
+  const k = canvas.width / (canvas.getBoundingClientRect().width || canvas.width);
   const scale = Math.min(
     (canvas.width - 2 * margin) / scene.width_m,
     (canvas.height - 2 * margin) / scene.height_m,
@@ -372,7 +374,7 @@ function drawWorld() {
   const X = (x) => margin + x * scale;
   const Y = (y) => canvas.height - margin - y * scale;
   g.strokeStyle = "#889";
-  g.lineWidth = 2;
+  g.lineWidth = 2 * k;
   g.strokeRect(X(0), Y(scene.height_m), scene.width_m * scale, scene.height_m * scale);
   g.fillStyle = paint("obstacle");
   for (const o of scene.obstacles || []) {
@@ -396,7 +398,7 @@ function drawWorld() {
     g.fillStyle = paint(personColour(h.kind, index));
     disc(g, X(h.x_m), Y(h.y_m), Math.max(h.radius_m, 0.15) * scale);
     g.fillStyle = "#333";
-    g.font = "12px system-ui";
+    g.font = `${Math.round(13 * k)}px system-ui`;
     g.fillText(h.id, X(h.x_m) + 0.25 * scale, Y(h.y_m) - 0.2 * scale);
   }
   const r = frame.robot;
