@@ -147,19 +147,22 @@ def test_space_holds_the_lock_arrows_drive_and_letting_go_stops(tmp_path: Path) 
         expect(page.locator("#lock")).to_have_class("hold lock held")
         expect(page.locator("#engaged")).to_contain_text("engaged")
         expect(page.locator("#lock-state")).to_have_text("Lock engaged (operator drives)")
-        page.keyboard.up("KeyE")
-        page.keyboard.up("ArrowUp")
-        page.keyboard.up("Space")
+        page.wait_for_timeout(1000)  # twice the server's silence limit: the heartbeat holds it
+        expect(page.locator("#engaged")).to_contain_text("engaged")
+        page.keyboard.up("Space")  # the arrow is still down: letting Space go stops anyway
         expect(page.locator("#engaged")).to_have_text("released: the operator let go of the lock")
         expect(page.locator("#lock-state")).to_contain_text("the operator let go of the lock")
+        page.keyboard.up("KeyE")
+        page.keyboard.up("ArrowUp")
         expect(page.locator("#picker")).not_to_have_attribute("open", "")
         live.stop()
     assert live.returncode == 0, live.errors
     recorded = pads(live.recording)
-    assert any(
-        p.buttons == ("LB",) and p.left_y == 1.0 and p.right_x == 1.0 for p in recorded
-    ), recorded
-    assert recorded[-1].buttons == () and recorded[-1].release == "operator"
+    held = [i for i, p in enumerate(recorded) if p.buttons == ("LB",)]
+    assert any((recorded[i].left_y, recorded[i].right_x) == (1.0, 1.0) for i in held), recorded
+    released = recorded[held[-1] + 1]
+    assert released.buttons == () and released.release == "operator"
+    assert not [p for p in recorded if p.release == "heartbeat"], "the heartbeat lapsed"
     assert (recorded[-1].left_y, recorded[-1].right_x) == (0.0, 0.0)
 
 
