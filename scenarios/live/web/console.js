@@ -399,7 +399,8 @@ function drawWorld() {
     disc(g, X(h.x_m), Y(h.y_m), Math.max(h.radius_m, 0.15) * scale);
     g.fillStyle = "#333";
     g.font = `${Math.round(13 * k)}px system-ui`;
-    g.fillText(h.id, X(h.x_m) + 0.25 * scale, Y(h.y_m) - 0.2 * scale);
+    const labelX = Math.min(X(h.x_m) + 0.25 * scale, canvas.width - g.measureText(h.id).width - 2);
+    g.fillText(h.id, labelX, Y(h.y_m) - 0.2 * scale);
   }
   const r = frame.robot;
   const led = rgb(frame.led);
