@@ -125,7 +125,7 @@ def serve(
     try:
         with open_session(loaded) as session:
             info = session_info(args, session.scenario)
-            server = LiveServer(session, config, on_ready=_announce, on_note=_note)
+            server = LiveServer(session, config, on_ready=_announce, on_note=_note, info=info)
             if on_server is not None:
                 on_server(session, server)
             with recorded(
@@ -135,13 +135,14 @@ def serve(
                 overwrite=args.overwrite,
                 chunk_size_bytes=LIVE_CHUNK_BYTES,
                 info=info,
+                final_info=lambda: server.info,
                 sinks=foxglove_sinks(args, session),
             ):
                 asyncio.run(server.run(listeners))
     finally:
         listeners.close()
     print(f"stopped after {server.ticks} ticks ({server.ticks * session.tick_ms / 1000:.1f} s)")
-    print_session(info)
+    print_session(server.info or info)
     print_result(session.result(), live=True)
     print(f"recording: {output}", flush=True)
     return 0

@@ -7,7 +7,7 @@ import datetime
 import os
 import signal
 import threading
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
 
@@ -177,6 +177,7 @@ def recorded(
     overwrite: bool = True,
     chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
     info: SessionInfo | None = None,
+    final_info: Callable[[], SessionInfo] | None = None,
     sinks: Sequence[ClosingSink] = (),
 ) -> Iterator[Session]:
     """Attach the MCAP (and Rerun) sinks to a session, and close them whatever happens.
@@ -190,7 +191,8 @@ def recorded(
     a second Ctrl-C while they close is ignored. ``chunk_size_bytes`` bounds what a
     killed session loses (the open chunk). ``info`` makes it a live session's
     recording: its own recording id, and a ``session`` record written at the start
-    and again at the end with the true ``ticks`` and ``duration_s``. ``sinks`` are
+    and again at the end with the true ``ticks`` and ``duration_s`` (and the fields of
+    ``final_info()`` when given: the console may change them). ``sinks`` are
     added after the recorders and closed with them.
     """
     check_outputs((mcap, rrd), overwrite=overwrite)
@@ -234,7 +236,8 @@ def recorded(
         with interrupts_held():
             try:
                 if info is not None and mcap_sink is not None:
-                    mcap_sink.add_metadata(SESSION_RECORD, {**info.record(), **counter.elapsed()})
+                    last = info if final_info is None else final_info()
+                    mcap_sink.add_metadata(SESSION_RECORD, {**last.record(), **counter.elapsed()})
             finally:
                 for closer in closers:
                     closer.close()

@@ -54,18 +54,7 @@ def new_session_info(
 ) -> SessionInfo:
     """A live session's info; ``started`` is an aware UTC time, ``suffix`` random text that
     makes the id unique. A field too long or holding control characters is bad input."""
-    for name, value in (("child", child), ("therapist", therapist), ("notes", notes)):
-        limit = FIELD_LIMITS[name]
-        if len(value) > limit:
-            raise ScenarioError(
-                f"--{name} is {len(value)} characters long; at most {limit}",
-                source="<command line>",
-            )
-        bad = [c for c in value if not c.isprintable() and not (name == "notes" and c == "\n")]
-        if bad:
-            raise ScenarioError(
-                f"--{name} holds a control character ({bad[0]!r})", source="<command line>"
-            )
+    check_fields(child=child, therapist=therapist, notes=notes, flag="--")
     stamp = started.strftime("%Y%m%dT%H%M%SZ")
     return SessionInfo(
         recording_id=f"{scenario_name}-live-{stamp}-{suffix}",
@@ -74,6 +63,30 @@ def new_session_info(
         therapist=therapist,
         notes=notes,
     )
+
+
+def check_fields(*, flag: str = "", **fields: str) -> None:
+    """Refuse (:class:`ScenarioError`) a field over its :data:`FIELD_LIMITS` or holding a
+    control character (notes may hold line breaks); ``flag`` prefixes the field's name."""
+    source = "<command line>" if flag else "<console>"
+    for name, value in fields.items():
+        limit = FIELD_LIMITS[name]
+        if len(value) > limit:
+            raise ScenarioError(
+                f"{flag}{name} is {len(value)} characters long; at most {limit}", source=source
+            )
+        bad = [c for c in value if not c.isprintable() and not (name == "notes" and c == "\n")]
+        if bad:
+            raise ScenarioError(
+                f"{flag}{name} holds a control character ({bad[0]!r})", source=source
+            )
+
+
+def with_fields(info: SessionInfo, **fields: str | None) -> SessionInfo:
+    """``info`` with the fields given (``None``: unchanged), checked by :func:`check_fields`."""
+    given = {name: value for name, value in fields.items() if value is not None}
+    check_fields(**given)
+    return msgspec.structs.replace(info, **given)
 
 
 class TickCounter:

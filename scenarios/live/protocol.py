@@ -15,7 +15,7 @@ or fields, wrong types and lines over :data:`MAX_LINE_BYTES` are refused.
 
 from __future__ import annotations
 
-from typing import Final
+from typing import Annotated, Final
 
 import msgspec
 from oimi.pipeline.events import (
@@ -26,6 +26,7 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.operator.generator import GeneratorInfo
 from oimi.recorder.scene import SceneGeometry
+from oimi.scenarios.session_info import FIELD_LIMITS
 
 MAX_LINE_BYTES: Final = 64 * 1024
 """The longest request accepted; a longer one is refused and the connection closed."""
@@ -129,6 +130,16 @@ class Joystick(Request, tag="joystick", kw_only=True):
     buttons: tuple[str, ...] = ()
 
 
+class SetSession(Request, tag="session", kw_only=True):
+    """The session record's fields from the console (``None``: unchanged), written to the
+    recording's ``session`` metadata when the session ends. At most ``FIELD_LIMITS``
+    characters each, no control characters (line breaks allowed in the notes)."""
+
+    child: Annotated[str, msgspec.Meta(max_length=FIELD_LIMITS["child"])] | None = None
+    therapist: Annotated[str, msgspec.Meta(max_length=FIELD_LIMITS["therapist"])] | None = None
+    notes: Annotated[str, msgspec.Meta(max_length=FIELD_LIMITS["notes"])] | None = None
+
+
 AnyRequest = (
     ListActivities
     | Add
@@ -144,6 +155,7 @@ AnyRequest = (
     | Unsubscribe
     | GetState
     | Joystick
+    | SetSession
 )
 
 _decoder = msgspec.json.Decoder(AnyRequest)
@@ -207,6 +219,14 @@ class SessionState(msgspec.Struct, frozen=True, kw_only=True):
     block: Block = Block()
 
 
+class SessionFields(msgspec.Struct, frozen=True, kw_only=True):
+    """The session record's fields as they stand (the child's pseudonym, never a name)."""
+
+    child: str = ""
+    therapist: str = ""
+    notes: str = ""
+
+
 class Reply(Message, tag="reply", kw_only=True):
     id: int | None
     """The request's id (``None`` when the line could not be read)."""
@@ -218,6 +238,8 @@ class Reply(Message, tag="reply", kw_only=True):
     """For ``list``: every available activity with its options."""
     state: SessionState | None = None
     """For ``state``: the current state."""
+    session: SessionFields | None = None
+    """For ``session``: the fields as recorded."""
 
 
 class StateMessage(Message, tag="state", kw_only=True):
@@ -234,6 +256,8 @@ class Hello(Message, tag="hello", kw_only=True):
     auth_required: bool = False
     scene: SceneGeometry | None = None
     """The arena and its furniture, for the live view."""
+    session: SessionFields | None = None
+    """The session record's fields (a live session that keeps one)."""
 
 
 class WorldMessage(Message, tag="world", kw_only=True):

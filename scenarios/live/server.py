@@ -31,6 +31,7 @@ from typing import Any, Final
 
 import msgspec
 from oimi.pipeline.events import Level, LogEntry, OperatorCommand
+from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.live import protocol
 from oimi.scenarios.live.connections import (
     HTTP_LINE,
@@ -62,6 +63,7 @@ from oimi.scenarios.live.protocol import (
 from oimi.scenarios.live.view import LiveView
 from oimi.scenarios.recording import scene_of
 from oimi.scenarios.runner import Session
+from oimi.scenarios.session_info import SessionInfo, with_fields
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
@@ -119,8 +121,11 @@ class LiveServer:
         *,
         on_ready: Callable[[Addresses], None] | None = None,
         on_note: Callable[[str], None] | None = None,
+        info: SessionInfo | None = None,
     ) -> None:
         self.session = session
+        self.info = info
+        """The session record (its fields as the console last set them), if it keeps one."""
         self.config = config
         self.on_ready = on_ready
         self.on_note = on_note
@@ -419,6 +424,21 @@ class LiveServer:
                 )
                 self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
                 reply(True, tick=self.ticks)
+            case protocol.SetSession():
+                if self.info is None:
+                    reply(False, "this session keeps no session record")
+                    return
+                try:
+                    self.info = with_fields(
+                        self.info,
+                        child=request.child,
+                        therapist=request.therapist,
+                        notes=request.notes,
+                    )
+                except ScenarioError as error:
+                    reply(False, error.message)
+                    return
+                reply(True, "session fields saved", session=self._fields())
 
     # -------------------------------------------------------------- transports
 
@@ -429,6 +449,14 @@ class LiveServer:
             tick_ms=self.session.tick_ms,
             auth_required=self.config.token is not None,
             scene=scene_of(self.session.scenario),
+            session=self._fields(),
+        )
+
+    def _fields(self) -> protocol.SessionFields | None:
+        if self.info is None:
+            return None
+        return protocol.SessionFields(
+            child=self.info.child, therapist=self.info.therapist, notes=self.info.notes
         )
 
     def _connect(self, client: Client) -> None:

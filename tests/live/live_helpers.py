@@ -19,6 +19,38 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 ROOM = Path(__file__).with_name("live_room.toml")
 
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+def require_browser() -> None:
+    """Skip the calling test module when Chromium or Playwright is missing; fail instead
+    where ``OIMI_REQUIRE_BROWSER=1`` (CI)."""
+    import pytest
+
+    why = None
+    if not CHROMIUM.exists():
+        why = f"{CHROMIUM} is missing (apt-get install chromium)"
+    else:
+        try:
+            import playwright.sync_api  # noqa: F401
+        except ImportError:
+            why = "the playwright package is missing (pip install playwright)"
+    if why is None:
+        return
+    if os.environ.get("OIMI_REQUIRE_BROWSER") == "1":
+        raise RuntimeError(f"OIMI_REQUIRE_BROWSER=1 but {why}")
+    pytest.skip(f"browser tests skipped: {why}", allow_module_level=True)
+
 
 @dataclass
 class Served:

@@ -8,38 +8,12 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from live_helpers import served
+from live_helpers import CHROMIUM, CHROMIUM_FLAGS, require_browser, served
 from oimi.pipeline.events import JoystickInput, Topic
 from oimi.recorder.reader import open_recording
 from oimi.replay.redrive import redrive
 
-CHROMIUM = Path("/usr/bin/chromium")
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
-
-
-def _missing() -> str | None:
-    if not CHROMIUM.exists():
-        return f"{CHROMIUM} is missing (apt-get install chromium)"
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        return "the playwright package is missing (pip install playwright)"
-    return None
-
-
-if (why := _missing()) is not None:
-    if os.environ.get("OIMI_REQUIRE_BROWSER") == "1":
-        raise RuntimeError(f"OIMI_REQUIRE_BROWSER=1 but {why}")
-    pytest.skip(f"browser tests skipped: {why}", allow_module_level=True)
+require_browser()
 
 from playwright.sync_api import Page, expect, sync_playwright  # noqa: E402
 
@@ -50,7 +24,7 @@ def browser_page():
         context = p.chromium.launch_persistent_context(
             profile,
             executable_path=str(CHROMIUM),
-            args=FLAGS,
+            args=CHROMIUM_FLAGS,
             headless=True,
             viewport={"width": 1400, "height": 760},
         )

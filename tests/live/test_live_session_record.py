@@ -10,6 +10,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
+from live_helpers import LineClient, served
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session_info import new_session_info
@@ -101,3 +102,37 @@ def test_serve_refuses_a_bad_field_with_exit_2_before_listening(tmp_path: Path) 
                 "-o", tmp_path / "x.mcap")  # fmt: skip
     assert done.returncode == 2 and "--child" in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_the_session_request_is_guarded_bounded_and_lands_in_the_end_record(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "fields.mcap"
+    with served(path, "--token", "s3cret", "--child", "C01", "--no-console") as live:
+        assert live.tcp_port is not None
+        client = LineClient.connect(live.tcp_port)
+        refused = client.call(cmd="session", child="C99")
+        assert not refused["ok"] and "unauthorised" in refused["reason"]
+        auth = client.send(cmd="auth", token="s3cret")
+        client.reply_to(auth)
+        hello = client.read()
+        assert hello["type"] == "hello"
+        assert hello["session"] == {"child": "C01", "therapist": "", "notes": ""}
+        too_long = client.call(cmd="session", notes="x" * 2001)
+        assert not too_long["ok"] and "length <= 2000" in too_long["reason"]
+        control = client.call(cmd="session", therapist="A\x1b[2J")
+        assert not control["ok"] and "control character" in control["reason"]
+        saved = client.call(cmd="session", therapist="B. Bianchi", notes="two\nlines")
+        assert saved["ok"], saved
+        fields = {"child": "C01", "therapist": "B. Bianchi", "notes": "two\nlines"}
+        assert saved["session"] == fields
+        client.close()
+        live.stop()
+    assert live.returncode == 0, live.errors
+    session = open_recording(path).metadata["session"]
+    assert (session["child"], session["therapist"], session["notes"]) == (
+        "C01",
+        "B. Bianchi",
+        "two\nlines",
+    )
+    assert session["ticks"] != "0"

@@ -76,6 +76,7 @@ function receive(msg) {
     case "hello": // on a guarded port the first hello is bare; the full one follows auth
       if (msg.scene) scene = msg.scene;
       if (msg.scenario) $("scenario").textContent = msg.scenario;
+      if (msg.session) showFields(msg.session);
       break;
     case "reply": {
       const callback = pending.get(msg.id);
@@ -148,13 +149,22 @@ function activityItem(activity, index, still) {
   const badge = document.createElement("span");
   badge.className = `state ${activity.state}`;
   badge.textContent = STATE_LABELS[activity.state] || activity.state;
+  name.append(badge);
+  // Reordering by buttons too: a tablet's browser may not drag list items.
+  const up = moveButton("▲", `Move ${activity.name} up`, index - 1, activity.name);
+  up.className = "up";
+  up.disabled = still || index === 0;
+  const down = moveButton("▼", `Move ${activity.name} down`, index + 1, activity.name);
+  down.className = "down";
+  down.disabled = still || index === state.activities.length - 1;
   const trash = document.createElement("button");
   trash.className = "trash";
   trash.textContent = "✕";
   trash.title = `Remove ${activity.name}`;
   trash.setAttribute("aria-label", `Remove ${activity.name}`);
+  trash.disabled = still;
   trash.onclick = () => command({ cmd: "remove", activity: activity.name });
-  li.append(handle, name, badge, trash);
+  li.append(handle, name, up, down, trash);
 
   li.addEventListener("dragstart", (e) => {
     e.dataTransfer.setData("text/plain", activity.name);
@@ -171,6 +181,15 @@ function activityItem(activity, index, still) {
     }
   });
   return li;
+}
+
+function moveButton(text, label, position, activity) {
+  const button = document.createElement("button");
+  button.textContent = text;
+  button.title = label;
+  button.setAttribute("aria-label", label);
+  button.onclick = () => command({ cmd: "reorder", activity, position });
+  return button;
 }
 
 function titleOf(name) {
@@ -309,6 +328,35 @@ function optionField(spec) {
 $("picker-back").onclick = showCatalogue;
 $("picker-cancel").onclick = () => $("picker").close();
 
+// ------------------------------------------------------------- session record
+
+const FIELDS = ["child", "therapist", "notes"];
+
+function showFields(fields) {
+  for (const name of FIELDS) $(`field-${name}`).value = fields[name] || "";
+  $("session-summary").textContent = [fields.child, fields.therapist].filter(Boolean).join(" · ");
+}
+
+$("session").onclick = () => {
+  $("record-message").textContent = "";
+  $("record").showModal();
+};
+$("record-cancel").onclick = () => $("record").close();
+$("record-save").onclick = () => {
+  const body = { cmd: "session" };
+  for (const name of FIELDS) body[name] = $(`field-${name}`).value.trim();
+  const sent = request(body, (reply) => {
+    if (reply.ok) {
+      showFields(reply.session || body);
+      $("record").close();
+      say(reply.reason, false);
+    } else {
+      $("record-message").textContent = reply.reason;
+    }
+  });
+  if (!sent) $("record-message").textContent = "not connected";
+};
+
 // ----------------------------------------------------------------- live view
 
 function drawWorld() {
@@ -317,6 +365,8 @@ function drawWorld() {
   g.clearRect(0, 0, canvas.width, canvas.height);
   if (!scene || !frame) return;
   const margin = 16;
+  // Text and lines keep their size on screen however far the drawing is scaled down.
+  const k = canvas.width / (canvas.getBoundingClientRect().width || canvas.width);
   const scale = Math.min(
     (canvas.width - 2 * margin) / scene.width_m,
     (canvas.height - 2 * margin) / scene.height_m,
@@ -324,7 +374,7 @@ function drawWorld() {
   const X = (x) => margin + x * scale;
   const Y = (y) => canvas.height - margin - y * scale;
   g.strokeStyle = "#889";
-  g.lineWidth = 2;
+  g.lineWidth = 2 * k;
   g.strokeRect(X(0), Y(scene.height_m), scene.width_m * scale, scene.height_m * scale);
   g.fillStyle = paint("obstacle");
   for (const o of scene.obstacles || []) {
@@ -348,8 +398,9 @@ function drawWorld() {
     g.fillStyle = paint(personColour(h.kind, index));
     disc(g, X(h.x_m), Y(h.y_m), Math.max(h.radius_m, 0.15) * scale);
     g.fillStyle = "#333";
-    g.font = "12px system-ui";
-    g.fillText(h.id, X(h.x_m) + 0.25 * scale, Y(h.y_m) - 0.2 * scale);
+    g.font = `${Math.round(13 * k)}px system-ui`;
+    const labelX = Math.min(X(h.x_m) + 0.25 * scale, canvas.width - g.measureText(h.id).width - 2);
+    g.fillText(h.id, labelX, Y(h.y_m) - 0.2 * scale);
   }
   const r = frame.robot;
   const led = rgb(frame.led);
@@ -370,9 +421,13 @@ function drawWorld() {
   $("led-text").textContent = frame.led.map((v) => v.toFixed(2)).join(", ");
   $("audio").textContent = frame.audio || "–";
   $("fired").textContent = (frame.fired || []).join(", ") || "–";
-  $("engaged").textContent = frame.joystick_engaged
+  const engaged = frame.joystick_engaged
     ? "engaged (operator drives)"
     : frame.released ? `released: ${frame.released}` : "released";
+  $("engaged").textContent = engaged;
+  const lockState = $("lock-state");
+  lockState.textContent = `Lock ${engaged}`;
+  lockState.className = frame.joystick_engaged ? "engaged" : frame.released ? "dropped" : "";
   const log = $("log");
   log.replaceChildren();
   for (const entry of frame.log || []) {
@@ -437,12 +492,30 @@ function sendPad(force) {
 
 function round(v) { return Math.round(v * 100) / 100; }
 
+// Pressed while any of its own pointers (fingers) holds it: another finger on the
+// stick or elsewhere neither presses nor releases it. The keyboard holds it as a
+// pointer of its own ("key").
+const holders = new Map(); // button name -> the pointer ids holding it
+
+function holdBy(name, pointer, down) {
+  const set = holders.get(name) || new Set();
+  holders.set(name, set);
+  if (down) set.add(pointer); else set.delete(pointer);
+  if (set.size) pad.buttons.add(name); else pad.buttons.delete(name);
+  sendPad();
+}
+
 function hold(id, name) {
   const el = $(id);
-  const press = (e) => { e.preventDefault(); el.setPointerCapture?.(e.pointerId); pad.buttons.add(name); sendPad(); };
-  const release = () => { pad.buttons.delete(name); sendPad(); };
-  el.addEventListener("pointerdown", press);
-  for (const ev of ["pointerup", "pointercancel", "lostpointercapture"]) el.addEventListener(ev, release);
+  el.addEventListener("pointerdown", (e) => {
+    e.preventDefault();
+    el.setPointerCapture?.(e.pointerId);
+    holdBy(name, e.pointerId, true);
+  });
+  for (const ev of ["pointerup", "pointercancel", "lostpointercapture"]) {
+    el.addEventListener(ev, (e) => holdBy(name, e.pointerId, false));
+  }
+  el.addEventListener("contextmenu", (e) => e.preventDefault()); // a long press is a hold
 }
 hold("lock", "LB");
 hold("interrupt", "X");
@@ -458,35 +531,98 @@ for (const ev of ["pointerup", "change"]) {
 (function stick() {
   const area = $("stick");
   const knob = $("knob");
-  let active = false;
+  let active = null; // the pointer driving it; a second finger is ignored
   const move = (e) => {
     const box = area.getBoundingClientRect();
     let x = ((e.clientX - box.left) / box.width) * 2 - 1;
     let y = -(((e.clientY - box.top) / box.height) * 2 - 1);
     const n = Math.hypot(x, y);
     if (n > 1) { x /= n; y /= n; }
-    pad.left_x = x;
-    pad.left_y = y;
-    knob.style.left = `${58 + x * 58}px`;
-    knob.style.top = `${58 - y * 58}px`;
-    sendPad();
+    setStick(x, y);
   };
-  const centre = () => {
-    active = false;
-    pad.left_x = pad.left_y = 0;
-    knob.style.left = knob.style.top = "58px";
-    sendPad();
+  const centre = (e) => {
+    if (e.pointerId !== active) return;
+    active = null;
+    setStick(0, 0);
   };
-  area.addEventListener("pointerdown", (e) => { active = true; area.setPointerCapture(e.pointerId); move(e); });
-  area.addEventListener("pointermove", (e) => { if (active) move(e); });
+  area.addEventListener("pointerdown", (e) => {
+    if (active !== null) return;
+    e.preventDefault();
+    active = e.pointerId;
+    area.setPointerCapture(e.pointerId);
+    move(e);
+  });
+  area.addEventListener("pointermove", (e) => { if (e.pointerId === active) move(e); });
   for (const ev of ["pointerup", "pointercancel", "lostpointercapture"]) area.addEventListener(ev, centre);
+  area.addEventListener("contextmenu", (e) => e.preventDefault());
 })();
+
+function setStick(x, y) {
+  pad.left_x = x;
+  pad.left_y = y;
+  $("knob").style.left = `${58 + x * 58}px`;
+  $("knob").style.top = `${58 - y * 58}px`;
+  sendPad();
+}
+
+// Driving from the keyboard (a mouse and no gamepad): hold Space for the lock, arrows or
+// WASD for the stick, Q/E to turn. Letting Space go releases the lock (the robot stops);
+// while it is held the heartbeat goes on as for the on-screen lock.
+const KEYS = {
+  ArrowUp: ["y", 1], KeyW: ["y", 1], ArrowDown: ["y", -1], KeyS: ["y", -1],
+  ArrowLeft: ["x", -1], KeyA: ["x", -1], ArrowRight: ["x", 1], KeyD: ["x", 1],
+  KeyQ: ["turn", -1], KeyE: ["turn", 1],
+};
+const keysDown = new Set();
+
+function typing(e) {
+  const t = e.target;
+  return t instanceof HTMLTextAreaElement || t instanceof HTMLSelectElement
+    || (t instanceof HTMLInputElement && !["checkbox", "range", "button"].includes(t.type))
+    || document.querySelector("dialog[open]") !== null;
+}
+
+function keyStick() {
+  const sum = { x: 0, y: 0, turn: 0 };
+  for (const code of keysDown) {
+    const [axis, sign] = KEYS[code];
+    sum[axis] += sign;
+  }
+  const n = Math.hypot(sum.x, sum.y);
+  setStick(n > 1 ? sum.x / n : sum.x, n > 1 ? sum.y / n : sum.y);
+  pad.right_x = Math.max(-1, Math.min(1, sum.turn));
+  $("turn").value = pad.right_x;
+  sendPad();
+}
+
+window.addEventListener("keydown", (e) => {
+  if (typing(e) || e.ctrlKey || e.altKey || e.metaKey) return;
+  if (e.code === "Space") {
+    e.preventDefault(); // not a click on the focused button
+    if (!e.repeat) holdBy("LB", "key", true);
+  } else if (KEYS[e.code]) {
+    e.preventDefault(); // not a scroll
+    if (!keysDown.has(e.code)) { keysDown.add(e.code); keyStick(); }
+  }
+});
+window.addEventListener("keyup", (e) => {
+  if (e.code === "Space") {
+    if (!typing(e)) e.preventDefault();
+    holdBy("LB", "key", false);
+  } else if (keysDown.delete(e.code)) {
+    keyStick();
+  }
+});
 
 // Leaving the page or the window releases everything: never leave the robot moving.
 function releaseAll() {
+  holders.clear();
+  keysDown.clear();
   pad.buttons.clear();
-  pad.left_x = pad.left_y = pad.right_x = 0;
+  pad.right_x = 0;
+  $("turn").value = 0;
   $("blocking").checked = false;
+  setStick(0, 0);
   sendPad(true);
 }
 window.addEventListener("blur", releaseAll);
