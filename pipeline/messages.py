@@ -71,6 +71,14 @@ class Policy(enum.StrEnum):
 # ------------------------------------------------------------------------ scripts
 
 
+class Channel(enum.StrEnum):
+    """An instruction block's channels, in the order their commands are issued within a tick."""
+
+    MOVE = "move"
+    LED = "led"
+    AUDIO = "audio"
+
+
 class Move(Message):
     """One timed move: body-frame speeds held for ``duration`` after ``wait_t``."""
 
@@ -278,8 +286,23 @@ class Sonar(State):
     scanfrequency: int = 0
 
 
+class TouchType(enum.StrEnum):
+    """The touch classes of the thesis's RobotStatus ``touch`` (table 4.1)."""
+
+    C = "C"
+    """Caress."""
+    H = "H"
+    """Hug."""
+    P = "P"
+    """Push."""
+    S = "S"
+    """Slap."""
+    T = "T"
+    """Tap."""
+
+
 class Touch(State):
-    touchtype: str
+    touchtype: TouchType
     """One letter: ``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
     duration: int
     startingtime: int
@@ -329,13 +352,21 @@ class GoalTracking(State):
     changetime: int = 0
 
 
+class ActivityStatus(enum.StrEnum):
+    """Where an activity (script) known to the map is in its life."""
+
+    LOADED = "loaded"
+    RUNNING = "running"
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"
+
+
 class ActivityTracking(State):
     """An activity (script) known to the map, with its goals' progress."""
 
     activityname: str
     creationtime: int = 0
-    status: str = "loaded"
-    """``loaded``, ``running``, ``completed`` or ``interrupted``."""
+    status: ActivityStatus = ActivityStatus.LOADED
     goals: list[GoalTracking] = []
 
 

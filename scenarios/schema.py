@@ -22,7 +22,8 @@ import msgspec
 from msgspec import Meta
 
 from pipeline.act.safety import SafetyConfig
-from pipeline.events import MotionSource, OperatorVerb, SafetyZone
+from pipeline.events import Button, MotionSource, OperatorVerb, SafetyZone
+from pipeline.messages import TouchType
 
 DEFAULT_TICK_HZ: Final = 50
 """Simulated clock rate when a scenario gives none (a tick of 20 ms)."""
@@ -122,21 +123,6 @@ class Role(enum.StrEnum):
 
     CHILD = "child"
     THERAPIST = "therapist"
-
-
-class TouchType(enum.StrEnum):
-    """The touch classes of the thesis's RobotStatus ``touch`` (table 4.1)."""
-
-    C = "C"
-    """Caress."""
-    H = "H"
-    """Hug."""
-    P = "P"
-    """Push."""
-    S = "S"
-    """Slap."""
-    T = "T"
-    """Tap."""
 
 
 class SensorKind(enum.StrEnum):
@@ -369,7 +355,7 @@ class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
     """-1 to 1, forward positive."""
     right_x: Axis = 0.0
     """-1 to 1, right positive."""
-    buttons: list[str] = []
+    buttons: list[Button] = []
     hold_s: NonNegative = 0.0
 
 

@@ -16,36 +16,14 @@ stick is limited to the unit circle, so a diagonal is as fast as a straight push
 
 from __future__ import annotations
 
-import enum
 import math
 from typing import Final, NamedTuple
 
 from pipeline.act.limits import RobotLimits, Velocity, fmt
-from pipeline.events import JoystickInput
+from pipeline.events import Button, JoystickInput
 
 DEAD_ZONE: Final = 0.1
 """Stick deflections below this (of 1) count as 0."""
-
-
-class Button(enum.StrEnum):
-    """The pad's buttons, as ``JoystickInput.buttons`` names them."""
-
-    LB = "LB"
-    """Left bumper: the safety lock, held while the operator drives."""
-    RB = "RB"
-    """Right bumper: blocking mode (with the lock)."""
-    A = "A"
-    """Unbound."""
-    B = "B"
-    """Unbound."""
-    X = "X"
-    """Interrupt block execution (with the lock)."""
-    Y = "Y"
-    """Unbound."""
-    BACK = "BACK"
-    """Unbound."""
-    START = "START"
-    """Unbound."""
 
 
 SAFETY_LOCK: Final = Button.LB

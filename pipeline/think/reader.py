@@ -31,6 +31,7 @@ import msgspec
 from pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
 from pipeline.messages import (
     REGISTER_CAPACITY,
+    ActivityStatus,
     ActivityTracking,
     GoalEvent,
     GoalStatus,
@@ -371,7 +372,7 @@ class BlockReader:
         info.scriptpath = entry.source
         info.block = None
         tracking = self._tracking(entry, now_ms)
-        tracking.status = "running"
+        tracking.status = ActivityStatus.RUNNING
         for goal in tracking.goals[entry.start[0] :]:
             goal.status, goal.changetime = GoalStatus.PENDING, now_ms
         outcome.rule_messages += entry.script.alfarulemessages
@@ -415,7 +416,7 @@ class BlockReader:
             self._set_goal(
                 goal, GoalStatus.INTERRUPTED, now_ms, ProgressKind.GOAL_INTERRUPTED, outcome
             )
-        tracking.status = "completed" if completed else "interrupted"
+        tracking.status = ActivityStatus.COMPLETED if completed else ActivityStatus.INTERRUPTED
         outcome.rule_messages += entry.script.omegarulemessages
         if not quiet:
             outcome.items.append(
