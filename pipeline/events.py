@@ -116,8 +116,41 @@ class Button(enum.StrEnum):
     """Unbound."""
 
 
+class Pad(Message):
+    """One state of the pad (Xbox 360 layout, see ``pipeline.act.joystick``): the one shape
+    every layer uses. The scenario file's ``joystick`` event and the live ``joystick``
+    request carry the same fields and give theirs with ``.pad``; a tick's recorded
+    :class:`JoystickInput` is ``pad.at(...)`` and gives it back with ``.pad``."""
+
+    left_x: float = 0.0
+    """Left stick, right positive, -1 to 1."""
+    left_y: float = 0.0
+    """Left stick, forward positive, -1 to 1."""
+    right_x: float = 0.0
+    """Right stick, right positive, -1 to 1."""
+    buttons: tuple[Button, ...] = ()
+    """Buttons held."""
+
+    @property
+    def locked(self) -> bool:
+        """The safety lock (dead-man, ``LB``) is held."""
+        return Button.LB in self.buttons
+
+    def at(self, *, tick: int, time_ms: int, release: LockRelease | None = None) -> JoystickInput:
+        """This state as the joystick input of ``tick``."""
+        return JoystickInput(
+            tick=tick,
+            time_ms=time_ms,
+            left_x=self.left_x,
+            left_y=self.left_y,
+            right_x=self.right_x,
+            buttons=self.buttons,
+            release=release,
+        )
+
+
 class JoystickInput(Event):
-    """The pad's state when it changed (Xbox 360 layout, see ``pipeline.act.joystick``)."""
+    """The pad's state when it changed, at a tick (recorded flat: :class:`Pad`'s fields)."""
 
     left_x: float = 0.0
     """Left stick, right positive, -1 to 1."""
@@ -130,6 +163,13 @@ class JoystickInput(Event):
     release: LockRelease | None = None
     """Set on the input that releases a held lock, saying why (None: not a release, or a
     scenario's scripted pad)."""
+
+    @property
+    def pad(self) -> Pad:
+        """The pad's state without its tick."""
+        return Pad(
+            left_x=self.left_x, left_y=self.left_y, right_x=self.right_x, buttons=self.buttons
+        )
 
 
 # ------------------------------------------------------------------------ outputs

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import msgspec
 
-from pipeline.act.joystick import SAFETY_LOCK
 from pipeline.act.limits import RobotLimits
 from pipeline.events import (
     JoystickInput,
@@ -228,16 +227,12 @@ class Session:
                         )
                     )
                 case JoystickEvent():
-                    locked = SAFETY_LOCK in event.buttons
-                    released = self._lock_held and not locked
-                    self._lock_held = locked
-                    joystick = JoystickInput(
+                    pad = event.pad
+                    released = self._lock_held and not pad.locked
+                    self._lock_held = pad.locked
+                    joystick = pad.at(
                         tick=tick,
                         time_ms=time_ms,
-                        left_x=event.left_x,
-                        left_y=event.left_y,
-                        right_x=event.right_x,
-                        buttons=tuple(event.buttons),
                         release=LockRelease.OPERATOR if released else None,
                     )
                 case TouchEvent():

@@ -22,7 +22,7 @@ import msgspec
 from msgspec import Meta
 
 from pipeline.act.safety import SafetyConfig
-from pipeline.events import Button, MotionSource, OperatorVerb, SafetyZone
+from pipeline.events import Button, MotionSource, OperatorVerb, Pad, SafetyZone
 from pipeline.messages import TouchType
 
 DEFAULT_TICK_HZ: Final = 50
@@ -357,6 +357,16 @@ class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
     """-1 to 1, right positive."""
     buttons: list[Button] = []
     hold_s: NonNegative = 0.0
+
+    @property
+    def pad(self) -> Pad:
+        """The pad's state this event sets."""
+        return Pad(
+            left_x=self.left_x,
+            left_y=self.left_y,
+            right_x=self.right_x,
+            buttons=tuple(self.buttons),
+        )
 
 
 class TouchEvent(EventSpec, tag="touch", kw_only=True):

@@ -119,12 +119,7 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                         ),
                     )
             case JoystickInput():
-                pad = Pad(
-                    left_x=event.left_x,
-                    left_y=event.left_y,
-                    right_x=event.right_x,
-                    buttons=event.buttons,
-                )
+                pad = event.pad
                 held = (t, pad) if pad.locked else None
                 yield t, topics.JOY, joy_of(pad, time_ns=t)
             case OperatorCommands():

@@ -31,7 +31,7 @@ BLOCKING: Final = Button.RB
 INTERRUPT: Final = Button.X
 
 
-class PadState(NamedTuple):
+class PadReading(NamedTuple):
     """A pad input read against the mapping: what it asks, and notes on what was odd."""
 
     lock: bool
@@ -51,7 +51,7 @@ def _dead_zone(magnitude: float) -> float:
     return (min(magnitude, 1.0) - DEAD_ZONE) / (1.0 - DEAD_ZONE)
 
 
-def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadState:
+def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadReading:
     """The pad's state under the mapping above."""
     notes: list[str] = []
     held: list[Button] = []
@@ -77,7 +77,7 @@ def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadState:
     turn = math.copysign(_dead_zone(abs(right_x)), right_x)
     v_theta = -turn * limits.max_angular_speed_radps
     velocity = Velocity(v_x + 0.0, v_y + 0.0, v_theta + 0.0)
-    return PadState(
+    return PadReading(
         lock=SAFETY_LOCK in held,
         blocking=BLOCKING in held,
         interrupt=INTERRUPT in held,

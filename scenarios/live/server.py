@@ -55,7 +55,7 @@ from scenarios.live.connections import (
     quiet_logger,
     url_host,
 )
-from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
+from scenarios.live.inputs import RELEASE_TEXT, JoystickGuard
 from scenarios.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
@@ -412,13 +412,7 @@ class LiveServer:
             case protocol.GetState():
                 reply(True, state=self.view.state())
             case protocol.Joystick():
-                pad = Pad(
-                    left_x=request.left_x,
-                    left_y=request.left_y,
-                    right_x=request.right_x,
-                    buttons=request.buttons,
-                )
-                self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
+                self.guard.receive(client, request.pad, now_s=asyncio.get_running_loop().time())
                 reply(True, tick=self.ticks)
 
     # -------------------------------------------------------------- transports
