@@ -45,7 +45,7 @@ from pipeline.operator.generator import (
 from pipeline.script.validate import script_errors
 
 
-class ScriptEntry(Message):
+class SelectedScript(Message):
     """A selected activity's script."""
 
     activity: str
@@ -60,9 +60,9 @@ class PushScripts(Message, tag="push_scripts", tag_field="effect"):
     (``entries`` reversed, bottom to top, like ``ScriptInfo.script_vect``).
     """
 
-    entries: tuple[ScriptEntry, ...]
+    entries: tuple[SelectedScript, ...]
 
-    def lifo_order(self) -> tuple[ScriptEntry, ...]:
+    def lifo_order(self) -> tuple[SelectedScript, ...]:
         """The entries bottom to top: push them in this order."""
         return tuple(reversed(self.entries))
 
@@ -379,7 +379,7 @@ class GeneratorHandler:
         todo = [s for s in self._selected if s.state is ActivityState.NOT_YET_COMPLETED]
         if not todo:
             raise _Refused("every activity is completed; press restart first")
-        entries = tuple(ScriptEntry(activity=s.name, script=s.script) for s in todo)  # type: ignore[arg-type]
+        entries = tuple(SelectedScript(activity=s.name, script=s.script) for s in todo)  # type: ignore[arg-type]
         self._running = [s.name for s in todo]
         todo[0].state = ActivityState.CURRENT
         self._button = OperatorButton.STOP
