@@ -11,7 +11,7 @@ readable (see ``FORMAT_VERSION``).
 from __future__ import annotations
 
 import enum
-from typing import Final
+from typing import Final, NamedTuple
 
 import msgspec
 
@@ -453,6 +453,37 @@ class WorldMap(State):
     """Rule variables (``@ID``) of scope U, by name."""
     aliases: dict[str, str] = {}
     """Rule aliases of scope U (``?ID`` -> ``Class/id``), kept across ticks."""
+
+
+class MapList(NamedTuple):
+    """A class the map keeps as a list of Structs with ids (one row of :data:`MAP_LISTS`)."""
+
+    name: str
+    """The class as an update's ``objectid`` and a condition's ``#CLASS`` spell it."""
+    field: str
+    """The :class:`WorldMap` field holding the list."""
+    struct: type[Camera] | type[Sonar] | type[Entity]
+    """The Struct the producer allocates for a new id."""
+    entity: bool
+    """An :class:`Entity` (poses, tracking; seen by conditions) rather than a device."""
+
+
+MAP_LISTS: Final = (
+    MapList("Camera", "cameras", Camera, entity=False),
+    MapList("Sonar", "sonars", Sonar, entity=False),
+    MapList("Human", "humans", Human, entity=True),
+    MapList("Obstacle", "obstacles", Obstacle, entity=True),
+    MapList("Object", "objects", Object, entity=True),
+)
+"""The one table of the map's listed classes: the update decoder, the producer, the
+invariants and the condition compiler read it (a new entity class is a row here, its
+Struct and its :class:`WorldMap` field, and its attribute table in ``sense/updates.py``)."""
+
+ENTITY_LISTS: Final = tuple(m for m in MAP_LISTS if m.entity)
+"""The rows that are entities: ``Human``, ``Obstacle``, ``Object``."""
+
+ACTIVITY_CLASS: Final = "Activity"
+"""The condition language's class for the map's activities (``robotstatus.activities``)."""
 
 
 # --------------------------------------------------------------- actuator outputs
