@@ -3,6 +3,9 @@
 Every function takes a :class:`~analysis.load.SessionData` and returns a frame;
 :func:`session_metrics` gathers them with a one-row ``summary`` used to compare
 sessions. Times are simulated milliseconds (``*_ms``) or seconds (``*_s``).
+
+Long module: every session metric is one small polars function over the same
+loaded session; split by topic they would import each other's helpers.
 """
 
 from __future__ import annotations

@@ -6,6 +6,9 @@ timelines ``sim_time`` (simulated seconds) and ``tick``. Rerun's 2D views point
 y down: world coordinates are drawn with y negated so the arena reads like a map.
 Colours come from :mod:`recorder.palette`. The SDK writing a file sends no usage
 data (the viewer's privacy is ``oimi view``'s: docs/security.md#viewer-privacy).
+
+Long module: one sink: the layout (blueprint) and the logging of every topic
+share the entity paths and palette; the MCAP -> RRD conversion reuses the same logging.
 """
 
 from __future__ import annotations

@@ -11,6 +11,9 @@ Ranges are declared on the fields (the ``Annotated`` aliases below) and checked
 when a file or an override is decoded; every float must also be finite
 (``scenarios.loader`` refuses NaN and infinities before decoding). The robot's
 physical ceiling is in ``scenarios.profile``.
+
+Long module: the scenario file's whole schema is one tagged Struct tree that
+msgspec decodes in one go; a file per section would only scatter the ranges it declares.
 """
 
 from __future__ import annotations

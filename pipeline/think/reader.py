@@ -19,6 +19,9 @@ A rule-forced switch (``overridecmd``) names an activity: the idle activity, wha
 resolver finds (a selected generator's last script, a script file) or a script the reader
 was given before under that name. Naming the running activity only moves the reader to
 goal/action/block, like a jump: no suspended copy, no omega or alfa messages.
+
+Long module: the Block Reader is one state machine (LIFO, goals, actions, blocks,
+switches) over one set of fields; its helpers already live in their own modules.
 """
 
 from __future__ import annotations

@@ -16,6 +16,9 @@ capped (:data:`MAX_CLIENTS`), idle ones closed (:data:`IDLE_TIMEOUT_S`) and each
 is rate-limited. Wrong tokens are answered ever later and cut off. The console's
 WebSocket takes only the console's own origin and ``Host``; the TCP port closes
 a connection that speaks HTTP.
+
+Long module: one asyncio server whose tick, TCP and WebSocket transports share
+the connection state; it moves under ``oimi/`` with the live console (issue 17) and splits there.
 """
 
 from __future__ import annotations
