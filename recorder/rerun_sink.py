@@ -41,10 +41,11 @@ from pipeline.events import (
 from pipeline.messages import InstructionBlock
 from recorder import palette
 from recorder.errors import RecordingError
+from recorder.metadata import RecordingMetadata
 from recorder.palette import RGB
 from recorder.reader import Recording, open_recording
 from recorder.scene import SafetyZones, SceneGeometry
-from recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
+from recorder.topics import SCENE_ATTACHMENT
 
 DEFAULT_WORLD_EVERY_N_TICKS: Final = 5
 DEFAULT_TRAIL_SAMPLES: Final = 100
@@ -653,9 +654,9 @@ def block_line(block: InstructionBlock) -> str:
     return " · ".join(channels) or "nothing"
 
 
-def recording_id_of(metadata: dict[str, dict[str, str]], fallback: str) -> str:
+def recording_id_of(metadata: RecordingMetadata, fallback: str) -> str:
     """The Rerun recording id of a recording: ``oimi.recording_id`` when the runner set it."""
-    return metadata.get(METADATA_OIMI, {}).get("recording_id") or fallback
+    return metadata.oimi.recording_id or fallback
 
 
 def mcap_to_rrd(
@@ -681,7 +682,7 @@ def mcap_to_rrd(
     stem = os.path.splitext(os.path.basename(source))[0]
     with RerunSink(
         rrd_path,
-        recording_id=recording_id_of(recording.metadata, stem),
+        recording_id=recording_id_of(recording.meta, stem),
         scene=scene,
         world_every_n_ticks=world_every_n_ticks,
     ) as sink:

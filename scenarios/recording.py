@@ -11,6 +11,8 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
 
+import msgspec
+
 from pipeline.events import Event, Topic
 from recorder.errors import RecordingError
 from recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
@@ -211,12 +213,14 @@ def recorded(
         for path, partial in claimed:
             if path is mcap:
                 metadata = session.metadata()
-                metadata["oimi"]["recording_id"] = ident
-                if info is not None:
-                    metadata[SESSION_RECORD] = info.record()
+                metadata = msgspec.structs.replace(
+                    metadata,
+                    oimi=msgspec.structs.replace(metadata.oimi, recording_id=ident),
+                    session=None if info is None else info.record(),
+                )
                 mcap_sink = McapSink(
                     partial,
-                    metadata=metadata,
+                    metadata=metadata.records(),
                     attachments=session.attachments(),
                     scene=scene,
                     chunk_size_bytes=chunk_size_bytes,
@@ -234,7 +238,12 @@ def recorded(
         with interrupts_held():
             try:
                 if info is not None and mcap_sink is not None:
-                    mcap_sink.add_metadata(SESSION_RECORD, {**info.record(), **counter.elapsed()})
+                    mcap_sink.add_metadata(
+                        SESSION_RECORD,
+                        msgspec.to_builtins(
+                            msgspec.structs.replace(info.record(), **counter.elapsed())
+                        ),
+                    )
             finally:
                 for closer in closers:
                     closer.close()

@@ -29,6 +29,12 @@ from pipeline.operator.handler import GeneratorHandler
 from pipeline.registries import Registries
 from pipeline.sink import FanOut, Sink
 from pipeline.think import library as rule_library
+from recorder.metadata import (
+    ConfigurationRecord,
+    OimiRecord,
+    RecordingMetadata,
+    ScenarioRecord,
+)
 from scenarios.activities import ACTIVITIES, ActivityLibrary
 from scenarios.expectations import Tracker, Verdict
 from scenarios.extensions import extension_attachments, extensions_metadata
@@ -297,36 +303,34 @@ class Session:
 
     # ------------------------------------------------------------------ recording
 
-    def metadata(self) -> dict[str, dict[str, str]]:
-        """MCAP metadata records: enough, with the attachments, to rebuild this run."""
+    def metadata(self) -> RecordingMetadata:
+        """The recording's metadata: enough, with the attachments, to rebuild this run."""
         s = self.scenario
-        return {
-            "oimi": {
-                "version": _version(),
-                "format_version": str(FORMAT_VERSION),
-                "rule_registry": self.registries.rules.version,
-                "function_registry": self.registries.functions.version,
-            },
-            "scenario": {
-                "name": s.name,
-                "file": self.loaded.source.name,
-                "seed": str(s.seed),
-                "tick_hz": str(s.tick_hz),
-                "duration_s": repr(s.duration_s),
-                "ticks": str(s.ticks),
-            },
-            "configuration": {
-                "pipeline": msgspec.json.encode(self.config).decode(),
-                "robot": msgspec.json.encode(s.robot).decode(),
-                "sensors": msgspec.json.encode(s.sensors).decode(),
-            },
-            **({"variation": dict(self.overrides)} if self.overrides else {}),
-            **(
-                {"extensions": extensions_metadata(self.toolkit.extensions)}
-                if self.toolkit.extensions
-                else {}
+        return RecordingMetadata(
+            oimi=OimiRecord(
+                version=_version(),
+                format_version=str(FORMAT_VERSION),
+                rule_registry=self.registries.rules.version,
+                function_registry=self.registries.functions.version,
             ),
-        }
+            scenario=ScenarioRecord(
+                name=s.name,
+                file=self.loaded.source.name,
+                seed=str(s.seed),
+                tick_hz=str(s.tick_hz),
+                duration_s=repr(s.duration_s),
+                ticks=str(s.ticks),
+            ),
+            configuration=ConfigurationRecord(
+                pipeline=msgspec.json.encode(self.config).decode(),
+                robot=msgspec.json.encode(s.robot).decode(),
+                sensors=msgspec.json.encode(s.sensors).decode(),
+            ),
+            variation=dict(self.overrides) if self.overrides else {},
+            extensions=extensions_metadata(self.toolkit.extensions)
+            if self.toolkit.extensions
+            else {},
+        )
 
     def attachments(self) -> list[tuple[str, bytes]]:
         """The scenario file, every script its activity folders hold (first folder wins a name),

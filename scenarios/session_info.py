@@ -14,6 +14,7 @@ from datetime import datetime
 import msgspec
 
 from pipeline.events import Topic, WorldState
+from recorder.metadata import SessionRecord
 from scenarios.errors import ScenarioError
 
 SESSION_RECORD = "session"
@@ -33,15 +34,15 @@ class SessionInfo(msgspec.Struct, frozen=True, kw_only=True):
     therapist: str = ""
     notes: str = ""
 
-    def record(self) -> dict[str, str]:
-        """The ``session`` metadata record (strings only)."""
-        return {
-            "recording_id": self.recording_id,
-            "date": self.date,
-            "child": self.child,
-            "therapist": self.therapist,
-            "notes": self.notes,
-        }
+    def record(self) -> SessionRecord:
+        """The ``session`` metadata record."""
+        return SessionRecord(
+            recording_id=self.recording_id,
+            date=self.date,
+            child=self.child,
+            therapist=self.therapist,
+            notes=self.notes,
+        )
 
 
 def new_session_info(

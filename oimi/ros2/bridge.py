@@ -38,6 +38,7 @@ from pipeline.events import (
     Topic,
 )
 from pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from recorder.metadata import RecordingMetadata, Ros2Record
 from scenarios.live.inputs import JoystickGuard
 from scenarios.live.session import LiveSession
 from scenarios.loader import LoadedScenario
@@ -176,14 +177,15 @@ class BridgeSession(LiveSession):
             with contextlib.suppress(Exception):
                 writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
 
-    def metadata(self) -> dict[str, dict[str, str]]:
-        metadata = super().metadata()
-        metadata["ros2"] = {
-            "role": "bridge",
-            "domain_id": str(self.network.domain_id),
-            "interface": self.network.interface,
-        }
-        return metadata
+    def metadata(self) -> RecordingMetadata:
+        return msgspec.structs.replace(
+            super().metadata(),
+            ros2=Ros2Record(
+                role="bridge",
+                domain_id=str(self.network.domain_id),
+                interface=self.network.interface,
+            ),
+        )
 
     def _note(self, text: str) -> None:
         if self.on_note is not None:

@@ -7,6 +7,7 @@ import pytest
 
 from analysis.load import load_session
 from analysis.metrics import distances, session_metrics
+from recorder.metadata import RecordingMetadata
 from scenarios.humans import PACE
 
 
@@ -151,7 +152,7 @@ def test_a_rule_firing_is_credited_to_the_activity_running_when_it_began() -> No
     data = SessionData(
         path="",
         session_id="",
-        metadata={},
+        metadata=RecordingMetadata(),
         attachments={},
         tables={"/reader/progress/items": items},
         streamed=folder.result(),
