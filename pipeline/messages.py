@@ -134,6 +134,32 @@ class InstructionBlock(Message, tag="instruction", tag_field="type"):
     flagged: str | None = None
     """Kept as found: the thesis shows it without explaining it."""
 
+    def channel_items(self) -> dict[Channel, ChannelItems]:
+        """Each channel's items, in :data:`CHANNELS` order."""
+        return {spec.channel: getattr(self, spec.field) for spec in CHANNELS}
+
+
+ChannelItems = tuple[Move, ...] | tuple[Led, ...] | tuple[AudioOut, ...]
+
+
+class ChannelSpec(NamedTuple):
+    """One actuator channel (one row of :data:`CHANNELS`)."""
+
+    channel: Channel
+    field: str
+    """The :class:`InstructionBlock` field holding its items (and their JSON key)."""
+    item: type[Move] | type[Led] | type[AudioOut]
+
+
+CHANNELS: Final = (
+    ChannelSpec(Channel.MOVE, "move", Move),
+    ChannelSpec(Channel.LED, "led", Led),
+    ChannelSpec(Channel.AUDIO, "audioout", AudioOut),
+)
+"""The channel registry: each actuator channel, its block field and its item Struct, in the
+order their commands are issued within a tick. The actuator, the script validation and
+the JSON script format read it."""
+
 
 class JumpBlock(Message, tag="jump", tag_field="type"):
     """Evaluates a rule-grammar condition and goes to ``truejump`` or ``falsejump``."""

@@ -47,7 +47,7 @@ from pipeline.events import (
     Topic,
     WorldState,
 )
-from pipeline.messages import WorldMap
+from pipeline.messages import Channel, WorldMap
 from recorder.reader import open_recording
 from scenarios.live.inputs import JoystickGuard, Pad
 from scenarios.loader import LoadedScenario
@@ -138,7 +138,7 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                     yield t, topics.AUDIO, types.String(data=event.audio)
             case ActuatorCommands():
                 for command in event.commands:
-                    if command.channel == "move":
+                    if command.channel == Channel.MOVE:
                         yield (
                             t,
                             topics.CMD_VEL,
