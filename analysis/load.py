@@ -21,6 +21,7 @@ import pyarrow.json as pa_json
 from oimi.analysis.stream import STREAMED, Streamed, StreamFolder
 from oimi.pipeline.events import TOPIC_TYPES, Topic
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import RecoveryReport, open_recording
 from oimi.recorder.scan import ChunkScan
 
@@ -230,7 +231,7 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
 
     path: str
     session_id: str
-    metadata: dict[str, dict[str, str]]
+    metadata: RecordingMetadata
     attachments: dict[str, bytes]
     tables: dict[str, pl.DataFrame]
     recovery: RecoveryReport | None = None
@@ -253,10 +254,10 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
         return 1000 // _tick_hz(self.metadata, self.path)
 
 
-def _tick_hz(metadata: dict[str, dict[str, str]], path: str) -> int:
+def _tick_hz(metadata: RecordingMetadata, path: str) -> int:
     """The recorded tick rate (50 when not recorded); RecordingError when it is not a
     rate of 1 to 1000 Hz (metadata records carry no CRC: a damaged byte shows here)."""
-    text = metadata.get("scenario", {}).get("tick_hz", "") or "50"
+    text = (metadata.scenario and metadata.scenario.tick_hz) or "50"
     if not text.isdigit() or not 1 <= int(text) <= 1000:
         raise RecordingError(
             f"scenario metadata: tick_hz {text!r} is not 1 to 1000 Hz", source=path
@@ -286,7 +287,7 @@ def load_session(
     if stream:
         wanted = tuple(t for t in wanted if t in LIGHT_TOPICS)
     payloads: dict[Topic, list[bytes]] = {t: [] for t in wanted}
-    folder = StreamFolder(tick_ms=1000 // _tick_hz(recording.metadata, name))
+    folder = StreamFolder(tick_ms=1000 // _tick_hz(recording.meta, name))
     names = frozenset(t.value for t in wanted) | (frozenset(STREAMED) if stream else frozenset())
     streamed = 0
     with open(name, "rb") as file:
@@ -314,12 +315,11 @@ def load_session(
             raise RecordingError(
                 f"{topic.value}: a message does not decode: {error}", source=name
             ) from None
-    oimi = recording.metadata.get("oimi", {})
-    session_id = oimi.get("recording_id") or os.path.splitext(os.path.basename(name))[0]
+    session_id = recording.meta.oimi.recording_id or os.path.splitext(os.path.basename(name))[0]
     return SessionData(
         path=name,
         session_id=session_id,
-        metadata=recording.metadata,
+        metadata=recording.meta,
         attachments=recording.attachments,
         tables=tables,
         recovery=recovery,

@@ -3,6 +3,9 @@
 Every function takes a :class:`~analysis.load.SessionData` and returns a frame;
 :func:`session_metrics` gathers them with a one-row ``summary`` used to compare
 sessions. Times are simulated milliseconds (``*_ms``) or seconds (``*_s``).
+
+Long module: every session metric is one small polars function over the same
+loaded session; split by topic they would import each other's helpers.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from oimi.analysis.stream import Streamed
 from oimi.pipeline.events import REJECTING_SOURCES, Level, ProgressKind
 from oimi.pipeline.proximity import ZONE_NAMES
 from oimi.pipeline.think.library import BUILTIN_RULES
+from oimi.recorder.metadata import ScenarioRecord
 
 _STARTS: Final = (ProgressKind.LOAD.value, ProgressKind.IDLE.value)
 _ENDS: Final = (ProgressKind.END.value, ProgressKind.SWITCH.value)
@@ -426,20 +430,20 @@ def _seconds(frame: pl.DataFrame, column: str = "duration") -> float:
 
 
 def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
-    scenario = data.metadata.get("scenario", {})
+    scenario = data.metadata.scenario or ScenarioRecord()
     work = t["activities"].filter(~pl.col("idle"))
     outcome = t["goals"]["outcome"]
     closest = t["proximity"].sort("min_surface_distance_m").head(1)
     touching = t["contacts"]
-    seed = int(scenario["seed"]) if "seed" in scenario else None
-    params = run_params(data.metadata)
+    seed = scenario.seed_number
+    params = data.metadata.params
     verdicts = t["expectations"]["passed"]
     row = {
         "run": session_run_name(data),
         "session_id": data.session_id,
-        "scenario": scenario.get("name", ""),
+        "scenario": scenario.name or "",
         "params": params,
-        **{f"param:{k}": v for k, v in sorted(data.metadata.get("variation", {}).items())},
+        **{f"param:{k}": v for k, v in sorted(data.metadata.variation.items())},
         "seed": seed,
         "duration_s": (end_ms(data) + data.tick_ms) / 1000,
         "damaged": data.recovery is not None,
@@ -485,17 +489,11 @@ def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
     )
 
 
-def run_params(metadata: dict[str, dict[str, str]]) -> str:
-    """The run's parameter overrides as ``key=value,...`` (sorted; empty for none)."""
-    return ",".join(f"{k}={v}" for k, v in sorted(metadata.get("variation", {}).items()))
-
-
 def session_run_name(data: SessionData) -> str:
     """:func:`run_name` of a recorded session (its scenario file's stem, overrides and seed)."""
-    scenario = data.metadata.get("scenario", {})
-    stem = scenario.get("file", "").removesuffix(".toml") or scenario.get("name", "")
-    seed = int(scenario["seed"]) if "seed" in scenario else None
-    return run_name(stem or data.session_id, run_params(data.metadata), seed)
+    scenario = data.metadata.scenario or ScenarioRecord()
+    stem = (scenario.file or "").removesuffix(".toml") or scenario.name or ""
+    return run_name(stem or data.session_id, data.metadata.params, scenario.seed_number)
 
 
 def run_name(scenario: str, params: str, seed: int | None) -> str:

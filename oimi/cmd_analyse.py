@@ -20,10 +20,10 @@ from oimi.analysis.metrics import SessionMetrics, Verdicts
 from oimi.analysis.report import transposed, write_comparison_report, write_session_report
 from oimi.paths import check_output
 from oimi.pipeline.errors import LocatedError
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import open_recording
 from oimi.replay.rebuild import rebuilt_session
 from oimi.scenarios.expectations import Tracker
-from oimi.scenarios.session_info import SESSION_RECORD
 
 SESSION_TABLES = (
     "expectations",
@@ -124,15 +124,15 @@ def _table_config() -> pl.Config:
     )
 
 
-def print_session_fields(metadata: dict[str, dict[str, str]]) -> None:
+def print_session_fields(metadata: RecordingMetadata) -> None:
     """A live session's date, child pseudonym, therapist and notes (from its ``session``
     metadata record); nothing for a scripted run."""
-    record = metadata.get(SESSION_RECORD)
-    if not record:
+    record = metadata.session
+    if record is None:
         return
-    print(f"live session on {record.get('date', '?')}")
+    print(f"live session on {record.date or '?'}")
     for name in ("child", "therapist", "notes", "duration_s", "ticks"):
-        print(f"  {name}: {record.get(name) or '-'}")
+        print(f"  {name}: {getattr(record, name) or '-'}")
 
 
 def print_session(metrics: SessionMetrics) -> None:

@@ -15,11 +15,9 @@ from typing import Any
 
 from oimi import jsonout
 from oimi.pipeline.events import Topic
+from oimi.recorder.metadata import ScenarioRecord
 from oimi.recorder.reader import Recording, open_recording
-from oimi.recorder.topics import METADATA_OIMI
 
-EXTENSIONS_RECORD = "extensions"
-"""The metadata record listing the extensions a session used (name -> version)."""
 SESSION_FIELDS = ("date", "child", "therapist", "notes")
 
 
@@ -37,16 +35,15 @@ def run(args: argparse.Namespace) -> int:
 
 def describe(recording: Recording) -> dict[str, Any]:
     """Everything ``oimi info`` shows, as plain data (the ``--json`` summary)."""
-    metadata = recording.metadata
-    scenario = metadata.get("scenario", {})
-    oimi = metadata.get(METADATA_OIMI, {})
-    tick_hz = int(scenario.get("tick_hz", "50") or 50)
+    meta = recording.meta
+    scenario = meta.scenario or ScenarioRecord()
+    tick_hz = meta.tick_hz or 50
     last_tick = None
     for message in recording.iter_messages([Topic.WORLD_STATE]):
         last_tick = message.tick
     ticks = 0 if last_tick is None else last_tick + 1
     recovery = recording.recovery
-    live = metadata.get("session", {})
+    live = meta.session
     return {
         "file": recording.path,
         "size_bytes": os.path.getsize(recording.path),
@@ -59,22 +56,24 @@ def describe(recording: Recording) -> dict[str, Any]:
             "file_size": recovery.file_size,
             "reason": recovery.reason,
         },
-        "recording_id": oimi.get("recording_id", ""),
-        "oimi_version": oimi.get("version", ""),
+        "recording_id": meta.oimi.recording_id or "",
+        "oimi_version": meta.oimi.version or "",
         "format_version": recording.format_version,
-        "scenario": scenario.get("name", ""),
-        "scenario_file": scenario.get("file", ""),
-        "seed": int(scenario["seed"]) if scenario.get("seed", "").lstrip("-").isdigit() else None,
+        "scenario": scenario.name or "",
+        "scenario_file": scenario.file or "",
+        "seed": scenario.seed_number,
         "tick_hz": tick_hz,
-        "live": "live" in metadata,
-        "session": {field: live.get(field, "") for field in SESSION_FIELDS} if live else None,
+        "live": meta.live is not None,
+        "session": {field: getattr(live, field) or "" for field in SESSION_FIELDS}
+        if live is not None
+        else None,
         "ticks": ticks,
         "duration_s": ticks / tick_hz,
-        "variation": metadata.get("variation", {}),
+        "variation": meta.variation,
         "topics": dict(recording.summary),
         "messages": sum(recording.summary.values()),
-        "metadata_records": list(metadata),
-        "extensions": metadata.get(EXTENSIONS_RECORD, {}),
+        "metadata_records": list(recording.metadata),
+        "extensions": meta.extensions,
         "attachments": {name: len(data) for name, data in recording.attachments.items()},
     }
 

@@ -11,7 +11,14 @@ import enum
 from typing import ClassVar, Final
 
 import msgspec
-from oimi.pipeline.messages import InstructionBlock, MapUpdate, Message, RuleMessage, WorldMap
+from oimi.pipeline.messages import (
+    Channel,
+    InstructionBlock,
+    MapUpdate,
+    Message,
+    RuleMessage,
+    WorldMap,
+)
 
 
 class Topic(enum.StrEnum):
@@ -94,8 +101,32 @@ class LockRelease(enum.StrEnum):
     """The pad's client disconnected while holding the lock."""
 
 
-class JoystickInput(Event):
-    """The pad's state when it changed (Xbox 360 layout, see ``pipeline.act.joystick``)."""
+class Button(enum.StrEnum):
+    """The pad's buttons, as ``JoystickInput.buttons`` names them."""
+
+    LB = "LB"
+    """Left bumper: the safety lock, held while the operator drives."""
+    RB = "RB"
+    """Right bumper: blocking mode (with the lock)."""
+    A = "A"
+    """Unbound."""
+    B = "B"
+    """Unbound."""
+    X = "X"
+    """Interrupt block execution (with the lock)."""
+    Y = "Y"
+    """Unbound."""
+    BACK = "BACK"
+    """Unbound."""
+    START = "START"
+    """Unbound."""
+
+
+class Pad(Message):
+    """One state of the pad (Xbox 360 layout, see ``pipeline.act.joystick``): the one shape
+    every layer uses. The scenario file's ``joystick`` event and the live ``joystick``
+    request carry the same fields and give theirs with ``.pad``; a tick's recorded
+    :class:`JoystickInput` is ``pad.at(...)`` and gives it back with ``.pad``."""
 
     left_x: float = 0.0
     """Left stick, right positive, -1 to 1."""
@@ -103,11 +134,48 @@ class JoystickInput(Event):
     """Left stick, forward positive, -1 to 1."""
     right_x: float = 0.0
     """Right stick, right positive, -1 to 1."""
-    buttons: tuple[str, ...] = ()
-    """Buttons held: ``LB``, ``RB``, ``A``, ``B``, ``X``, ``Y``, ``BACK``, ``START``."""
+    buttons: tuple[Button, ...] = ()
+    """Buttons held."""
+
+    @property
+    def locked(self) -> bool:
+        """The safety lock (dead-man, ``LB``) is held."""
+        return Button.LB in self.buttons
+
+    def at(self, *, tick: int, time_ms: int, release: LockRelease | None = None) -> JoystickInput:
+        """This state as the joystick input of ``tick``."""
+        return JoystickInput(
+            tick=tick,
+            time_ms=time_ms,
+            left_x=self.left_x,
+            left_y=self.left_y,
+            right_x=self.right_x,
+            buttons=self.buttons,
+            release=release,
+        )
+
+
+class JoystickInput(Event):
+    """The pad's state when it changed, at a tick (recorded flat: :class:`Pad`'s fields)."""
+
+    left_x: float = 0.0
+    """Left stick, right positive, -1 to 1."""
+    left_y: float = 0.0
+    """Left stick, forward positive, -1 to 1."""
+    right_x: float = 0.0
+    """Right stick, right positive, -1 to 1."""
+    buttons: tuple[Button, ...] = ()
+    """Buttons held."""
     release: LockRelease | None = None
     """Set on the input that releases a held lock, saying why (None: not a release, or a
     scenario's scripted pad)."""
+
+    @property
+    def pad(self) -> Pad:
+        """The pad's state without its tick."""
+        return Pad(
+            left_x=self.left_x, left_y=self.left_y, right_x=self.right_x, buttons=self.buttons
+        )
 
 
 # ------------------------------------------------------------------------ outputs
@@ -206,7 +274,7 @@ class Source(enum.StrEnum):
 class ActuatorCommand(Message):
     """One command sent to the robot: ``channel`` is ``move``, ``led`` or ``audio``."""
 
-    channel: str
+    channel: Channel
     source: Source
     v_x: float = 0.0
     v_y: float = 0.0
@@ -336,17 +404,38 @@ class OperatorReply(Message):
     reason: str = ""
 
 
+class OperatorButton(enum.StrEnum):
+    """The activity command button's face (thesis 5.1)."""
+
+    GET_READY = "get_ready"
+    """Some selected generator is quiescent (or nothing is selected)."""
+    LOADING = "loading"
+    """Inert: the scripts were just generated; ``start`` at the next tick."""
+    START = "start"
+    """Every selected generator has its script; nothing is running."""
+    STOP = "stop"
+    """The selected activities are running."""
+
+
+class ActivityState(enum.StrEnum):
+    """A selected activity's state (thesis 5.1)."""
+
+    NOT_YET_COMPLETED = "not_yet_completed"
+    CURRENT = "current"
+    COMPLETED = "completed"
+    """Not run again until ``restart``."""
+
+
 class ActivityEntry(Message):
     name: str
     options: dict[str, str] = {}
-    state: str = "not_yet_completed"
-    """``not_yet_completed``, ``current`` or ``completed``."""
+    state: ActivityState = ActivityState.NOT_YET_COMPLETED
 
 
 class OperatorState(Event):
     """The handler's state after this tick's commands: what a console renders."""
 
-    button: str
+    button: OperatorButton
     """``get_ready``, ``loading``, ``start`` or ``stop``."""
     activities: tuple[ActivityEntry, ...] = ()
     replies: tuple[OperatorReply, ...] = ()

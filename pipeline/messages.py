@@ -6,12 +6,15 @@ clock (``_ms``), colours in [0, 1], distances in metres, angles in radians.
 
 Schemas evolve only by appending fields with defaults, so old recordings stay
 readable (see ``FORMAT_VERSION``).
+
+Long module: it is the core's one vocabulary (DESIGN.md: ``sense``, ``think`` and ``act``
+talk only through it): scripts, updates and the world map with its tables, side by side.
 """
 
 from __future__ import annotations
 
 import enum
-from typing import Final
+from typing import Final, NamedTuple
 
 import msgspec
 
@@ -71,6 +74,14 @@ class Policy(enum.StrEnum):
 # ------------------------------------------------------------------------ scripts
 
 
+class Channel(enum.StrEnum):
+    """An instruction block's channels, in the order their commands are issued within a tick."""
+
+    MOVE = "move"
+    LED = "led"
+    AUDIO = "audio"
+
+
 class Move(Message):
     """One timed move: body-frame speeds held for ``duration`` after ``wait_t``."""
 
@@ -122,6 +133,32 @@ class InstructionBlock(Message, tag="instruction", tag_field="type"):
     audioout: tuple[AudioOut, ...] = ()
     flagged: str | None = None
     """Kept as found: the thesis shows it without explaining it."""
+
+    def channel_items(self) -> dict[Channel, ChannelItems]:
+        """Each channel's items, in :data:`CHANNELS` order."""
+        return {spec.channel: getattr(self, spec.field) for spec in CHANNELS}
+
+
+ChannelItems = tuple[Move, ...] | tuple[Led, ...] | tuple[AudioOut, ...]
+
+
+class ChannelSpec(NamedTuple):
+    """One actuator channel (one row of :data:`CHANNELS`)."""
+
+    channel: Channel
+    field: str
+    """The :class:`InstructionBlock` field holding its items (and their JSON key)."""
+    item: type[Move] | type[Led] | type[AudioOut]
+
+
+CHANNELS: Final = (
+    ChannelSpec(Channel.MOVE, "move", Move),
+    ChannelSpec(Channel.LED, "led", Led),
+    ChannelSpec(Channel.AUDIO, "audioout", AudioOut),
+)
+"""The channel registry: each actuator channel, its block field and its item Struct, in the
+order their commands are issued within a tick. The actuator, the script validation and
+the JSON script format read it."""
 
 
 class JumpBlock(Message, tag="jump", tag_field="type"):
@@ -278,8 +315,23 @@ class Sonar(State):
     scanfrequency: int = 0
 
 
+class TouchType(enum.StrEnum):
+    """The touch classes of the thesis's RobotStatus ``touch`` (table 4.1)."""
+
+    C = "C"
+    """Caress."""
+    H = "H"
+    """Hug."""
+    P = "P"
+    """Push."""
+    S = "S"
+    """Slap."""
+    T = "T"
+    """Tap."""
+
+
 class Touch(State):
-    touchtype: str
+    touchtype: TouchType
     """One letter: ``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
     duration: int
     startingtime: int
@@ -329,13 +381,21 @@ class GoalTracking(State):
     changetime: int = 0
 
 
+class ActivityStatus(enum.StrEnum):
+    """Where an activity (script) known to the map is in its life."""
+
+    LOADED = "loaded"
+    RUNNING = "running"
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"
+
+
 class ActivityTracking(State):
     """An activity (script) known to the map, with its goals' progress."""
 
     activityname: str
     creationtime: int = 0
-    status: str = "loaded"
-    """``loaded``, ``running``, ``completed`` or ``interrupted``."""
+    status: ActivityStatus = ActivityStatus.LOADED
     goals: list[GoalTracking] = []
 
 
@@ -422,6 +482,37 @@ class WorldMap(State):
     """Rule variables (``@ID``) of scope U, by name."""
     aliases: dict[str, str] = {}
     """Rule aliases of scope U (``?ID`` -> ``Class/id``), kept across ticks."""
+
+
+class MapList(NamedTuple):
+    """A class the map keeps as a list of Structs with ids (one row of :data:`MAP_LISTS`)."""
+
+    name: str
+    """The class as an update's ``objectid`` and a condition's ``#CLASS`` spell it."""
+    field: str
+    """The :class:`WorldMap` field holding the list."""
+    struct: type[Camera] | type[Sonar] | type[Entity]
+    """The Struct the producer allocates for a new id."""
+    entity: bool
+    """An :class:`Entity` (poses, tracking; seen by conditions) rather than a device."""
+
+
+MAP_LISTS: Final = (
+    MapList("Camera", "cameras", Camera, entity=False),
+    MapList("Sonar", "sonars", Sonar, entity=False),
+    MapList("Human", "humans", Human, entity=True),
+    MapList("Obstacle", "obstacles", Obstacle, entity=True),
+    MapList("Object", "objects", Object, entity=True),
+)
+"""The one table of the map's listed classes: the update decoder, the producer, the
+invariants and the condition compiler read it (a new entity class is a row here, its
+Struct and its :class:`WorldMap` field, and its attribute table in ``sense/updates.py``)."""
+
+ENTITY_LISTS: Final = tuple(m for m in MAP_LISTS if m.entity)
+"""The rows that are entities: ``Human``, ``Obstacle``, ``Object``."""
+
+ACTIVITY_CLASS: Final = "Activity"
+"""The condition language's class for the map's activities (``robotstatus.activities``)."""
 
 
 # --------------------------------------------------------------- actuator outputs

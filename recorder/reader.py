@@ -22,6 +22,7 @@ from mcap.records import AttachmentIndex
 from oimi.pipeline.events import TOPIC_TYPES, Event, Topic
 from oimi.pipeline.messages import FORMAT_VERSION
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
 from oimi.recorder.topics import FORMAT_VERSION_KEY, METADATA_OIMI
 
@@ -111,7 +112,9 @@ class Recording:
     ) -> None:
         self.path = path
         self.metadata = metadata
-        """Metadata records: name -> key -> value, in file order."""
+        """Metadata records as read: name -> key -> value, in file order."""
+        self.meta = RecordingMetadata.from_records(metadata, source=path)
+        """The metadata records, typed (the one reading of them)."""
         self.attachments = attachments
         """Attachment name -> bytes, in file order."""
         self.summary = summary
@@ -121,7 +124,7 @@ class Recording:
 
     @property
     def format_version(self) -> int:
-        return int(self.metadata[METADATA_OIMI][FORMAT_VERSION_KEY])
+        return int(self.meta.oimi.format_version or "0")
 
     def iter_messages(
         self, topics: Iterable[Topic | str] | None = None
@@ -293,14 +296,13 @@ def _read_streamed(stream: IO[bytes], path: str) -> Recording:
 
 
 def _check_version(recording: Recording) -> None:
-    record = recording.metadata.get(METADATA_OIMI)
-    if record is None or FORMAT_VERSION_KEY not in record:
+    version = recording.meta.oimi.format_version
+    if version is None:
         raise RecordingError(
             f"not an oimi recording: no {METADATA_OIMI!r} metadata record with"
             f" {FORMAT_VERSION_KEY!r}",
             source=recording.path,
         )
-    version = record[FORMAT_VERSION_KEY]
     if version != str(FORMAT_VERSION):
         raise RecordingError(
             f"recorded with format version {version}, but this oimi reads format version"

@@ -6,6 +6,9 @@ timelines ``sim_time`` (simulated seconds) and ``tick``. Rerun's 2D views point
 y down: world coordinates are drawn with y negated so the arena reads like a map.
 Colours come from :mod:`recorder.palette`. The SDK writing a file sends no usage
 data (the viewer's privacy is ``oimi view``'s: docs/security.md#viewer-privacy).
+
+Long module: one sink: the layout (blueprint) and the logging of every topic
+share the entity paths and palette; the MCAP -> RRD conversion reuses the same logging.
 """
 
 from __future__ import annotations
@@ -37,10 +40,11 @@ from oimi.pipeline.events import (
 from oimi.pipeline.messages import InstructionBlock
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.palette import RGB
 from oimi.recorder.reader import Recording, open_recording
 from oimi.recorder.scene import SafetyZones, SceneGeometry
-from oimi.recorder.topics import METADATA_OIMI, SCENE_ATTACHMENT
+from oimi.recorder.topics import SCENE_ATTACHMENT
 
 DEFAULT_WORLD_EVERY_N_TICKS: Final = 5
 DEFAULT_TRAIL_SAMPLES: Final = 100
@@ -649,9 +653,9 @@ def block_line(block: InstructionBlock) -> str:
     return " · ".join(channels) or "nothing"
 
 
-def recording_id_of(metadata: dict[str, dict[str, str]], fallback: str) -> str:
+def recording_id_of(metadata: RecordingMetadata, fallback: str) -> str:
     """The Rerun recording id of a recording: ``oimi.recording_id`` when the runner set it."""
-    return metadata.get(METADATA_OIMI, {}).get("recording_id") or fallback
+    return metadata.oimi.recording_id or fallback
 
 
 def mcap_to_rrd(
@@ -677,7 +681,7 @@ def mcap_to_rrd(
     stem = os.path.splitext(os.path.basename(source))[0]
     with RerunSink(
         rrd_path,
-        recording_id=recording_id_of(recording.metadata, stem),
+        recording_id=recording_id_of(recording.meta, stem),
         scene=scene,
         world_every_n_ticks=world_every_n_ticks,
     ) as sink:

@@ -16,6 +16,7 @@ from typing import Any, Final
 
 import msgspec
 from oimi.pipeline.events import Event, Topic, encode
+from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import RecordedMessage, Recording
 
@@ -92,49 +93,16 @@ class Diverged(Exception):
 
 
 def first_difference(recorded: Any, replayed: Any, path: str = "$") -> tuple[str, Any, Any] | None:
-    """The first differing leaf of two decoded JSON trees: (path, recorded, replayed)."""
-    if isinstance(recorded, dict) and isinstance(replayed, dict):
-        for key in [*recorded, *(k for k in replayed if k not in recorded)]:
-            if key not in recorded or key not in replayed:
-                return (
-                    f"{path}.{key}",
-                    recorded.get(key, _ABSENT),
-                    replayed.get(key, _ABSENT),
-                )
-            found = first_difference(recorded[key], replayed[key], f"{path}.{key}")
-            if found is not None:
-                return found
-        return None
-    if isinstance(recorded, list) and isinstance(replayed, list):
-        for index, (a, b) in enumerate(zip(recorded, replayed, strict=False)):
-            found = first_difference(a, b, f"{path}[{index}]")
-            if found is not None:
-                return found
-        if len(recorded) != len(replayed):
-            index = min(len(recorded), len(replayed))
-            return (
-                f"{path}[{index}]",
-                recorded[index] if index < len(recorded) else _ABSENT,
-                replayed[index] if index < len(replayed) else _ABSENT,
-            )
-        return None
-    if recorded != replayed or type(recorded) is not type(replayed):
-        return path, recorded, replayed
-    return None
+    """The first differing leaf of two decoded JSON trees: (path, recorded, replayed)
+    (:data:`~pipeline.jsontree.ABSENT` on the side where it does not exist)."""
+    return next(differences(recorded, replayed, path, exact=True), None)
 
-
-class _Absent:
-    def __repr__(self) -> str:
-        return "<absent>"
-
-
-_ABSENT: Final = _Absent()
 NONE_TEXT: Final = "<none>"
 
 
 def value_text(value: Any) -> str:
     """A value as compact JSON, cut to ``VALUE_CHARS``."""
-    text = "<absent>" if value is _ABSENT else msgspec.json.encode(value).decode()
+    text = "<absent>" if value is ABSENT else msgspec.json.encode(value).decode()
     return text if len(text) <= VALUE_CHARS else text[: VALUE_CHARS - 1] + "…"
 
 
@@ -238,7 +206,7 @@ class Comparator:
         if payload != recorded.payload_bytes:
             path, old, new = first_difference(
                 msgspec.json.decode(recorded.payload_bytes), msgspec.json.decode(payload)
-            ) or ("$", _ABSENT, _ABSENT)
+            ) or ("$", ABSENT, ABSENT)
             self._diverge(
                 DivergenceKind.CHANGED,
                 topic,

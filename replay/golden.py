@@ -43,6 +43,7 @@ from oimi.pipeline.events import (
     WorldState,
     encode,
 )
+from oimi.pipeline.messages import Channel
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.runner import Session, library_scenarios
@@ -89,9 +90,9 @@ def _time(time_ms: int) -> str:
 
 def _command(c: ActuatorCommand) -> str:
     match c.channel:
-        case "move":
+        case Channel.MOVE:
             text = f"v=({_num(c.v_x)},{_num(c.v_y)},{_num(c.v_theta)})"
-        case "led":
+        case Channel.LED:
             text = f"rgb=({_num(c.r)},{_num(c.g)},{_num(c.b)})"
         case _:
             text = f"track={c.track_path or '-'}"

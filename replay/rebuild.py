@@ -25,11 +25,8 @@ from oimi.scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_e
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.runner import Session
 
-SCENARIO_RECORD: Final = "scenario"
-CONFIGURATION_RECORD: Final = "configuration"
 SCENARIO_PREFIX: Final = "scenario/"
 ACTIVITY_PREFIX: Final = "activities/"
-EXTENSIONS_RECORD: Final = "extensions"
 
 
 def _safe_name(name: str, *, source: str) -> str:
@@ -48,26 +45,25 @@ def rebuilt_session(recording: Recording) -> Iterator[Session]:
     Raises ``RecordingError`` when the recording lacks what a rebuild needs.
     """
     where = recording.path
-    scenario_meta = recording.metadata.get(SCENARIO_RECORD)
-    if scenario_meta is None or "file" not in scenario_meta or "seed" not in scenario_meta:
+    scenario_meta = recording.meta.scenario
+    if scenario_meta is None or scenario_meta.file is None or scenario_meta.seed is None:
         raise RecordingError(
-            f"no {SCENARIO_RECORD!r} metadata record with 'file' and 'seed':"
+            "no 'scenario' metadata record with 'file' and 'seed':"
             " not the recording of a scenario run",
             source=where,
         )
-    file_name = _safe_name(scenario_meta["file"], source=where)
+    file_name = _safe_name(scenario_meta.file, source=where)
     raw = recording.attachments.get(SCENARIO_PREFIX + file_name)
     if raw is None:
         raise RecordingError(
             f"the scenario file {file_name!r} is not attached ({SCENARIO_PREFIX}{file_name})",
             source=where,
         )
-    try:
-        seed = int(scenario_meta["seed"])
-    except ValueError:
+    seed = scenario_meta.seed_number
+    if seed is None:
         raise RecordingError(
-            f"scenario seed {scenario_meta['seed']!r} is not an integer", source=where
-        ) from None
+            f"scenario seed {scenario_meta.seed!r} is not an integer", source=where
+        )
     with tempfile.TemporaryDirectory(prefix="oimi-replay-") as folder:
         base = Path(folder)
         scripts = base / "activities"
@@ -81,7 +77,7 @@ def rebuilt_session(recording: Recording) -> Iterator[Session]:
         extensions = _attached_extensions(recording, base / "extensions")
         try:
             loaded = parse_scenario(raw, source=source, base_dir=base, loaded_extensions=extensions)
-            session = Session(loaded, seed=seed, overrides=recording.metadata.get("variation"))
+            session = Session(loaded, seed=seed, overrides=recording.meta.variation or None)
         except LocatedError as error:  # a scenario or script error, placed in the temp folder
             text = str(error).replace(str(base) + "/", "")
             raise RecordingError(
@@ -94,7 +90,7 @@ def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExten
     """The extensions the recording names, loaded from its attached sources; refused when
     their sources are missing or are not the ones recorded (their digest differs)."""
     where = recording.path
-    recorded = recording.metadata.get(EXTENSIONS_RECORD, {})
+    recorded = recording.meta.extensions
     loaded = []
     for name in sorted(recorded):
         info = msgspec.json.decode(recorded[name])
@@ -141,9 +137,9 @@ def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExten
 def rebuild_notes(recording: Recording, session: Session) -> list[str]:
     """What differs between the recording's set-up and the rebuilt one (likely causes of a
     divergence): oimi's version, its registries' versions and the configuration."""
-    now = session.metadata()
+    now = session.metadata().records()
     notes = []
-    for record in ("oimi", CONFIGURATION_RECORD):
+    for record in ("oimi", "configuration"):
         then = recording.metadata.get(record, {})
         for key, value in now.get(record, {}).items():
             if key in then and then[key] != value:

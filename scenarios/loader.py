@@ -6,6 +6,9 @@ validation of a scenario, for files and ``--param`` overrides alike: every numbe
 the ranges the schema declares, then ``check_scenario`` (places, order, ids, the robot's
 ceiling). Errors read ``FILE:LINE:COL: field (unit): what is wrong``, placed on the line
 of the offending key by a best-effort scan of the TOML text (``TomlLocator``).
+
+Long module: the one validation of a scenario (issue 15): decoding, the range
+checks with units and the located errors share the TOML position scan.
 """
 
 from __future__ import annotations

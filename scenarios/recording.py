@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
 
+import msgspec
 from oimi.pipeline.events import Event, Topic
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
@@ -213,12 +214,14 @@ def recorded(
         for path, partial in claimed:
             if path is mcap:
                 metadata = session.metadata()
-                metadata["oimi"]["recording_id"] = ident
-                if info is not None:
-                    metadata[SESSION_RECORD] = info.record()
+                metadata = msgspec.structs.replace(
+                    metadata,
+                    oimi=msgspec.structs.replace(metadata.oimi, recording_id=ident),
+                    session=None if info is None else info.record(),
+                )
                 mcap_sink = McapSink(
                     partial,
-                    metadata=metadata,
+                    metadata=metadata.records(),
                     attachments=session.attachments(),
                     scene=scene,
                     chunk_size_bytes=chunk_size_bytes,
@@ -237,7 +240,12 @@ def recorded(
             try:
                 if info is not None and mcap_sink is not None:
                     last = info if final_info is None else final_info()
-                    mcap_sink.add_metadata(SESSION_RECORD, {**last.record(), **counter.elapsed()})
+                    mcap_sink.add_metadata(
+                        SESSION_RECORD,
+                        msgspec.to_builtins(
+                            msgspec.structs.replace(last.record(), **counter.elapsed())
+                        ),
+                    )
             finally:
                 for closer in closers:
                     closer.close()

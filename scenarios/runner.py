@@ -13,7 +13,6 @@ from importlib import metadata as package_metadata
 from pathlib import Path
 
 import msgspec
-from oimi.pipeline.act.joystick import SAFETY_LOCK
 from oimi.pipeline.act.limits import RobotLimits
 from oimi.pipeline.events import (
     JoystickInput,
@@ -29,6 +28,12 @@ from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.registries import Registries
 from oimi.pipeline.sink import FanOut, Sink
 from oimi.pipeline.think import library as rule_library
+from oimi.recorder.metadata import (
+    ConfigurationRecord,
+    OimiRecord,
+    RecordingMetadata,
+    ScenarioRecord,
+)
 from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
 from oimi.scenarios.expectations import Tracker, Verdict
 from oimi.scenarios.extensions import extension_attachments, extensions_metadata
@@ -227,16 +232,12 @@ class Session:
                         )
                     )
                 case JoystickEvent():
-                    locked = SAFETY_LOCK in event.buttons
-                    released = self._lock_held and not locked
-                    self._lock_held = locked
-                    joystick = JoystickInput(
+                    pad = event.pad
+                    released = self._lock_held and not pad.locked
+                    self._lock_held = pad.locked
+                    joystick = pad.at(
                         tick=tick,
                         time_ms=time_ms,
-                        left_x=event.left_x,
-                        left_y=event.left_y,
-                        right_x=event.right_x,
-                        buttons=tuple(event.buttons),
                         release=LockRelease.OPERATOR if released else None,
                     )
                 case TouchEvent():
@@ -301,36 +302,34 @@ class Session:
 
     # ------------------------------------------------------------------ recording
 
-    def metadata(self) -> dict[str, dict[str, str]]:
-        """MCAP metadata records: enough, with the attachments, to rebuild this run."""
+    def metadata(self) -> RecordingMetadata:
+        """The recording's metadata: enough, with the attachments, to rebuild this run."""
         s = self.scenario
-        return {
-            "oimi": {
-                "version": _version(),
-                "format_version": str(FORMAT_VERSION),
-                "rule_registry": self.registries.rules.version,
-                "function_registry": self.registries.functions.version,
-            },
-            "scenario": {
-                "name": s.name,
-                "file": self.loaded.source.name,
-                "seed": str(s.seed),
-                "tick_hz": str(s.tick_hz),
-                "duration_s": repr(s.duration_s),
-                "ticks": str(s.ticks),
-            },
-            "configuration": {
-                "pipeline": msgspec.json.encode(self.config).decode(),
-                "robot": msgspec.json.encode(s.robot).decode(),
-                "sensors": msgspec.json.encode(s.sensors).decode(),
-            },
-            **({"variation": dict(self.overrides)} if self.overrides else {}),
-            **(
-                {"extensions": extensions_metadata(self.toolkit.extensions)}
-                if self.toolkit.extensions
-                else {}
+        return RecordingMetadata(
+            oimi=OimiRecord(
+                version=_version(),
+                format_version=str(FORMAT_VERSION),
+                rule_registry=self.registries.rules.version,
+                function_registry=self.registries.functions.version,
             ),
-        }
+            scenario=ScenarioRecord(
+                name=s.name,
+                file=self.loaded.source.name,
+                seed=str(s.seed),
+                tick_hz=str(s.tick_hz),
+                duration_s=repr(s.duration_s),
+                ticks=str(s.ticks),
+            ),
+            configuration=ConfigurationRecord(
+                pipeline=msgspec.json.encode(self.config).decode(),
+                robot=msgspec.json.encode(s.robot).decode(),
+                sensors=msgspec.json.encode(s.sensors).decode(),
+            ),
+            variation=dict(self.overrides) if self.overrides else {},
+            extensions=extensions_metadata(self.toolkit.extensions)
+            if self.toolkit.extensions
+            else {},
+        )
 
     def attachments(self) -> list[tuple[str, bytes]]:
         """The scenario file, every script its activity folders hold (first folder wins a name),

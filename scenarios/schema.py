@@ -11,6 +11,9 @@ Ranges are declared on the fields (the ``Annotated`` aliases below) and checked
 when a file or an override is decoded; every float must also be finite
 (``scenarios.loader`` refuses NaN and infinities before decoding). The robot's
 physical ceiling is in ``scenarios.profile``.
+
+Long module: the scenario file's whole schema is one tagged Struct tree that
+msgspec decodes in one go; a file per section would only scatter the ranges it declares.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ from typing import Annotated, Final
 import msgspec
 from msgspec import Meta
 from oimi.pipeline.act.safety import SafetyConfig
-from oimi.pipeline.events import MotionSource, OperatorVerb, SafetyZone
+from oimi.pipeline.events import Button, MotionSource, OperatorVerb, Pad, SafetyZone
+from oimi.pipeline.messages import TouchType
 
 DEFAULT_TICK_HZ: Final = 50
 """Simulated clock rate when a scenario gives none (a tick of 20 ms)."""
@@ -121,21 +125,6 @@ class Role(enum.StrEnum):
 
     CHILD = "child"
     THERAPIST = "therapist"
-
-
-class TouchType(enum.StrEnum):
-    """The touch classes of the thesis's RobotStatus ``touch`` (table 4.1)."""
-
-    C = "C"
-    """Caress."""
-    H = "H"
-    """Hug."""
-    P = "P"
-    """Push."""
-    S = "S"
-    """Slap."""
-    T = "T"
-    """Tap."""
 
 
 class SensorKind(enum.StrEnum):
@@ -368,8 +357,18 @@ class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
     """-1 to 1, forward positive."""
     right_x: Axis = 0.0
     """-1 to 1, right positive."""
-    buttons: list[str] = []
+    buttons: list[Button] = []
     hold_s: NonNegative = 0.0
+
+    @property
+    def pad(self) -> Pad:
+        """The pad's state this event sets."""
+        return Pad(
+            left_x=self.left_x,
+            left_y=self.left_y,
+            right_x=self.right_x,
+            buttons=tuple(self.buttons),
+        )
 
 
 class TouchEvent(EventSpec, tag="touch", kw_only=True):

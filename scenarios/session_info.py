@@ -13,6 +13,7 @@ from datetime import datetime
 
 import msgspec
 from oimi.pipeline.events import Topic, WorldState
+from oimi.recorder.metadata import SessionRecord
 from oimi.scenarios.errors import ScenarioError
 
 SESSION_RECORD = "session"
@@ -32,15 +33,15 @@ class SessionInfo(msgspec.Struct, frozen=True, kw_only=True):
     therapist: str = ""
     notes: str = ""
 
-    def record(self) -> dict[str, str]:
-        """The ``session`` metadata record (strings only)."""
-        return {
-            "recording_id": self.recording_id,
-            "date": self.date,
-            "child": self.child,
-            "therapist": self.therapist,
-            "notes": self.notes,
-        }
+    def record(self) -> SessionRecord:
+        """The ``session`` metadata record."""
+        return SessionRecord(
+            recording_id=self.recording_id,
+            date=self.date,
+            child=self.child,
+            therapist=self.therapist,
+            notes=self.notes,
+        )
 
 
 def new_session_info(

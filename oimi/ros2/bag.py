@@ -42,7 +42,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import WorldMap
+from oimi.pipeline.messages import Channel, WorldMap
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
@@ -119,12 +119,7 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                         ),
                     )
             case JoystickInput():
-                pad = Pad(
-                    left_x=event.left_x,
-                    left_y=event.left_y,
-                    right_x=event.right_x,
-                    buttons=event.buttons,
-                )
+                pad = event.pad
                 held = (t, pad) if pad.locked else None
                 yield t, topics.JOY, joy_of(pad, time_ns=t)
             case OperatorCommands():
@@ -143,7 +138,7 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                     yield t, topics.AUDIO, types.String(data=event.audio)
             case ActuatorCommands():
                 for command in event.commands:
-                    if command.channel == "move":
+                    if command.channel == Channel.MOVE:
                         yield (
                             t,
                             topics.CMD_VEL,

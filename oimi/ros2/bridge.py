@@ -34,6 +34,7 @@ from oimi.pipeline.events import (
     Topic,
 )
 from oimi.pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
@@ -176,14 +177,15 @@ class BridgeSession(LiveSession):
             with contextlib.suppress(Exception):
                 writer.wait_for_acks(duration(milliseconds=STOP_ACK_MS))
 
-    def metadata(self) -> dict[str, dict[str, str]]:
-        metadata = super().metadata()
-        metadata["ros2"] = {
-            "role": "bridge",
-            "domain_id": str(self.network.domain_id),
-            "interface": self.network.interface,
-        }
-        return metadata
+    def metadata(self) -> RecordingMetadata:
+        return msgspec.structs.replace(
+            super().metadata(),
+            ros2=Ros2Record(
+                role="bridge",
+                domain_id=str(self.network.domain_id),
+                interface=self.network.interface,
+            ),
+        )
 
     def _note(self, text: str) -> None:
         if self.on_note is not None:

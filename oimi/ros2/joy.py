@@ -16,8 +16,8 @@ from typing import Final
 import msgspec
 
 from oimi.pipeline.act.joystick import Button
+from oimi.pipeline.events import Pad
 from oimi.ros2 import types
-from oimi.scenarios.live.inputs import Pad
 
 
 class JoyMapping(msgspec.Struct, frozen=True, kw_only=True):
@@ -58,7 +58,7 @@ def pad_of(joy: types.Joy, mapping: JoyMapping = XBOX_360) -> Pad:
         left_y=_axis(axes, mapping.left_y),
         right_x=sign * _axis(axes, mapping.right_x) + 0.0,
         buttons=tuple(
-            str(button)
+            button
             for button, index in mapping.buttons
             if index < len(pressed) and pressed[index]
         ),
@@ -75,7 +75,7 @@ def joy_of(pad: Pad, *, time_ns: int, mapping: JoyMapping = XBOX_360) -> types.J
     axes[2] = axes[5] = 1.0  # joy_node's triggers rest at +1
     buttons = [0] * 11
     for button, index in mapping.buttons:
-        if str(button) in pad.buttons:
+        if button in pad.buttons:
             buttons[index] = 1
     return types.Joy(
         header=types.Header(stamp=types.stamp(time_ns), frame_id="joy"),

@@ -12,9 +12,12 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 from typing import Final
 
+import msgspec
+
 from oimi.pipeline.events import JoystickInput, OperatorCommand
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
+from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.remote import odometry, outputs_of
@@ -84,13 +87,14 @@ class SimSession(Session):
         self.commands_received = 0
         """``cmd_vel`` messages taken so far."""
 
-    def metadata(self) -> dict[str, dict[str, str]]:
-        metadata = super().metadata()
-        metadata["ros2"] = {
-            "role": "sim",
-            "replay": "none: the world only, commanded over ROS 2; the mind ran elsewhere",
-        }
-        return metadata
+    def metadata(self) -> RecordingMetadata:
+        return msgspec.structs.replace(
+            super().metadata(),
+            ros2=Ros2Record(
+                role="sim",
+                replay="none: the world only, commanded over ROS 2; the mind ran elsewhere",
+            ),
+        )
 
     def step(
         self,

@@ -152,11 +152,7 @@ class Actuator:
         self._block = block
         self._started = block
         self._block_source = MotionSource.RULE if forced else MotionSource.SCRIPT
-        channels = {
-            Channel.MOVE: block.move,
-            Channel.LED: block.led,
-            Channel.AUDIO: block.audioout,
-        }
+        channels = block.channel_items()
         self._cursors = {channel: ChannelCursor(items) for channel, items in channels.items()}
         self._start_ms = now_ms
         self._frozen_ms = 0
@@ -183,7 +179,7 @@ class Actuator:
                 self._target = self._velocity = STILL  # at once, not ramped down
                 self._brake = True
                 self._commands.append(
-                    ActuatorCommand(channel=Channel.MOVE.value, source=Source.SAFETY, stop=True)
+                    ActuatorCommand(channel=Channel.MOVE, source=Source.SAFETY, stop=True)
                 )
                 why = f" ({pad.release})" if pad.release is not None else ""
                 self._notes.append(f"joystick: safety lock released{why}, robot stopped")
@@ -215,7 +211,7 @@ class Actuator:
             v_x, v_y, v_theta = state.velocity
             self._commands.append(
                 ActuatorCommand(
-                    channel=Channel.MOVE.value,
+                    channel=Channel.MOVE,
                     source=Source.JOYSTICK,
                     v_x=v_x,
                     v_y=v_y,
@@ -285,18 +281,18 @@ class Actuator:
         """Stop the channels the old block left on (the joystick keeps its move)."""
         if self._driving is None and self._target != STILL:
             self._commands.append(
-                ActuatorCommand(channel=Channel.MOVE.value, source=Source.SCRIPT, stop=True)
+                ActuatorCommand(channel=Channel.MOVE, source=Source.SCRIPT, stop=True)
             )
             self._target = STILL
         if self._led != LIGHTS_OFF:
             self._commands.append(
-                ActuatorCommand(channel=Channel.LED.value, source=Source.SCRIPT, stop=True)
+                ActuatorCommand(channel=Channel.LED, source=Source.SCRIPT, stop=True)
             )
             self._led = LIGHTS_OFF
         if self._audio:
             self._commands.append(
                 ActuatorCommand(
-                    channel=Channel.AUDIO.value,
+                    channel=Channel.AUDIO,
                     source=Source.SCRIPT,
                     track_path=self._audio,
                     stop=True,
@@ -321,7 +317,7 @@ class Actuator:
             return
         if phase is Phase.STOP:
             self._commands.append(
-                ActuatorCommand(channel=Channel.MOVE.value, source=Source.SCRIPT, stop=True)
+                ActuatorCommand(channel=Channel.MOVE, source=Source.SCRIPT, stop=True)
             )
             self._target = STILL
             return
@@ -330,7 +326,7 @@ class Actuator:
         self._clamps.extend(reports)
         self._commands.append(
             ActuatorCommand(
-                channel=Channel.MOVE.value,
+                channel=Channel.MOVE,
                 source=Source.SCRIPT,
                 v_x=velocity.v_x,
                 v_y=velocity.v_y,
@@ -344,7 +340,7 @@ class Actuator:
     def _run_led(self, item: Led, phase: Phase, label: str) -> None:
         if phase is Phase.STOP:
             self._commands.append(
-                ActuatorCommand(channel=Channel.LED.value, source=Source.SCRIPT, stop=True)
+                ActuatorCommand(channel=Channel.LED, source=Source.SCRIPT, stop=True)
             )
             self._led = LIGHTS_OFF
             return
@@ -360,7 +356,7 @@ class Actuator:
         r, g, b = colour if item.turnas != 0 else LIGHTS_OFF
         self._commands.append(
             ActuatorCommand(
-                channel=Channel.LED.value,
+                channel=Channel.LED,
                 source=Source.SCRIPT,
                 r=r,
                 g=g,
@@ -375,7 +371,7 @@ class Actuator:
         stop = phase is Phase.STOP
         self._commands.append(
             ActuatorCommand(
-                channel=Channel.AUDIO.value,
+                channel=Channel.AUDIO,
                 source=Source.SCRIPT,
                 track_path=item.track_path,
                 stop=stop,

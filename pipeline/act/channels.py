@@ -13,16 +13,12 @@ import enum
 from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
+from oimi.pipeline.messages import CHANNELS, Channel
 
-class Channel(enum.StrEnum):
-    """The block's channels, in the order their commands are issued within a tick."""
-
-    MOVE = "move"
-    LED = "led"
-    AUDIO = "audio"
+__all__ = ["CHANNEL_ORDER", "Channel", "ChannelCursor", "Due", "Phase", "Timed", "schedule"]
 
 
-CHANNEL_ORDER: tuple[Channel, ...] = (Channel.MOVE, Channel.LED, Channel.AUDIO)
+CHANNEL_ORDER: tuple[Channel, ...] = tuple(spec.channel for spec in CHANNELS)
 """The stable order of channels in a tick's commands."""
 
 

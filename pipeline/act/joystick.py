@@ -16,36 +16,14 @@ stick is limited to the unit circle, so a diagonal is as fast as a straight push
 
 from __future__ import annotations
 
-import enum
 import math
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.limits import RobotLimits, Velocity, fmt
-from oimi.pipeline.events import JoystickInput
+from oimi.pipeline.events import Button, JoystickInput
 
 DEAD_ZONE: Final = 0.1
 """Stick deflections below this (of 1) count as 0."""
-
-
-class Button(enum.StrEnum):
-    """The pad's buttons, as ``JoystickInput.buttons`` names them."""
-
-    LB = "LB"
-    """Left bumper: the safety lock, held while the operator drives."""
-    RB = "RB"
-    """Right bumper: blocking mode (with the lock)."""
-    A = "A"
-    """Unbound."""
-    B = "B"
-    """Unbound."""
-    X = "X"
-    """Interrupt block execution (with the lock)."""
-    Y = "Y"
-    """Unbound."""
-    BACK = "BACK"
-    """Unbound."""
-    START = "START"
-    """Unbound."""
 
 
 SAFETY_LOCK: Final = Button.LB
@@ -53,7 +31,7 @@ BLOCKING: Final = Button.RB
 INTERRUPT: Final = Button.X
 
 
-class PadState(NamedTuple):
+class PadReading(NamedTuple):
     """A pad input read against the mapping: what it asks, and notes on what was odd."""
 
     lock: bool
@@ -73,7 +51,7 @@ def _dead_zone(magnitude: float) -> float:
     return (min(magnitude, 1.0) - DEAD_ZONE) / (1.0 - DEAD_ZONE)
 
 
-def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadState:
+def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadReading:
     """The pad's state under the mapping above."""
     notes: list[str] = []
     held: list[Button] = []
@@ -99,7 +77,7 @@ def read_pad(pad: JoystickInput, limits: RobotLimits) -> PadState:
     turn = math.copysign(_dead_zone(abs(right_x)), right_x)
     v_theta = -turn * limits.max_angular_speed_radps
     velocity = Velocity(v_x + 0.0, v_y + 0.0, v_theta + 0.0)
-    return PadState(
+    return PadReading(
         lock=SAFETY_LOCK in held,
         blocking=BLOCKING in held,
         interrupt=INTERRUPT in held,

@@ -5,7 +5,7 @@ the activity command button, and what the loop must do to the Block Reader's LIF
 reason and changes nothing. Its effects are typed messages the loop applies:
 :class:`PushScripts` and :class:`StopActivities`.
 
-Button (``Button``)::
+The button (``OperatorButton``)::
 
     get_ready --get_ready--> loading --tick--> start --start--> stop
         ^                                        ^  <--stop----  |
@@ -19,13 +19,14 @@ back to ``not_yet_completed``.
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
+    ActivityState,
+    OperatorButton,
     OperatorCommand,
     OperatorReply,
     OperatorState,
@@ -43,29 +44,7 @@ from oimi.pipeline.operator.generator import (
 from oimi.pipeline.script.validate import script_errors
 
 
-class Button(enum.StrEnum):
-    """The activity command button's face (thesis 5.1)."""
-
-    GET_READY = "get_ready"
-    """Some selected generator is quiescent (or nothing is selected)."""
-    LOADING = "loading"
-    """Inert: the scripts were just generated; ``start`` at the next tick."""
-    START = "start"
-    """Every selected generator has its script; nothing is running."""
-    STOP = "stop"
-    """The selected activities are running."""
-
-
-class ActivityState(enum.StrEnum):
-    """A selected activity's state (thesis 5.1)."""
-
-    NOT_YET_COMPLETED = "not_yet_completed"
-    CURRENT = "current"
-    COMPLETED = "completed"
-    """Not run again until ``restart``."""
-
-
-class ScriptEntry(Message):
+class SelectedScript(Message):
     """A selected activity's script."""
 
     activity: str
@@ -80,9 +59,9 @@ class PushScripts(Message, tag="push_scripts", tag_field="effect"):
     (``entries`` reversed, bottom to top, like ``ScriptInfo.script_vect``).
     """
 
-    entries: tuple[ScriptEntry, ...]
+    entries: tuple[SelectedScript, ...]
 
-    def lifo_order(self) -> tuple[ScriptEntry, ...]:
+    def lifo_order(self) -> tuple[SelectedScript, ...]:
         """The entries bottom to top: push them in this order."""
         return tuple(reversed(self.entries))
 
@@ -131,7 +110,7 @@ class GeneratorHandler:
     def __init__(self, catalogue: Catalogue):
         self._catalogue = catalogue
         self._selected: list[_Selected] = []
-        self._button = Button.GET_READY
+        self._button = OperatorButton.GET_READY
         self._seen: tuple[WorldMap | None, int] = (None, 0)
         """The map and time of the command being handled (what generators see)."""
         self._running: list[str] = []
@@ -140,7 +119,7 @@ class GeneratorHandler:
     # ------------------------------------------------------------------ queries
 
     @property
-    def button(self) -> Button:
+    def button(self) -> OperatorButton:
         return self._button
 
     def describe(self) -> tuple[GeneratorInfo, ...]:
@@ -150,7 +129,7 @@ class GeneratorHandler:
     def activities(self) -> tuple[ActivityEntry, ...]:
         """The selected activities, top to bottom."""
         return tuple(
-            ActivityEntry(name=s.name, options=dict(s.options), state=s.state.value)
+            ActivityEntry(name=s.name, options=dict(s.options), state=s.state)
             for s in self._selected
         )
 
@@ -166,7 +145,7 @@ class GeneratorHandler:
         return OperatorState(
             tick=tick,
             time_ms=time_ms,
-            button=self._button.value,
+            button=self._button,
             activities=self.activities(),
             replies=replies,
         )
@@ -201,9 +180,9 @@ class GeneratorHandler:
     def tick(self, now_ms: int) -> bool:
         """Advance the clock: ``loading`` becomes ``start``; True when the state changed."""
         del now_ms
-        if self._button is not Button.LOADING:
+        if self._button is not OperatorButton.LOADING:
             return False
-        self._button = Button.START
+        self._button = OperatorButton.START
         return True
 
     # ---------------------------------------------------------- loop callbacks
@@ -257,7 +236,7 @@ class GeneratorHandler:
                     s.quiesced = True  # its script runs on; Get Ready once the run ends
                 else:
                     s.script = None
-                    if self._button is not Button.STOP:
+                    if self._button is not OperatorButton.STOP:
                         self._settle()
                 done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent")
                 continue
@@ -288,18 +267,18 @@ class GeneratorHandler:
             raise _Refused(f"{name!r} is not selected")
         return s
 
-    def _refuse_while(self, verb: str, *buttons: Button) -> None:
+    def _refuse_while(self, verb: str, *buttons: OperatorButton) -> None:
         if self._button in buttons:
-            if self._button is Button.STOP:
+            if self._button is OperatorButton.STOP:
                 raise _Refused(f"cannot {verb} while the activities run; stop first")
             raise _Refused(f"cannot {verb} while the button shows {self._button.value}")
 
     def _settle(self) -> None:
         """The button when nothing runs: ``start`` iff every selection has its script."""
         if self._selected and all(s.script is not None for s in self._selected):
-            self._button = Button.START
+            self._button = OperatorButton.START
         else:
-            self._button = Button.GET_READY
+            self._button = OperatorButton.GET_READY
 
     # ------------------------------------------------------------ the commands
 
@@ -307,7 +286,7 @@ class GeneratorHandler:
         return "available: " + ", ".join(self._catalogue.names()), ()
 
     def _add(self, cmd: OperatorCommand) -> _Outcome:
-        self._refuse_while("add", Button.LOADING, Button.STOP)
+        self._refuse_while("add", OperatorButton.LOADING, OperatorButton.STOP)
         name = cmd.activity
         if name not in self._catalogue:
             available = ", ".join(self._catalogue.names()) or "none"
@@ -320,11 +299,11 @@ class GeneratorHandler:
         except GeneratorError as err:
             raise _Refused(str(err)) from None
         self._selected.append(_Selected(name, options, self._catalogue.create(name)))
-        self._button = Button.GET_READY
+        self._button = OperatorButton.GET_READY
         return f"added {name!r}", ()
 
     def _remove(self, cmd: OperatorCommand) -> _Outcome:
-        self._refuse_while("remove", Button.LOADING)
+        self._refuse_while("remove", OperatorButton.LOADING)
         s = self._selected_or_refuse(cmd.activity)
         if s.state is ActivityState.CURRENT:
             raise _Refused(f"{s.name!r} is running; stop first")
@@ -332,12 +311,12 @@ class GeneratorHandler:
             raise _Refused(f"{s.name!r} is queued to run; stop first")
         s.generator.shutdown()
         self._selected.remove(s)
-        if self._button is not Button.STOP:
+        if self._button is not OperatorButton.STOP:
             self._settle()
         return f"removed {s.name!r}", ()
 
     def _reorder(self, cmd: OperatorCommand) -> _Outcome:
-        self._refuse_while("reorder", Button.LOADING, Button.STOP)
+        self._refuse_while("reorder", OperatorButton.LOADING, OperatorButton.STOP)
         s = self._selected_or_refuse(cmd.activity)
         last = len(self._selected) - 1
         if not 0 <= cmd.position <= last:
@@ -347,7 +326,7 @@ class GeneratorHandler:
         return f"moved {s.name!r} to {cmd.position}", ()
 
     def _get_ready(self, cmd: OperatorCommand) -> _Outcome:
-        if self._button is not Button.GET_READY:
+        if self._button is not OperatorButton.GET_READY:
             raise _Refused(f"cannot get ready while the button shows {self._button.value}")
         if not self._selected:
             raise _Refused("no activities selected; add one first")
@@ -383,12 +362,15 @@ class GeneratorHandler:
             raise _Refused(str(err)) from None
         for s in self._selected:
             s.script = scripts[s.name]
-        self._button = Button.LOADING
+        self._button = OperatorButton.LOADING
         return f"generated {len(scripts)} scripts", ()
 
     def _start(self, cmd: OperatorCommand) -> _Outcome:
-        if self._button is not Button.START:
-            hint = {Button.GET_READY: "; press get_ready first", Button.STOP: " already"}
+        if self._button is not OperatorButton.START:
+            hint = {
+                OperatorButton.GET_READY: "; press get_ready first",
+                OperatorButton.STOP: " already",
+            }
             raise _Refused(
                 f"cannot start while the button shows {self._button.value}"
                 + hint.get(self._button, "")
@@ -396,35 +378,35 @@ class GeneratorHandler:
         todo = [s for s in self._selected if s.state is ActivityState.NOT_YET_COMPLETED]
         if not todo:
             raise _Refused("every activity is completed; press restart first")
-        entries = tuple(ScriptEntry(activity=s.name, script=s.script) for s in todo)  # type: ignore[arg-type]
+        entries = tuple(SelectedScript(activity=s.name, script=s.script) for s in todo)  # type: ignore[arg-type]
         self._running = [s.name for s in todo]
         todo[0].state = ActivityState.CURRENT
-        self._button = Button.STOP
+        self._button = OperatorButton.STOP
         return f"started {len(todo)} activities", (PushScripts(entries=entries),)
 
     def _stop(self, cmd: OperatorCommand) -> _Outcome:
-        if self._button is not Button.STOP:
+        if self._button is not OperatorButton.STOP:
             raise _Refused(f"cannot stop: nothing runs (the button shows {self._button.value})")
         names = tuple(self._find(n).script.activityname for n in self._running)  # type: ignore[union-attr]
         for s in self._selected:
             if s.state is ActivityState.CURRENT:
                 s.state = ActivityState.NOT_YET_COMPLETED
         self._running = []
-        self._button = Button.START
+        self._button = OperatorButton.START
         return "stopped", (StopActivities(activitynames=names),)
 
     def _restart(self, cmd: OperatorCommand) -> _Outcome:
-        self._refuse_while("restart", Button.LOADING, Button.STOP)
+        self._refuse_while("restart", OperatorButton.LOADING, OperatorButton.STOP)
         for s in self._selected:
             s.state = ActivityState.NOT_YET_COMPLETED
         return "every activity is not yet completed", ()
 
     def _clear(self, cmd: OperatorCommand) -> _Outcome:
-        self._refuse_while("clear", Button.LOADING, Button.STOP)
+        self._refuse_while("clear", OperatorButton.LOADING, OperatorButton.STOP)
         for s in self._selected:
             s.generator.shutdown()
         self._selected = []
-        self._button = Button.GET_READY
+        self._button = OperatorButton.GET_READY
         return "cleared", ()
 
 

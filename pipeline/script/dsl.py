@@ -3,6 +3,9 @@
 The grammar (``dsl.lark``) fixes the shape of each ``[bracketed item]``; this module
 turns the parse tree into typed items, checks their order, numbers and labels, and
 builds the Script. Every error names its line and column (see ``docs/script-language.md``).
+
+Long module: one lark Transformer plus its checks: each ``[bracketed item]`` is a
+method of the same class, and the located-error helpers they share sit beside them.
 """
 
 from __future__ import annotations

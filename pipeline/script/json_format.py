@@ -16,6 +16,7 @@ from collections.abc import Callable
 from typing import Any, Final, NoReturn
 
 from oimi.pipeline.messages import (
+    CHANNELS,
     Action,
     AudioOut,
     Block,
@@ -337,7 +338,7 @@ class _Reader:
             _fail(path, f"Object missing required field `type` - at `{path}`")
         kind = self.text(obj["type"], f"{path}.type")
         fields: dict[str, tuple[str, ...]] = {
-            "instruction": ("type", "flagged", "move", "led", "audioout"),
+            "instruction": ("type", "flagged", *(spec.field for spec in CHANNELS)),
             "jump": ("type", "toparse", "truejump", "falsejump"),
             "terminus": ("type",),
             "sensor": ("type", "request"),

@@ -9,12 +9,14 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Iterator
-from typing import Final
+from typing import Any, Final
 
 from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import (
+    CHANNELS,
     Action,
     AudioOut,
+    Channel,
     Goal,
     InstructionBlock,
     JumpBlock,
@@ -176,12 +178,9 @@ def _action(script: Script, action: Action, path: str) -> Problems:
 def _block(script: Script, block: object, path: str) -> Problems:
     match block:
         case InstructionBlock():
-            for i, move in enumerate(block.move):
-                yield from _move(move, f"{path}.move[{i}]")
-            for i, led in enumerate(block.led):
-                yield from _led(led, f"{path}.led[{i}]")
-            for i, audio in enumerate(block.audioout):
-                yield from _audio(audio, f"{path}.audioout[{i}]")
+            for spec in CHANNELS:
+                for i, item in enumerate(getattr(block, spec.field)):
+                    yield from _ITEM_CHECKS[spec.channel](item, f"{path}.{spec.field}[{i}]")
             if block.flagged is not None and not _is_text(block.flagged):
                 yield f"{path}.flagged", "flagged must be a string"
         case JumpBlock():
@@ -265,3 +264,11 @@ def _is_int(value: object) -> bool:
 
 def _is_text(value: object) -> bool:
     return isinstance(value, str)
+
+
+_ITEM_CHECKS: Final[dict[Channel, Callable[[Any, str], Problems]]] = {
+    Channel.MOVE: _move,
+    Channel.LED: _led,
+    Channel.AUDIO: _audio,
+}
+"""Each channel's item check (a new channel in ``CHANNELS`` adds its row here)."""

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from oimi.pipeline.messages import REGISTER_CAPACITY, WorldMap
+from oimi.pipeline.messages import ENTITY_LISTS, MAP_LISTS, REGISTER_CAPACITY, WorldMap
 
-_ENTITY_LISTS = ("humans", "obstacles", "objects")
-_DEVICE_LISTS = ("cameras", "sonars")
+_ENTITY_LISTS = tuple(m.field for m in ENTITY_LISTS)
+_DEVICE_LISTS = tuple(m.field for m in MAP_LISTS if not m.entity)
 _ENTITY_REGISTERS = ("poses", "tracking")
 _ROBOT_REGISTERS = (
     "touch", "led", "audioout", "audioin", "speed",

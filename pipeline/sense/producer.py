@@ -13,17 +13,13 @@ from __future__ import annotations
 from typing import Final
 
 from oimi.pipeline.messages import (
+    MAP_LISTS,
     REGISTER_CAPACITY,
-    Camera,
     Entity,
-    Human,
     MapUpdate,
     Message,
-    Object,
-    Obstacle,
     Policy,
     RobotStatus,
-    Sonar,
     State,
     WorldMap,
 )
@@ -41,13 +37,7 @@ from oimi.pipeline.sense.updates import (
 MAX_ENTITIES: Final = 1024
 """Default number of entities a class (cameras, humans...) may hold in the map."""
 
-_LISTED: Final = {
-    EntityClass.CAMERA: ("cameras", Camera),
-    EntityClass.SONAR: ("sonars", Sonar),
-    EntityClass.HUMAN: ("humans", Human),
-    EntityClass.OBSTACLE: ("obstacles", Obstacle),
-    EntityClass.OBJECT: ("objects", Object),
-}
+_LISTED: Final = {EntityClass(m.name): (m.field, m.struct) for m in MAP_LISTS}
 """Classes kept as lists in the map: the WorldMap field and the Struct to allocate."""
 
 

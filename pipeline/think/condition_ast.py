@@ -13,7 +13,7 @@ from typing import Final
 
 import msgspec
 from lark import Token
-from oimi.pipeline.messages import ActivityTracking, Human, Object, Obstacle
+from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking
 from oimi.pipeline.think.errors import RuleSyntaxError
 
 THIS: Final = "?THIS"
@@ -22,10 +22,8 @@ THIS: Final = "?THIS"
 IDENT = re.compile(r"[A-Za-z_]\w*\Z")
 
 CLASS_TYPES: Final[dict[str, type]] = {
-    "Human": Human,
-    "Obstacle": Obstacle,
-    "Object": Object,
-    "Activity": ActivityTracking,
+    **{m.name: m.struct for m in ENTITY_LISTS},
+    ACTIVITY_CLASS: ActivityTracking,
 }
 _SCALARS: Final = (bool, int, float, str)
 

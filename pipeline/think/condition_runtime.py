@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from typing import Final
 
 import msgspec
-from oimi.pipeline.messages import ActivityTracking, WorldMap
+from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking, WorldMap
 from oimi.pipeline.think.condition_ast import (
     Op,
     Scope,
@@ -35,14 +35,14 @@ def entity_ref(cls: str, entity: Bound) -> str:
     return f"{cls}/{key}"
 
 
+_ENTITY_FIELDS: Final = {m.name: m.field for m in ENTITY_LISTS}
+
+
 def entities_of(world_map: WorldMap, cls: str) -> Sequence[Bound]:
-    if cls == "Human":
-        return world_map.humans
-    if cls == "Obstacle":
-        return world_map.obstacles
-    if cls == "Object":
-        return world_map.objects
-    if cls == "Activity":
+    field = _ENTITY_FIELDS.get(cls)
+    if field is not None:
+        return getattr(world_map, field)
+    if cls == ACTIVITY_CLASS:
         return world_map.robotstatus.activities
     return ()
 

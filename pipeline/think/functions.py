@@ -23,12 +23,12 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Final
 
-from oimi.pipeline.messages import ActivityTracking, Entity, WorldMap
+from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking, Entity, WorldMap
 
 Bound = Entity | ActivityTracking
 """What an alias can be bound to: a human, obstacle, object or activity of the map."""
 
-CLASS_NAMES: Final = ("Human", "Obstacle", "Object", "Activity")
+CLASS_NAMES: Final = (*(m.name for m in ENTITY_LISTS), ACTIVITY_CLASS)
 """The classes a ``CLASS`` clause can look for (``#Human``...)."""
 
 SPEC_ATTRIBUTE: Final = "__oimi_rule_function__"

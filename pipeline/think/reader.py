@@ -19,6 +19,9 @@ A rule-forced switch (``overridecmd``) names an activity: the idle activity, wha
 resolver finds (a selected generator's last script, a script file) or a script the reader
 was given before under that name. Naming the running activity only moves the reader to
 goal/action/block, like a jump: no suspended copy, no omega or alfa messages.
+
+Long module: the Block Reader is one state machine (LIFO, goals, actions, blocks,
+switches) over one set of fields; its helpers already live in their own modules.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import msgspec
 from oimi.pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
 from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
+    ActivityStatus,
     ActivityTracking,
     GoalEvent,
     GoalStatus,
@@ -370,7 +374,7 @@ class BlockReader:
         info.scriptpath = entry.source
         info.block = None
         tracking = self._tracking(entry, now_ms)
-        tracking.status = "running"
+        tracking.status = ActivityStatus.RUNNING
         for goal in tracking.goals[entry.start[0] :]:
             goal.status, goal.changetime = GoalStatus.PENDING, now_ms
         outcome.rule_messages += entry.script.alfarulemessages
@@ -414,7 +418,7 @@ class BlockReader:
             self._set_goal(
                 goal, GoalStatus.INTERRUPTED, now_ms, ProgressKind.GOAL_INTERRUPTED, outcome
             )
-        tracking.status = "completed" if completed else "interrupted"
+        tracking.status = ActivityStatus.COMPLETED if completed else ActivityStatus.INTERRUPTED
         outcome.rule_messages += entry.script.omegarulemessages
         if not quiet:
             outcome.items.append(

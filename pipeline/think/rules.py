@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import msgspec
 from oimi.pipeline.events import MapChange, RuleDecision
+from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.messages import GeneratorNote, RuleMessage, WorldMap
 from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
 from oimi.pipeline.think.errors import RuleSyntaxError
@@ -151,17 +152,12 @@ class RuleRegistry:
 
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
-    """The leaves that differ between two builtin trees, as compact ``MapChange``s."""
-    if old == new:  # one C-level comparison skips an unchanged subtree
-        return
-    if isinstance(old, dict) and isinstance(new, dict):
-        for key in list(old) + [k for k in new if k not in old]:
-            yield from diff(old.get(key), new.get(key), f"{path}.{key}" if path else str(key))
-    elif isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
-        for index, (a, b) in enumerate(zip(old, new, strict=True)):
-            yield from diff(a, b, f"{path}[{index}]")
-    elif old != new:
-        yield MapChange(path=path, old=_text(old), new=_text(new))
+    """The leaves that differ between two builtin trees, as compact ``MapChange``s (a list
+    whose length changed is one change; a missing key reads as ``null``)."""
+    for where, a, b in differences(old, new, path, whole_lists=True):
+        a, b = (None if a is ABSENT else a), (None if b is ABSENT else b)
+        if a != b:
+            yield MapChange(path=where, old=_text(a), new=_text(b))
 
 
 def _text(value: Any) -> str:

@@ -11,7 +11,7 @@ import functools
 import sys
 from typing import Final
 
-from oimi.pipeline.messages import ActivityTracking, Entity, GoalTracking, Object
+from oimi.pipeline.messages import ENTITY_LISTS, ActivityTracking, Entity, GoalTracking, Object
 from oimi.pipeline.think.functions import (
     Bound,
     FunctionContext,
@@ -30,7 +30,7 @@ ATTENTION_WINDOW_MS: Final = 3000
 TOUCH_WINDOW_MS: Final = 1000
 """Default window of ``touched``, ms."""
 
-SPATIAL: Final = ("Human", "Obstacle", "Object")
+SPATIAL: Final = tuple(m.name for m in ENTITY_LISTS)
 
 
 def _number_text(value: float) -> str:

@@ -16,12 +16,14 @@ from __future__ import annotations
 from typing import Final
 
 import msgspec
-from oimi.pipeline.events import JoystickInput, LockRelease
+from oimi.pipeline.events import Button, LockRelease, Pad
 
 HEARTBEAT_TIMEOUT_S: Final = 0.5
 """Silence after which a held safety lock counts as released."""
 
-LOCK: Final = "LB"
+LOCK: Final = Button.LB
+
+__all__ = ["NEUTRAL", "JoystickGuard", "Pad", "Taken"]
 
 RELEASE_TEXT: Final = {
     LockRelease.OPERATOR: "the operator let go of the lock",
@@ -29,32 +31,6 @@ RELEASE_TEXT: Final = {
     LockRelease.DISCONNECTED: "the joystick's client disconnected",
 }
 """Each release reason as the console and the log say it."""
-
-
-class Pad(msgspec.Struct, frozen=True, kw_only=True):
-    """One state of the Xbox 360 pad, as the pipeline reads it."""
-
-    left_x: float = 0.0
-    left_y: float = 0.0
-    right_x: float = 0.0
-    buttons: tuple[str, ...] = ()
-
-    @property
-    def locked(self) -> bool:
-        """The safety lock (dead-man, ``LB``) is held."""
-        return LOCK in self.buttons
-
-    def at(self, *, tick: int, time_ms: int, release: LockRelease | None = None) -> JoystickInput:
-        """This state as the joystick input of ``tick``."""
-        return JoystickInput(
-            tick=tick,
-            time_ms=time_ms,
-            left_x=self.left_x,
-            left_y=self.left_y,
-            right_x=self.right_x,
-            buttons=self.buttons,
-            release=release,
-        )
 
 
 NEUTRAL: Final = Pad()
@@ -83,7 +59,7 @@ class JoystickGuard:
         """The newest state received."""
         self._applied = NEUTRAL
         """The state the last taken input gave the pipeline."""
-        self._presses: set[str] = set()
+        self._presses: set[Button] = set()
         """Buttons (other than the lock) pressed since the last tick."""
         self._release: LockRelease | None = None
         """The lock was released since the last tick, and why."""

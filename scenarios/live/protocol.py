@@ -21,8 +21,10 @@ import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
     BodyState,
+    Button,
     LogEntry,
     OperatorVerb,
+    Pad,
 )
 from oimi.pipeline.operator.generator import GeneratorInfo
 from oimi.recorder.scene import SceneGeometry
@@ -127,7 +129,14 @@ class Joystick(Request, tag="joystick", kw_only=True):
     left_x: float = 0.0
     left_y: float = 0.0
     right_x: float = 0.0
-    buttons: tuple[str, ...] = ()
+    buttons: tuple[Button, ...] = ()
+
+    @property
+    def pad(self) -> Pad:
+        """The pad's state this request reports."""
+        return Pad(
+            left_x=self.left_x, left_y=self.left_y, right_x=self.right_x, buttons=self.buttons
+        )
 
 
 class SetSession(Request, tag="session", kw_only=True):

@@ -16,6 +16,9 @@ capped (:data:`MAX_CLIENTS`), idle ones closed (:data:`IDLE_TIMEOUT_S`) and each
 is rate-limited. Wrong tokens are answered ever later and cut off. The console's
 WebSocket takes only the console's own origin and ``Host``; the TCP port closes
 a connection that speaks HTTP.
+
+Long module: one asyncio server whose tick, TCP and WebSocket transports share
+the connection state; it moves under ``oimi/`` with the live console (issue 17) and splits there.
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ from oimi.scenarios.live.connections import (
     quiet_logger,
     url_host,
 )
-from oimi.scenarios.live.inputs import RELEASE_TEXT, JoystickGuard, Pad
+from oimi.scenarios.live.inputs import RELEASE_TEXT, JoystickGuard
 from oimi.scenarios.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
@@ -416,13 +419,7 @@ class LiveServer:
             case protocol.GetState():
                 reply(True, state=self.view.state())
             case protocol.Joystick():
-                pad = Pad(
-                    left_x=request.left_x,
-                    left_y=request.left_y,
-                    right_x=request.right_x,
-                    buttons=request.buttons,
-                )
-                self.guard.receive(client, pad, now_s=asyncio.get_running_loop().time())
+                self.guard.receive(client, request.pad, now_s=asyncio.get_running_loop().time())
                 reply(True, tick=self.ticks)
             case protocol.SetSession():
                 if self.info is None:

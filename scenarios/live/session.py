@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import msgspec
+from oimi.recorder.metadata import LiveRecord, RecordingMetadata, ScenarioRecord
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.runner import RunResult, Session
 
@@ -17,15 +19,17 @@ class LiveSession(Session):
     def __init__(self, loaded: LoadedScenario, *, seed: int | None = None) -> None:
         super().__init__(loaded, seed=seed, autostart=False)
 
-    def metadata(self) -> dict[str, dict[str, str]]:
+    def metadata(self) -> RecordingMetadata:
         metadata = super().metadata()
-        for key in ("duration_s", "ticks"):
-            metadata["scenario"].pop(key, None)
-        metadata["live"] = {
-            "autostart": "false",
-            "replay": "redrive: operator commands and joystick are recorded inputs",
-        }
-        return metadata
+        scenario = metadata.scenario or ScenarioRecord()
+        return msgspec.structs.replace(
+            metadata,
+            scenario=msgspec.structs.replace(scenario, duration_s=None, ticks=None),
+            live=LiveRecord(
+                autostart="false",
+                replay="redrive: operator commands and joystick are recorded inputs",
+            ),
+        )
 
     def result(self) -> RunResult:
         """The session's summary; no verdicts (expectations are not applicable)."""

@@ -6,6 +6,7 @@ import polars as pl
 import pytest
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import distances, session_metrics
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.scenarios.humans import PACE
 
 
@@ -149,7 +150,7 @@ def test_a_rule_firing_is_credited_to_the_activity_running_when_it_began() -> No
     data = SessionData(
         path="",
         session_id="",
-        metadata={},
+        metadata=RecordingMetadata(),
         attachments={},
         tables={"/reader/progress/items": items},
         streamed=folder.result(),

@@ -134,7 +134,7 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_the_run_records_the_extension_and_the_quiescence(recording: Path) -> None:
     frames = oimi.open_recording(recording)
-    info = msgspec.json.decode(frames.metadata["extensions"]["bubbles"])
+    info = msgspec.json.decode(frames.metadata.extensions["bubbles"])
     assert info["module"] == "bubbles" and info["version"] == "1.0"
     assert "extensions/bubbles/rules.py" in frames.attachments
     log = frames["/log"].filter(frames["/log"]["source"] == "generators")["message"].to_list()
@@ -152,11 +152,11 @@ def test_replay_refuses_missing_or_changed_sources(recording: Path, tmp_path: Pa
     frames = oimi.open_recording(recording)
     changed = dict(frames.attachments)
     changed["extensions/bubbles/rules.py"] += b"\n# changed\n"
-    fake = SimpleNamespace(path=str(recording), metadata=frames.metadata, attachments=changed)
+    fake = SimpleNamespace(path=str(recording), meta=frames.metadata, attachments=changed)
     with pytest.raises(RecordingError, match="not the recorded ones"):
         _attached_extensions(fake, tmp_path / "changed")
     missing = {k: v for k, v in frames.attachments.items() if not k.startswith("extensions/")}
-    fake = SimpleNamespace(path=str(recording), metadata=frames.metadata, attachments=missing)
+    fake = SimpleNamespace(path=str(recording), meta=frames.metadata, attachments=missing)
     with pytest.raises(RecordingError, match="sources are not attached"):
         _attached_extensions(fake, tmp_path / "missing")
 

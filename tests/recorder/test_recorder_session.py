@@ -175,8 +175,8 @@ def test_metadata_and_attachments_alone_rebuild_the_same_run(
     session.sink.add(memory)
     session.run()
 
-    assert session.metadata()["configuration"] == meta["configuration"]
-    assert session.metadata()["oimi"]["rule_registry"] == meta["oimi"]["rule_registry"]
+    assert session.metadata().records()["configuration"] == meta["configuration"]
+    assert session.metadata().oimi.rule_registry == meta["oimi"]["rule_registry"]
     encode = msgspec.json.encode
     for topic in (Topic.ACTUATOR_COMMANDS, Topic.WORLD_STATE):
         again = [encode(e) for e in memory.on(topic)]

@@ -53,6 +53,6 @@ def test_the_supervisor_configuration_is_recorded_with_the_pipeline() -> None:
         b'name = "x"\nduration_s = 0.1\n[robot.safety]\nslow_speed_mps = 0.15\n'
     )
     session = Session(loaded)
-    recorded = msgspec.json.decode(session.metadata()["configuration"]["pipeline"])
+    recorded = msgspec.json.decode(session.metadata().configuration.pipeline)
     assert recorded["safety"]["slow_speed_mps"] == 0.15
     assert recorded["safety"]["robot_radius_m"] == 0.3

@@ -9,7 +9,7 @@ from oimi.pipeline.events import OperatorCommand, OperatorVerb
 from oimi.pipeline.messages import GeneratorNote, Human, Script, WorldMap
 from oimi.pipeline.operator.generator import BaseGenerator, Catalogue, OptionValue
 from oimi.pipeline.operator.generators.build import ScriptBuilder, led
-from oimi.pipeline.operator.handler import Button, GeneratorHandler
+from oimi.pipeline.operator.handler import GeneratorHandler, OperatorButton
 
 
 class Looking(BaseGenerator):
@@ -65,14 +65,14 @@ def test_a_rule_note_is_heard_and_quiescence_shows_get_ready_then_regenerates() 
     s = Session()
     s.do(OperatorVerb.ADD, "looking")
     s.get_ready()
-    assert s.handler.button is Button.START
+    assert s.handler.button is OperatorButton.START
     assert s.handler.deliver([note(text="popped 1")]) == [
         "rule 'r1' told generator 'looking': popped 1"
     ]
     assert s.handler.deliver([note(quiesce=True)]) == [
         "rule 'r1' set generator 'looking' quiescent"
     ]
-    assert s.handler.button is Button.GET_READY
+    assert s.handler.button is OperatorButton.GET_READY
     assert s.get_ready() == "seen_1_made_2", "its state and what it heard survive"
 
 
@@ -82,9 +82,9 @@ def test_quiescence_while_running_waits_for_the_run_to_end() -> None:
     s.get_ready()
     s.do(OperatorVerb.START)
     s.handler.deliver([note(quiesce=True)])
-    assert s.handler.button is Button.STOP
+    assert s.handler.button is OperatorButton.STOP
     s.handler.activity_finished("looking", completed=True)
-    assert s.handler.button is Button.GET_READY
+    assert s.handler.button is OperatorButton.GET_READY
 
 
 def test_a_note_to_a_generator_not_selected_is_reported() -> None:

@@ -20,8 +20,8 @@ from oimi.pipeline.messages import (
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError, OptionKind, OptionSpec
 from oimi.pipeline.operator.handler import (
     ActivityState,
-    Button,
     GeneratorHandler,
+    OperatorButton,
     PushScripts,
     StopActivities,
 )
@@ -104,7 +104,7 @@ class Env:
             self.ok(OperatorVerb.ADD, n)
         self.ok(OperatorVerb.GET_READY)
         self.h.tick(0)
-        assert self.h.button is Button.START
+        assert self.h.button is OperatorButton.START
 
 
 V = OperatorVerb
@@ -116,7 +116,7 @@ V = OperatorVerb
 def test_full_cycle_from_add_to_clear():
     env = Env()
     h = env.h
-    assert h.button is Button.GET_READY
+    assert h.button is OperatorButton.GET_READY
     env.ok(V.ADD, "a", options={"level": "2"})
     env.ok(V.ADD, "b")
     assert env.states() == [("a", NYC), ("b", NYC)]
@@ -124,7 +124,7 @@ def test_full_cycle_from_add_to_clear():
     assert h.activities()[1].options == {"level": "1"}
 
     env.ok(V.GET_READY)
-    assert h.button is Button.LOADING
+    assert h.button is OperatorButton.LOADING
     assert env.log == [
         "activate a {'level': '2'}",
         "generate a",
@@ -132,10 +132,10 @@ def test_full_cycle_from_add_to_clear():
         "generate b",
     ]
     h.tick(40)
-    assert h.button is Button.START
+    assert h.button is OperatorButton.START
 
     start = env.ok(V.START)
-    assert h.button is Button.STOP
+    assert h.button is OperatorButton.STOP
     (push,) = start.effects
     assert isinstance(push, PushScripts)
     assert [e.activity for e in push.entries] == ["a", "b"]
@@ -145,25 +145,25 @@ def test_full_cycle_from_add_to_clear():
     assert h.activity_started("a_script")
     assert h.activity_finished("a_script", completed=True)
     assert env.states() == [("a", DONE), ("b", CUR)]
-    assert h.button is Button.STOP
+    assert h.button is OperatorButton.STOP
 
     stop = env.ok(V.STOP)
     assert stop.effects == (StopActivities(activitynames=("b_script",)),)
     assert env.states() == [("a", DONE), ("b", NYC)]
-    assert h.button is Button.START
+    assert h.button is OperatorButton.START
 
     env.ok(V.REORDER, "b", position=0)
     assert env.states() == [("b", NYC), ("a", DONE)]
 
     env.ok(V.RESTART)
     assert env.states() == [("b", NYC), ("a", NYC)]
-    assert h.button is Button.START
+    assert h.button is OperatorButton.START
 
     env.log.clear()
     env.ok(V.CLEAR)
     assert env.states() == []
     assert env.log == ["shutdown b", "shutdown a"]
-    assert h.button is Button.GET_READY
+    assert h.button is OperatorButton.GET_READY
 
 
 def test_start_pushes_only_not_yet_completed_activities_in_list_order():
@@ -183,7 +183,7 @@ def test_last_activity_finished_turns_the_button_to_start_and_start_is_then_refu
     env.ready("a")
     env.ok(V.START)
     env.h.activity_finished("a", completed=True)
-    assert env.h.button is Button.START
+    assert env.h.button is OperatorButton.START
     env.refused(V.START, match="every activity is completed; press restart first")
     env.ok(V.RESTART)
     assert env.states() == [("a", NYC)]
@@ -256,7 +256,7 @@ def test_add_after_ready_turns_the_button_back_to_get_ready_and_generates_only_t
     env = Env()
     env.ready("a")
     env.ok(V.ADD, "b")
-    assert env.h.button is Button.GET_READY
+    assert env.h.button is OperatorButton.GET_READY
     env.log.clear()
     env.ok(V.GET_READY)
     assert env.log == ["activate b {'level': '1'}", "generate b"]
@@ -282,7 +282,7 @@ def test_remove_calls_shutdown_and_leaves_the_others():
     env.ok(V.REMOVE, "a")
     assert env.log == ["shutdown a"]
     assert env.states() == [("b", NYC)]
-    assert env.h.button is Button.START
+    assert env.h.button is OperatorButton.START
 
 
 def test_removing_the_only_quiescent_activity_makes_the_button_start():
@@ -290,14 +290,14 @@ def test_removing_the_only_quiescent_activity_makes_the_button_start():
     env.ready("a")
     env.ok(V.ADD, "b")
     env.ok(V.REMOVE, "b")
-    assert env.h.button is Button.START
+    assert env.h.button is OperatorButton.START
 
 
 def test_removing_the_last_activity_makes_the_button_get_ready():
     env = Env()
     env.ready("a")
     env.ok(V.REMOVE, "a")
-    assert env.h.button is Button.GET_READY
+    assert env.h.button is OperatorButton.GET_READY
 
 
 def test_remove_refuses_unselected_current_and_queued_activities():
@@ -316,7 +316,7 @@ def test_remove_of_a_completed_activity_is_allowed_while_running():
     env.h.activity_finished("a", completed=True)
     env.ok(V.REMOVE, "a")
     assert env.states() == [("b", CUR)]
-    assert env.h.button is Button.STOP
+    assert env.h.button is OperatorButton.STOP
 
 
 def test_remove_refused_while_loading():
@@ -374,7 +374,7 @@ def test_get_ready_failure_refuses_the_whole_command_and_leaves_state_intact():
     result = env.do(V.GET_READY)
     assert not result.reply.ok
     assert result.reply.reason == "broken: cannot see the ball"
-    assert env.h.button is Button.GET_READY
+    assert env.h.button is OperatorButton.GET_READY
     assert env.states() == [("a", NYC), ("broken", NYC)]
     # the generators activated by the failed command are quiescent again
     assert env.log[-2:] == ["shutdown a", "shutdown broken"]
@@ -396,7 +396,7 @@ def test_get_ready_refuses_a_script_that_breaks_the_alfa_rules():
     assert not result.reply.ok
     assert result.reply.reason.startswith("bad: generated an invalid script: ")
     assert "alfarulemessages[0].mutexcmd: mutexcmd must be U here, got L" in result.reply.reason
-    assert env.h.button is Button.GET_READY
+    assert env.h.button is OperatorButton.GET_READY
 
 
 def test_get_ready_refuses_two_scripts_with_the_same_activityname():
@@ -405,7 +405,7 @@ def test_get_ready_refuses_two_scripts_with_the_same_activityname():
     env.ok(V.ADD, "twin")
     result = env.do(V.GET_READY)
     assert result.reply.reason == "twin: its script is named 'a_script' like 'a''s"
-    assert env.h.button is Button.GET_READY
+    assert env.h.button is OperatorButton.GET_READY
 
 
 def test_loading_lasts_until_the_next_tick():
@@ -416,7 +416,7 @@ def test_loading_lasts_until_the_next_tick():
     env.h.tick(20)
     assert env.h.state(2, 40).button == "start"
     env.h.tick(40)
-    assert env.h.button is Button.START
+    assert env.h.button is OperatorButton.START
 
 
 # --------------------------------------------------------------- start / stop
