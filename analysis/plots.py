@@ -8,7 +8,6 @@ import io
 import math
 from typing import Final
 
-import matplotlib
 import msgspec
 import polars as pl
 from matplotlib.figure import Figure
@@ -17,6 +16,7 @@ from matplotlib.patches import Circle, Rectangle
 from oimi.analysis.load import SessionData
 from oimi.analysis.metrics import SessionMetrics, end_ms
 from oimi.pipeline.proximity import ZONES_M
+from oimi.recorder import palette
 from oimi.recorder.scene import SceneGeometry
 from oimi.recorder.topics import SCENE_ATTACHMENT
 
@@ -58,6 +58,21 @@ def samples(data: SessionData) -> pl.DataFrame:
     return data.streamed.samples.frame()
 
 
+def person_colours(frame: pl.DataFrame) -> dict[str, str]:
+    """Each person's colour from the one palette (as in the room view and the console),
+    in order of first appearance."""
+    people = palette.PersonColours()
+    ordered = (
+        frame.filter(pl.col("id") != "robot")
+        .sort("time_ms", maintain_order=True)
+        .unique("id", keep="first", maintain_order=True)
+    )
+    return {
+        person: palette.hex_colour(people.of(person, kind))
+        for person, kind in ordered.select("id", "kind").iter_rows()
+    }
+
+
 def _bar(axes, start_ms: float, seconds: float, y: float, colour: str, alpha: float = 0.9) -> None:
     axes.broken_barh(
         [(start_ms / 1000, max(seconds, 0.1))], (y - 0.3, 0.6), color=colour, alpha=alpha
@@ -88,9 +103,9 @@ def trajectories(data: SessionData, metrics: SessionMetrics) -> Figure:
                 )
             axes.annotate(o.id, (o.x_m, o.y_m), ha="center", va="center", fontsize=8)
     frame = samples(data)
-    colours = matplotlib.colormaps["tab10"]
-    for i, ((who,), rows) in enumerate(frame.group_by("id", maintain_order=True)):
-        colour = "black" if who == "robot" else colours(i)
+    colours = person_colours(frame)
+    for (who,), rows in frame.group_by("id", maintain_order=True):
+        colour = colours.get(str(who), palette.hex_colour(palette.colour("robot-ink")))
         axes.plot(rows["x_m"], rows["y_m"], color=colour, lw=1.5, label=str(who))
         axes.plot(rows["x_m"][0], rows["y_m"][0], "o", color=colour, ms=5)
         axes.plot(rows["x_m"][-1], rows["y_m"][-1], "s", color=colour, ms=6)
@@ -203,8 +218,15 @@ def distance(data: SessionData, metrics: SessionMetrics) -> Figure:
         axes.axhspan(
             max(low, bottom), min(high, top), color=ZONE_COLOURS[name], alpha=0.6, label=label
         )
+    colours = person_colours(frame)
     for (human,), rows in frame.group_by("id", maintain_order=True):
-        axes.plot(rows["time_ms"] / 1000, rows["surface_distance_m"], lw=1.5, label=str(human))
+        axes.plot(
+            rows["time_ms"] / 1000,
+            rows["surface_distance_m"],
+            lw=1.5,
+            color=colours[str(human)],
+            label=str(human),
+        )
     for row in metrics["contacts"].iter_rows(named=True):
         axes.axvline(
             row["started_ms"] / 1000, color=INITIATOR_COLOURS[row["initiator"]], lw=0.8, ls="--"

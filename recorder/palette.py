@@ -59,6 +59,22 @@ def person_colour(kind: str, index: int = 0) -> RGB:
     return COLOURS[person_colour_name(kind, index)]
 
 
+class PersonColours:
+    """Each person's colour, given in order of first appearance per kind (the rule of
+    :func:`person_colour_name`): the room, the plots, the report and the console agree."""
+
+    def __init__(self) -> None:
+        self._kinds: dict[str, int] = {}
+        self._by_id: dict[str, RGB] = {}
+
+    def of(self, person: str, kind: str) -> RGB:
+        """``person``'s colour (the next shade of ``kind`` when first asked)."""
+        if person not in self._by_id:
+            index = self._kinds[kind] = self._kinds.get(kind, -1) + 1
+            self._by_id[person] = person_colour(kind, index)
+        return self._by_id[person]
+
+
 def led_rgb(led: tuple[float, float, float]) -> RGB:
     """An LED colour (0-1 floats) as 0-255 ints; all zero is drawn as ``led-off``."""
     if not any(led):

@@ -209,7 +209,7 @@ class RerunSink:
         self._samples = 0
         self._series: dict[tuple[str, type], _Series] = {}
         self._seen: set[str] = set()
-        self._kinds: dict[str, int] = {}
+        self._people = palette.PersonColours()
         """People seen of each kind: their colours go by order of appearance."""
         self._led: tuple[float, float, float] | None = None
         self._audio: str | None = None
@@ -336,8 +336,7 @@ class RerunSink:
                 static=True,
             )
             return
-        index = self._kinds[body.kind] = self._kinds.get(body.kind, -1) + 1
-        colour = palette.person_colour(body.kind, index)
+        colour = self._people.of(body.id, body.kind)
         log(
             f"world/humans/{body.id}",
             rr.Points2D.from_fields(colors=colour, draw_order=_BODY),

@@ -212,3 +212,25 @@ def test_the_scene_carries_the_sessions_zones_to_the_view() -> None:
         Scenario,
     )
     assert scene_of(scenario).safety == SafetyZones(stop_m=0.2, slow_m=0.9)
+
+
+def test_the_session_report_draws_each_person_in_their_palette_colour() -> None:
+    """The report's plots use the room view's colours: the first child is the palette's
+    first child shade, the second the next one, the therapist the therapist's."""
+    import polars as pl
+    from oimi.analysis.plots import person_colours
+
+    frame = pl.DataFrame(
+        {
+            "time_ms": [0, 0, 0, 0, 20],
+            "id": ["robot", "c1", "t", "c2", "c1"],
+            "kind": ["robot", "child", "therapist", "child", "child"],
+        }
+    )
+    expected = {
+        "c1": palette.person_colour("child", 0),
+        "t": palette.person_colour("therapist", 0),
+        "c2": palette.person_colour("child", 1),
+    }
+    assert person_colours(frame) == {k: palette.hex_colour(v) for k, v in expected.items()}
+    assert expected["c1"] != expected["c2"]
