@@ -24,10 +24,11 @@ from typing import Final, NamedTuple
 import msgspec
 import pymunk
 import pymunk.batch
+from pymunk._chipmunk import lib as _chipmunk
 
 from pipeline.events import BodyState, WorldState
 from pipeline.messages import ActuatorOutputs
-from scenarios.humans import Arena, BehaviourFactory, HumanDriver
+from scenarios.humans import STILL, Arena, BehaviourFactory, HumanDriver
 from scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
 
 WALL_THICKNESS_M: Final = 0.1
@@ -101,6 +102,7 @@ class _Robot:
 
     def __init__(self, body: pymunk.Body):
         self.body = body
+        self.cp_body = body._body
         self.motion = _Motion.of(body)
 
 
@@ -111,6 +113,10 @@ class _Human:
         self.spec = spec
         self.driver = driver
         self.body = body
+        self.cp_body = body._body
+        """Chipmunk's body, to set its velocity without pymunk's property glue."""
+        self.velocity = STILL
+        """The velocity last set (nothing else changes a kinematic body's)."""
         self.shape = shape
         self.present = True
         self.motion = _Motion.of(body)
@@ -120,6 +126,7 @@ class _Thing:
     def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
         self.spec = spec
         self.body = body
+        self.cp_body = body._body
         self.keep = spec.damping_per_s**step_s
         """Fraction of speed kept per step."""
         self.motion = _Motion.of(body)
@@ -234,15 +241,22 @@ class World:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
         robot_xy = (self.robot_motion.x_m, self.robot_motion.y_m)
+        step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
         for human in self.humans:
-            position = (human.motion.x_m, human.motion.y_m)
-            velocity = human.driver.velocity(
-                position=position, robot=robot_xy, time_ms=time_ms, dt_s=self.step_s
-            )
-            if not human.driver.left and not human.present:  # back in the room
-                self.space.add(human.body, human.shape)
-                human.present = True
-            human.body.velocity = velocity if human.present else (0.0, 0.0)
+            motion = human.motion
+            velocity = human.driver.velocity((motion.x_m, motion.y_m), robot_xy, time_ms, step_s)
+            if not human.present:
+                if human.driver.left:
+                    velocity = STILL
+                else:  # back in the room
+                    self.space.add(human.body, human.shape)
+                    human.present = True
+            # set only when changed (a standing human's stays set); equal floats are the
+            # same bits but for a zero's sign, so equal zeros count only as the same object
+            last = human.velocity
+            if velocity is not last and (velocity != last or 0.0 in velocity):
+                set_velocity(human.cp_body, velocity)
+                human.velocity = velocity
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
         self.space.step(self.step_s)
@@ -279,7 +293,7 @@ class World:
                 mover.motion = _Motion(*values[start : start + _MOTION_SIZE])
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
-        spec, body, motion = self.scenario.robot, self.robot, self.robot_motion
+        spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
         vx, vy = _within(outputs.v_x, outputs.v_y, spec.max_speed_mps)
         omega = min(
             max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
@@ -287,38 +301,43 @@ class World:
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
         if outputs.brake:
-            body.velocity = (want_x, want_y)
+            _chipmunk.cpBodySetVelocity(body, (want_x, want_y))
         else:
             dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
             change = math.hypot(dx, dy)
             limit = spec.max_accel_mps2 * self.step_s
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            body.velocity = _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
+            _chipmunk.cpBodySetVelocity(
+                body, _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
+            )
         turn_limit = spec.max_angular_accel_radps2 * self.step_s
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
-        body.angular_velocity = motion.omega_radps + turn
+        _chipmunk.cpBodySetAngularVelocity(body, motion.omega_radps + turn)
 
     def _reclamp_robot(self) -> None:
         """A push during the step (a human walking into the robot) leaves it at most at its
         speed limits: the drive brakes it back at once."""
-        spec, body = self.scenario.robot, self.robot
-        vx, vy = body.velocity
-        if math.hypot(vx, vy) > spec.max_speed_mps:  # (its infinite moment keeps its spin)
-            body.velocity = _within(vx, vy, spec.max_speed_mps)
+        top, body = self.scenario.robot.max_speed_mps, self._robot.cp_body
+        velocity = _chipmunk.cpBodyGetVelocity(body)
+        vx, vy = velocity.x, velocity.y
+        if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
+            _chipmunk.cpBodySetVelocity(body, _within(vx, vy, top))
 
     def _roll(self, thing: _Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
-        body = thing.body
-        velocity = body.velocity
-        speed = velocity.length
+        body = thing.cp_body
+        velocity = _chipmunk.cpBodyGetVelocity(body)
+        vx, vy = velocity.x, velocity.y
+        speed = math.sqrt(vx**2 + vy**2)
         slower = speed * thing.keep - thing.spec.rolling_decel_mps2 * self.step_s
         if slower <= STOP_SPEED_MPS:
-            body.velocity = (0.0, 0.0)
+            _chipmunk.cpBodySetVelocity(body, (0.0, 0.0))
         else:
-            body.velocity = velocity * (slower / speed)
-        spin = body.angular_velocity * thing.keep
-        body.angular_velocity = spin if abs(spin) > STOP_SPEED_MPS else 0.0
+            factor = slower / speed
+            _chipmunk.cpBodySetVelocity(body, (vx * factor, vy * factor))
+        spin = _chipmunk.cpBodyGetAngularVelocity(body) * thing.keep
+        _chipmunk.cpBodySetAngularVelocity(body, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
 
     def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
         robot = self.robot_motion
