@@ -174,6 +174,10 @@ class World:
             mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
         }
         self._batch = pymunk.batch.Buffer()
+        self._ids: list[int] = []
+        """The body ids of the last batch read, in the space's order."""
+        self._layout: list[tuple[int, _Robot | _Human | _Thing]] = []
+        """Each mover's first value in the last batch read."""
 
     @property
     def robot_motion(self) -> _Motion:
@@ -286,11 +290,16 @@ class World:
         pymunk.batch.get_space_bodies(self.space, _MOTION_FIELDS, self._batch)
         ids = memoryview(self._batch.int_buf()).cast("P").tolist()
         values = memoryview(self._batch.float_buf()).cast("d").tolist()
-        for index, ident in enumerate(ids):
-            mover = self._movers.get(ident)
-            if mover is not None:
-                start = index * _MOTION_SIZE
-                mover.motion = _Motion(*values[start : start + _MOTION_SIZE])
+        if ids != self._ids:  # a human left or came back: where each mover's values are
+            self._ids = ids
+            self._layout = [
+                (index * _MOTION_SIZE, mover)
+                for index, ident in enumerate(ids)
+                if (mover := self._movers.get(ident)) is not None
+            ]
+        make = tuple.__new__  # _Motion's own constructor, without its Python-level __new__
+        for start, mover in self._layout:
+            mover.motion = make(_Motion, values[start : start + _MOTION_SIZE])
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
