@@ -13,6 +13,7 @@ pressed into each other are slightly negative.
 
 from __future__ import annotations
 
+import bisect
 import enum
 import math
 from typing import Final
@@ -52,14 +53,15 @@ def surface_distance(robot: BodyState, human: BodyState) -> float:
     return centres - robot.radius_m - human.radius_m
 
 
+_UPPER_BOUNDS_M: Final = tuple(high for _, _, high in ZONES_M[1:-1])
+"""Where each zone after ``contact`` ends, but the last (which has none)."""
+
+
 def zone_of(distance_m: float) -> str:
-    """The :data:`ZONES_M` name of a surface distance."""
+    """The :data:`ZONES_M` name of a surface distance (NaN counts as ``public``)."""
     if distance_m <= 0.0:
         return "contact"
-    for name, low, high in ZONES_M[1:]:
-        if low <= distance_m < high:
-            return name
-    return "public"
+    return ZONE_NAMES[1 + bisect.bisect_right(_UPPER_BOUNDS_M, distance_m)]
 
 
 def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:
