@@ -13,6 +13,7 @@ pressed into each other are slightly negative.
 
 from __future__ import annotations
 
+import bisect
 import enum
 import math
 from typing import Final
@@ -51,14 +52,15 @@ def surface_distance(robot: BodyState, human: BodyState) -> float:
     return centres - robot.radius_m - human.radius_m
 
 
+_UPPER_BOUNDS_M: Final = tuple(high for _, _, high in ZONES_M[1:-1])
+"""Where each zone after ``contact`` ends, but the last (which has none)."""
+
+
 def zone_of(distance_m: float) -> str:
-    """The :data:`ZONES_M` name of a surface distance."""
+    """The :data:`ZONES_M` name of a surface distance (NaN counts as ``public``)."""
     if distance_m <= 0.0:
         return "contact"
-    for name, low, high in ZONES_M[1:]:
-        if low <= distance_m < high:
-            return name
-    return "public"
+    return ZONE_NAMES[1 + bisect.bisect_right(_UPPER_BOUNDS_M, distance_m)]
 
 
 def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:
@@ -125,16 +127,18 @@ class ProximityTracker:
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
         self._last_ms = now
+        kinds, closest_m, zone_ms, tick_ms = self.kinds, self.closest_m, self.zone_ms, self.tick_ms
         for human in state.humans:
             who = human.id
-            self.kinds.setdefault(who, human.kind)
+            zones = zone_ms.get(who)
+            if zones is None:  # first seen
+                kinds[who] = human.kind
+                zones = zone_ms[who] = dict.fromkeys(ZONE_NAMES, 0)
             distance = surface_distance(robot, human)
-            if distance < self.closest_m.get(who, math.inf):
-                self.closest_m[who], self.closest_at_ms[who] = distance, now
-            zones = self.zone_ms.setdefault(who, dict.fromkeys(ZONE_NAMES, 0))
-            zones[zone_of(distance)] += self.tick_ms
-            touching = distance <= 0.0 or who in state.contacts
-            if touching:
+            if distance < closest_m.get(who, math.inf):
+                closest_m[who], self.closest_at_ms[who] = distance, now
+            zones[zone_of(distance)] += tick_ms
+            if distance <= 0.0 or who in state.contacts:
                 self._touch(who, human, robot, now, distance)
             elif (open_ := self._open.get(who)) and now - open_.last_ms > MERGE_MS:
                 self._close(who)

@@ -30,6 +30,9 @@ from oimi.scenarios.schema import (
 
 Point = tuple[float, float]
 
+STILL: Final = (0.0, 0.0)
+"""The velocity of a human who stands (one object, so the world sees at once it is unchanged)."""
+
 PACE: Final = (0.85, 1.1)
 """A segment's speed is its nominal speed times a factor drawn from this range (then capped
 at the human's ``max_speed_mps``): people do not walk at exactly the scripted speed."""
@@ -117,6 +120,18 @@ class HumanDriver:
         self._waypoint = 0
         self._pause_until_ms = 0
         self._done = False
+        self._standing = True
+        self._wandering = False
+        radius = spec.radius_m
+        self._inner = (radius, arena.width_m - radius, arena.height_m - radius)
+        """Where the disc's centre may go freely: ``(low, high_x, high_y)``."""
+        self._speed = 0.0
+
+    def _start_due(self, time_ms: int) -> None:
+        """Start the timeline's segments due by ``time_ms``, in order."""
+        while self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
+            self.switch(self._timeline[self._next])
+            self._next += 1
 
     def switch(self, segment: BehaviourSegment) -> None:
         """Start ``segment`` now (a behaviour event); the human comes back if it had left."""
@@ -128,27 +143,59 @@ class HumanDriver:
         self._pause_until_ms = 0
         self._done = False
         self._custom = None
+        self._standing = isinstance(segment, Stand)
+        self._wandering = isinstance(segment, Wander)
+        self._speed = self._speed_of(segment)
         if isinstance(segment, Custom):
             self._custom = self.behaviours[segment.name](dict(segment.options))
 
     def velocity(
-        self, *, position: Point, robot: Point, time_ms: int, dt_s: float
+        self, position: Point, robot: Point, time_ms: int, dt_s: float
     ) -> tuple[float, float]:
         """World-frame velocity (m/s) for the tick starting at ``time_ms``."""
-        while self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
-            self.switch(self._timeline[self._next])
-            self._next += 1
+        if self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
+            self._start_due(time_ms)
         if self.left:
-            return (0.0, 0.0)
+            return STILL
         segment = self.segment
+        if self._standing:  # the fast path: nothing to work out but a glance now and then
+            if time_ms >= self._glance_ms:
+                self._glance(position, robot, time_ms)
+            return STILL
+        speed = self._speed
+        vx, vy = 0.0, 0.0
+        if self._wandering:  # the most common walk, tested first
+            if time_ms < self._pause_until_ms:
+                return STILL
+            vx, vy = self._wander(position, time_ms, speed, dt_s, segment)
+        else:
+            vx, vy = self._walk(segment, position, robot, time_ms, speed, dt_s)
+        if (vx or vy) and not isinstance(segment, Leave):  # standing still stays inside
+            vx, vy = self._inside(position, vx, vy, dt_s)
+        if vx or vy:
+            self.heading_rad = math.atan2(vy, vx)
+        return (vx, vy)
+
+    def _speed_of(self, segment: BehaviourSegment) -> float:
+        """The segment's walking speed: its own (or the human's top speed) times the pace."""
         speed = segment.speed_mps if segment.speed_mps is not None else self.spec.max_speed_mps
         speed = min(speed * self._pace, self.spec.max_speed_mps)
         if not (math.isfinite(speed) and speed > 0):  # refused by the loader; never NaN here
             speed = 0.0
+        return speed
+
+    def _walk(
+        self,
+        segment: BehaviourSegment,
+        position: Point,
+        robot: Point,
+        time_ms: int,
+        speed: float,
+        dt_s: float,
+    ) -> tuple[float, float]:
+        """The velocity of the segments other than ``stand`` and ``wander``."""
         vx, vy = 0.0, 0.0
         match segment:
-            case Stand():
-                self._glance(position, robot, time_ms)
             case Waypoints(waypoints=points, loop=loop):
                 if self._waypoint < len(points):
                     vx, vy, arrived = _towards(position, points[self._waypoint], speed, dt_s)
@@ -161,8 +208,6 @@ class HumanDriver:
                     vx, vy, self._done = _keep_distance(position, robot, distance, speed, dt_s)
             case Follow(distance_m=distance):
                 vx, vy, _ = _keep_distance(position, robot, distance, speed, dt_s)
-            case Wander(pause_s=pause_s, margin_m=margin_m):
-                vx, vy = self._wander(position, time_ms, speed, dt_s, pause_s, margin_m)
             case Custom():
                 assert self._custom is not None  # made by switch
                 view = BehaviourView(position, robot, time_ms, dt_s, speed, self.arena, self.rng)
@@ -171,25 +216,14 @@ class HumanDriver:
                 vx, vy, arrived = _towards(position, self.arena.exit_m, speed, dt_s)
                 if arrived:
                     self.left = True
-        if (vx or vy) and not isinstance(segment, Leave):  # standing still stays inside
-            vx, vy = self._inside(position, vx, vy, dt_s)
-        if vx or vy:
-            self.heading_rad = math.atan2(vy, vx)
         return (vx, vy)
 
     def _wander(
-        self,
-        position: Point,
-        time_ms: int,
-        speed: float,
-        dt_s: float,
-        pause_s: float,
-        margin: float,
+        self, position: Point, time_ms: int, speed: float, dt_s: float, segment: Wander
     ) -> tuple[float, float]:
-        if time_ms < self._pause_until_ms:
-            return (0.0, 0.0)
+        """Towards a random target, then a pause (the caller skips the pause's ticks)."""
         if self._target is None:
-            margin = max(margin, self.spec.radius_m)
+            margin = max(segment.margin_m, self.spec.radius_m)
             width, height = self.arena.width_m, self.arena.height_m
             x = self.rng.uniform(min(margin, width / 2), max(width - margin, width / 2))
             y = self.rng.uniform(min(margin, height / 2), max(height - margin, height / 2))
@@ -197,13 +231,12 @@ class HumanDriver:
         vx, vy, arrived = _towards(position, self._target, speed, dt_s)
         if arrived:
             self._target = None
-            self._pause_until_ms = time_ms + round(pause_s * self.rng.uniform(*PAUSE) * 1000)
+            pause_s = segment.pause_s * self.rng.uniform(*PAUSE)
+            self._pause_until_ms = time_ms + round(pause_s * 1000)
         return (vx, vy)
 
     def _glance(self, position: Point, robot: Point, time_ms: int) -> None:
-        """A standing human's attention: now and then, a look at the robot or away from it."""
-        if time_ms < self._glance_ms:
-            return
+        """A standing human's attention, when a glance is due: a look at the robot or away."""
         self._glance_ms = time_ms + round(self.rng.uniform(*GLANCE_S) * 1000)
         towards = math.atan2(robot[1] - position[1], robot[0] - position[0])
         away = 0.0 if self.rng.random() < 0.5 else self.rng.uniform(-math.pi / 2, math.pi / 2)
@@ -211,9 +244,12 @@ class HumanDriver:
 
     def _inside(self, position: Point, vx: float, vy: float, dt_s: float) -> tuple[float, float]:
         """The velocity, cut so the human's disc does not move further out of the arena."""
-        radius = self.spec.radius_m
         px, py = position
         x, y = px + vx * dt_s, py + vy * dt_s
+        low, high_x, high_y = self._inner
+        if low <= x <= high_x and low <= y <= high_y:  # well inside: the clamp below is a no-op
+            return (vx, vy)
+        radius = self.spec.radius_m
         cx = min(max(x, min(radius, px)), max(self.arena.width_m - radius, px))
         cy = min(max(y, min(radius, py)), max(self.arena.height_m - radius, py))
         if (cx, cy) == (x, y):

@@ -26,8 +26,9 @@ import pymunk
 import pymunk.batch
 from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs
-from oimi.scenarios.humans import Arena, BehaviourFactory, HumanDriver
+from oimi.scenarios.humans import STILL, Arena, BehaviourFactory, HumanDriver
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1
 CONTACT_TOLERANCE_M: Final = 0.02
@@ -100,6 +101,7 @@ class _Robot:
 
     def __init__(self, body: pymunk.Body):
         self.body = body
+        self.cp_body = body._body
         self.motion = _Motion.of(body)
 
 
@@ -110,6 +112,10 @@ class _Human:
         self.spec = spec
         self.driver = driver
         self.body = body
+        self.cp_body = body._body
+        """Chipmunk's body, to set its velocity without pymunk's property glue."""
+        self.velocity = STILL
+        """The velocity last set (nothing else changes a kinematic body's)."""
         self.shape = shape
         self.present = True
         self.motion = _Motion.of(body)
@@ -119,6 +125,7 @@ class _Thing:
     def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
         self.spec = spec
         self.body = body
+        self.cp_body = body._body
         self.keep = spec.damping_per_s**step_s
         """Fraction of speed kept per step."""
         self.motion = _Motion.of(body)
@@ -166,6 +173,10 @@ class World:
             mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
         }
         self._batch = pymunk.batch.Buffer()
+        self._ids: list[int] = []
+        """The body ids of the last batch read, in the space's order."""
+        self._layout: list[tuple[int, _Robot | _Human | _Thing]] = []
+        """Each mover's first value in the last batch read."""
 
     @property
     def robot_motion(self) -> _Motion:
@@ -233,15 +244,22 @@ class World:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
         robot_xy = (self.robot_motion.x_m, self.robot_motion.y_m)
+        step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
         for human in self.humans:
-            position = (human.motion.x_m, human.motion.y_m)
-            velocity = human.driver.velocity(
-                position=position, robot=robot_xy, time_ms=time_ms, dt_s=self.step_s
-            )
-            if not human.driver.left and not human.present:  # back in the room
-                self.space.add(human.body, human.shape)
-                human.present = True
-            human.body.velocity = velocity if human.present else (0.0, 0.0)
+            motion = human.motion
+            velocity = human.driver.velocity((motion.x_m, motion.y_m), robot_xy, time_ms, step_s)
+            if not human.present:
+                if human.driver.left:
+                    velocity = STILL
+                else:  # back in the room
+                    self.space.add(human.body, human.shape)
+                    human.present = True
+            # set only when changed (a standing human's stays set); equal floats are the
+            # same bits but for a zero's sign, so equal zeros count only as the same object
+            last = human.velocity
+            if velocity is not last and (velocity != last or 0.0 in velocity):
+                set_velocity(human.cp_body, velocity)
+                human.velocity = velocity
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
         self.space.step(self.step_s)
@@ -271,14 +289,19 @@ class World:
         pymunk.batch.get_space_bodies(self.space, _MOTION_FIELDS, self._batch)
         ids = memoryview(self._batch.int_buf()).cast("P").tolist()
         values = memoryview(self._batch.float_buf()).cast("d").tolist()
-        for index, ident in enumerate(ids):
-            mover = self._movers.get(ident)
-            if mover is not None:
-                start = index * _MOTION_SIZE
-                mover.motion = _Motion(*values[start : start + _MOTION_SIZE])
+        if ids != self._ids:  # a human left or came back: where each mover's values are
+            self._ids = ids
+            self._layout = [
+                (index * _MOTION_SIZE, mover)
+                for index, ident in enumerate(ids)
+                if (mover := self._movers.get(ident)) is not None
+            ]
+        make = tuple.__new__  # _Motion's own constructor, without its Python-level __new__
+        for start, mover in self._layout:
+            mover.motion = make(_Motion, values[start : start + _MOTION_SIZE])
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
-        spec, body, motion = self.scenario.robot, self.robot, self.robot_motion
+        spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
         vx, vy = _within(outputs.v_x, outputs.v_y, spec.max_speed_mps)
         omega = min(
             max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
@@ -286,38 +309,43 @@ class World:
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
         if outputs.brake:
-            body.velocity = (want_x, want_y)
+            _chipmunk.cpBodySetVelocity(body, (want_x, want_y))
         else:
             dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
             change = math.hypot(dx, dy)
             limit = spec.max_accel_mps2 * self.step_s
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            body.velocity = _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
+            _chipmunk.cpBodySetVelocity(
+                body, _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
+            )
         turn_limit = spec.max_angular_accel_radps2 * self.step_s
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
-        body.angular_velocity = motion.omega_radps + turn
+        _chipmunk.cpBodySetAngularVelocity(body, motion.omega_radps + turn)
 
     def _reclamp_robot(self) -> None:
         """A push during the step (a human walking into the robot) leaves it at most at its
         speed limits: the drive brakes it back at once."""
-        spec, body = self.scenario.robot, self.robot
-        vx, vy = body.velocity
-        if math.hypot(vx, vy) > spec.max_speed_mps:  # (its infinite moment keeps its spin)
-            body.velocity = _within(vx, vy, spec.max_speed_mps)
+        top, body = self.scenario.robot.max_speed_mps, self._robot.cp_body
+        velocity = _chipmunk.cpBodyGetVelocity(body)
+        vx, vy = velocity.x, velocity.y
+        if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
+            _chipmunk.cpBodySetVelocity(body, _within(vx, vy, top))
 
     def _roll(self, thing: _Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
-        body = thing.body
-        velocity = body.velocity
-        speed = velocity.length
+        body = thing.cp_body
+        velocity = _chipmunk.cpBodyGetVelocity(body)
+        vx, vy = velocity.x, velocity.y
+        speed = math.sqrt(vx**2 + vy**2)
         slower = speed * thing.keep - thing.spec.rolling_decel_mps2 * self.step_s
         if slower <= STOP_SPEED_MPS:
-            body.velocity = (0.0, 0.0)
+            _chipmunk.cpBodySetVelocity(body, (0.0, 0.0))
         else:
-            body.velocity = velocity * (slower / speed)
-        spin = body.angular_velocity * thing.keep
-        body.angular_velocity = spin if abs(spin) > STOP_SPEED_MPS else 0.0
+            factor = slower / speed
+            _chipmunk.cpBodySetVelocity(body, (vx * factor, vy * factor))
+        spin = _chipmunk.cpBodyGetAngularVelocity(body) * thing.keep
+        _chipmunk.cpBodySetAngularVelocity(body, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
 
     def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
         robot = self.robot_motion

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import session_metrics
 from oimi.scenarios.humans import PACE
@@ -92,3 +94,16 @@ def test_touches_a_moment_apart_are_one_episode_and_zones_use_the_surfaces() -> 
         "social",
         "public",
     ]
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([0.45, 1.2, 3.6, -0.0]))
+def test_a_distance_is_in_the_zone_whose_bounds_hold_it(distance_m: float) -> None:
+    from oimi.pipeline.proximity import ZONES_M, zone_of
+
+    holding = [
+        name
+        for name, low, high in ZONES_M
+        if (distance_m <= high if name == "contact" else low <= distance_m < high)
+    ]
+    assert zone_of(distance_m) == (holding[0] if holding else "public")  # NaN: none holds it

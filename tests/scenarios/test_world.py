@@ -251,3 +251,32 @@ def test_waypoints_are_walked_in_order_at_the_given_speed():
     assert w.human_positions()[0][1:] == pytest.approx((2.0, 2.0))
     run(w, STOP, 400, 250)  # the segment at 10 s walks back
     assert w.human_positions()[0][1:] == pytest.approx((1.0, 1.0))
+
+
+def test_each_human_body_moves_at_the_velocity_its_driver_asked_for_every_tick():
+    # the world sets a human's velocity only when it changed: standing, pausing, leaving
+    # and coming back must never leave a stale one on the body
+    timeline = '{ at_s = 2.0, kind = "stand" }, { at_s = 4.0, kind = "leave" }]'
+    w = world(WANDERERS.replace("pause_s = 0.3 }]", f"pause_s = 0.3 }}, {timeline}"), seed=5)
+    asked: dict[str, tuple[float, float]] = {}
+    for human in w.humans:
+        driver = human.driver
+        original = driver.velocity
+
+        def spy(*args, _who=human.spec.id, _original=original):
+            asked[_who] = velocity = _original(*args)
+            return velocity
+
+        driver.velocity = spy  # type: ignore[method-assign]
+    kinds_seen = set()
+    for tick in range(600):
+        if tick == 450:
+            w.apply_event(BehaviourEvent(at_s=9.0, human="kid", segment=Stand()))
+        w.step(STOP, tick=tick)
+        for human in w.humans:
+            kinds_seen.add((type(human.driver.segment).__name__, human.present))
+            vx, vy = asked[human.spec.id]  # (one who left keeps still, asking for nothing)
+            body = human.body.velocity
+            assert (math.copysign(1, body.x), body.x) == (math.copysign(1, vx), vx)
+            assert (math.copysign(1, body.y), body.y) == (math.copysign(1, vy), vy)
+    assert {("Wander", True), ("Stand", True), ("Leave", False)} <= kinds_seen
