@@ -23,7 +23,7 @@ from oimi.pipeline.errors import LocatedError
 from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import open_recording
 from oimi.replay.rebuild import rebuilt_session
-from oimi.scenarios.expectations import Tracker
+from oimi.scenarios.session.expectations import Tracker
 
 SESSION_TABLES = (
     "expectations",

@@ -23,7 +23,7 @@ from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import Recording
 from oimi.scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_extension
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.runner import Session
 
 SCENARIO_PREFIX: Final = "scenario/"
 ACTIVITY_PREFIX: Final = "activities/"

@@ -20,10 +20,10 @@ from oimi.replay.compare import (
 )
 from oimi.replay.redrive import REDRIVE_TOPICS, recorded_ticks, redrive
 from oimi.replay.rerun import rerun
-from oimi.scenarios.activities import ACTIVITIES
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.activities import ACTIVITIES
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 from replay_tamper import SHORT, rewrite
 
 from oimi.cli import main

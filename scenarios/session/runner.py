@@ -34,8 +34,6 @@ from oimi.recorder.metadata import (
     RecordingMetadata,
     ScenarioRecord,
 )
-from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
-from oimi.scenarios.expectations import Tracker, Verdict
 from oimi.scenarios.extensions import extension_attachments, extensions_metadata
 from oimi.scenarios.loader import LoadedScenario, apply_overrides
 from oimi.scenarios.schema import (
@@ -46,8 +44,10 @@ from oimi.scenarios.schema import (
     Scenario,
     TouchEvent,
 )
-from oimi.scenarios.sensors import Sensors
-from oimi.scenarios.world import World, stream_rng
+from oimi.scenarios.session.activities import ACTIVITIES, ActivityLibrary
+from oimi.scenarios.session.expectations import Tracker, Verdict
+from oimi.scenarios.simulation.sensors import Sensors
+from oimi.scenarios.simulation.world import World, stream_rng
 
 AUTO_START_VERBS = (OperatorVerb.GET_READY, OperatorVerb.START)
 """A scenario whose events use one of these drives the session itself; others auto-start."""
