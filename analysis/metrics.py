@@ -499,6 +499,6 @@ def session_run_name(data: SessionData) -> str:
 def run_name(scenario: str, params: str, seed: int | None) -> str:
     """The one name of a run everywhere (batch files, comparison rows, report pages):
     ``STEM[-KEY=VALUE,...]-sSEED`` with the scenario file's stem, as ``oimi batch`` names its
-    recordings (``scenarios.batch.spec.task_name``, which hashes untidy overrides)."""
+    recordings (``oimi.batch.spec.task_name``, which hashes untidy overrides)."""
     middle = f"-{params}" if params else ""
     return f"{scenario}{middle}-s{seed if seed is not None else 0}"

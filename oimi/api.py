@@ -27,9 +27,9 @@ from oimi.scenarios.extensions import Extension as Extension  # re-exported: the
 from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.loader import load_scenario as _load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import RunResult, Session, Summary
 from oimi.scenarios.schema import Scenario as Scenario  # re-exported
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import RunResult, Session, Summary
 
 if TYPE_CHECKING:
     from oimi.analysis.load import SessionData

@@ -22,8 +22,8 @@ from oimi.paths import check_output
 from oimi.pipeline.errors import LocatedError
 from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import open_recording
-from oimi.replay.rebuild import rebuilt_session
-from oimi.scenarios.expectations import Tracker
+from oimi.replay.rebuild import rebuilt_pipeline
+from oimi.scenarios.session.expectations import Tracker
 
 SESSION_TABLES = (
     "expectations",
@@ -102,8 +102,8 @@ def recorded_verdicts(path: Path) -> Verdicts | None:
     None when the recording has no loadable scenario."""
     recording = open_recording(path)
     try:
-        with rebuilt_session(recording) as session:
-            tracker = Tracker(session.scenario)
+        with rebuilt_pipeline(recording) as built:
+            tracker = Tracker(built.scenario)
     except LocatedError:
         return None
     for message in recording.iter_messages(Tracker.TOPICS):

@@ -23,14 +23,9 @@ from oimi import console
 from oimi.analysis.compare import group_runs
 from oimi.analysis.dataset import build_dataset
 from oimi.analysis.report import write_comparison_report
-from oimi.cmd_check import add_outside_paths_argument
-from oimi.extension_args import extensions_of
-from oimi.paths import check_output
-from oimi.recorder.errors import RecordingError
-from oimi.replay.redrive import redrive
-from oimi.scenarios.batch import results
-from oimi.scenarios.batch.executors import Executor, ProcessPool, RayExecutor, default_workers
-from oimi.scenarios.batch.spec import (
+from oimi.batch import results
+from oimi.batch.executors import Executor, ProcessPool, RayExecutor, default_workers
+from oimi.batch.spec import (
     SpecError,
     Task,
     check_unique,
@@ -42,7 +37,12 @@ from oimi.scenarios.batch.spec import (
     parse_seed_range,
     scenario_files,
 )
-from oimi.scenarios.batch.tasks import ResultRow, finished_row, run_task
+from oimi.batch.tasks import ResultRow, finished_row, run_task
+from oimi.cmd_check import add_outside_paths_argument
+from oimi.extension_args import extensions_of
+from oimi.paths import check_output
+from oimi.recorder.errors import RecordingError
+from oimi.replay.redrive import redrive
 
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"

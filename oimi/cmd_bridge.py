@@ -18,9 +18,9 @@ from collections.abc import Iterator
 from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
 from oimi.cmd_serve import serve
+from oimi.live.server import LiveServer
+from oimi.live.session import LiveSession
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from oimi.scenarios.live.server import LiveServer
-from oimi.scenarios.live.session import LiveSession
 from oimi.scenarios.loader import LoadedScenario
 
 

@@ -19,9 +19,9 @@ from oimi.pipeline.script import ParsedScript, ScriptError
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.rules import RuleRegistry
-from oimi.scenarios.activities import check_script_file
 from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session.activities import check_script_file
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 

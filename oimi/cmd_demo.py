@@ -17,8 +17,8 @@ from oimi import console
 from oimi.cmd_run import print_result
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import check_outputs, recorded
-from oimi.scenarios.runner import Session, library_scenarios
+from oimi.scenarios.session.recording import check_outputs, recorded
+from oimi.scenarios.session.runner import Session, library_scenarios
 
 DEFAULT_SCENARIO: Final = "three_activity_session"
 """A lively session: a greeting, the test dance and the blink, one after the other."""

@@ -13,13 +13,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import console, jsonout
+from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
-from oimi.scenarios.batch.spec import parse_param
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import check_outputs, recorded
-from oimi.scenarios.runner import RunResult, Session
+from oimi.scenarios.session.recording import check_outputs, recorded
+from oimi.scenarios.session.runner import RunResult, Session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -24,6 +24,8 @@ from typing import Final
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
+from oimi.live.server import Addresses, LiveServer, ServeConfig, listen
+from oimi.live.session import LiveSession
 from oimi.live_options import (
     add_foxglove_argument,
     add_session_arguments,
@@ -31,10 +33,8 @@ from oimi.live_options import (
     print_session,
     session_info,
 )
-from oimi.scenarios.live.server import Addresses, LiveServer, ServeConfig, listen
-from oimi.scenarios.live.session import LiveSession
 from oimi.scenarios.loader import LoadedScenario, load_scenario
-from oimi.scenarios.recording import check_outputs, dated_path, recorded
+from oimi.scenarios.session.recording import check_outputs, dated_path, recorded
 
 LIVE_CHUNK_BYTES: Final = 128 * 1024
 """A live session's MCAP chunks (uncompressed): a killed session loses at most the open

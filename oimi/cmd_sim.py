@@ -15,10 +15,10 @@ import sys
 from pathlib import Path
 
 from oimi.cmd_serve import _note as note
+from oimi.live.server import Addresses, LiveServer, ServeConfig
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from oimi.scenarios.live.server import Addresses, LiveServer, ServeConfig
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
+from oimi.scenarios.session.recording import recorded
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

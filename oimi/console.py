@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from xml.etree import ElementTree
 
-from oimi.scenarios.runner import RunResult
+from oimi.scenarios.session.runner import RunResult
 
 
 class Progress:

@@ -62,7 +62,8 @@ def finish(args: argparse.Namespace, exit_code: int, error: str = "") -> None:
 
 
 def result_summary(result: Any) -> dict[str, Any]:
-    """A ``scenarios.runner.RunResult`` as JSON-ready data: the summary, each verdict, counts.
+    """A ``scenarios.session.runner.RunResult`` as JSON-ready data: the summary, each verdict,
+    counts.
     ``expectations`` is ``"not applicable"`` for a live session (it has no verdicts)."""
     verdicts = [msgspec.to_builtins(v) for v in result.verdicts]
     passed = sum(v.ok for v in result.verdicts)

@@ -8,10 +8,10 @@ import secrets
 from datetime import UTC, datetime
 
 from oimi.recorder.foxglove_live import DEFAULT_PORT, FoxgloveLiveSink
-from oimi.scenarios.recording import scene_of
-from oimi.scenarios.runner import Session
 from oimi.scenarios.schema import Scenario
-from oimi.scenarios.session_info import SessionInfo, new_session_info
+from oimi.scenarios.session.info import SessionInfo, new_session_info
+from oimi.scenarios.session.recording import scene_of
+from oimi.scenarios.session.runner import Session
 
 
 def add_session_arguments(parser: argparse.ArgumentParser) -> None:

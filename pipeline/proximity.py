@@ -1,7 +1,7 @@
 """Surface distances, proxemic zones and contact episodes between the robot and each human.
 
 The one definition shared by ``oimi run``'s summary and expectations
-(``scenarios.expectations``) and by ``oimi analyse`` (``analysis``): both feed
+(``scenarios.session.expectations``) and by ``oimi analyse`` (``analysis``): both feed
 :class:`ProximityTracker` one ``/world/state`` message per tick. It lives in
 ``pipeline`` because it is pure geometry on ``pipeline.events`` messages, which
 every other package may import (``pipeline`` itself imports none of them).

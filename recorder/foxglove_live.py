@@ -101,7 +101,7 @@ class FoxgloveLiveSink:
     """A sink serving a session live to Foxglove: the MCAP's topics, schemas and views.
 
     ``every_n_ticks`` thins the scene and transform views as in the MCAP (0: none).
-    Closed with :meth:`close` (``scenarios.recording.recorded`` closes its sinks).
+    Closed with :meth:`close` (``scenarios.session.recording.recorded`` closes its sinks).
     """
 
     def __init__(

@@ -3,7 +3,7 @@
 Each body keeps one colour everywhere (the first child is orange in the room, in the
 distance plot and on the console). Colours are chosen to read on Rerun's dark
 background and on the console's light one. The console gets them as CSS custom
-properties (``--oimi-<name>``), generated into ``scenarios/live/web/console.css``
+properties (``--oimi-<name>``), generated into ``oimi/live/web/console.css``
 by ``python -m oimi.recorder.palette --write``; a test checks the two agree.
 """
 
@@ -128,7 +128,7 @@ def css() -> str:
     return "\n".join([CSS_BEGIN, ":root {", *lines, "}", CSS_END])
 
 
-CONSOLE_CSS: Final = Path(__file__).parent.parent / "scenarios" / "live" / "web" / "console.css"
+CONSOLE_CSS: Final = Path(__file__).parent.parent / "oimi" / "live" / "web" / "console.css"
 
 
 def console_block(text: str) -> str | None:

@@ -46,7 +46,7 @@ from oimi.pipeline.events import (
 from oimi.pipeline.messages import Channel
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.runner import Session, library_scenarios
+from oimi.scenarios.session.runner import Session, library_scenarios
 
 GOLDEN_DIR: Final = Path(__file__).resolve().parents[1] / "tests" / "golden"
 SUFFIX: Final = ".golden.txt"

@@ -13,20 +13,33 @@ from __future__ import annotations
 
 import contextlib
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path, PurePosixPath
-from typing import Final
+from typing import TYPE_CHECKING, Final, Protocol, TypeVar
 
 import msgspec
 from oimi.pipeline.errors import LocatedError
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import Recording
 from oimi.scenarios.extensions import ATTACHMENT_PREFIX, LoadedExtension, load_extension
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.build import BuiltPipeline, build_pipeline
+
+if TYPE_CHECKING:
+    from oimi.scenarios.session.runner import Session
 
 SCENARIO_PREFIX: Final = "scenario/"
 ACTIVITY_PREFIX: Final = "activities/"
+
+
+class Rebuilt(Protocol):
+    """What a rebuild gives: a ``Session`` (rerun) or a ``BuiltPipeline`` (redrive)."""
+
+    def metadata(self) -> RecordingMetadata: ...
+
+
+R = TypeVar("R", bound=Rebuilt)
 
 
 def _safe_name(name: str, *, source: str) -> str:
@@ -37,13 +50,24 @@ def _safe_name(name: str, *, source: str) -> str:
     return path.name
 
 
-@contextlib.contextmanager
-def rebuilt_session(recording: Recording) -> Iterator[Session]:
-    """A fresh ``Session`` of the recorded scenario with the recorded seed and scripts.
+def rebuilt_session(recording: Recording) -> contextlib.AbstractContextManager[Session]:
+    """A fresh ``Session`` of the recorded scenario with the recorded seed and scripts, its
+    world included (rerun). The temporary folder lives as long as the context (scripts load
+    lazily). Raises ``RecordingError`` when the recording lacks what a rebuild needs."""
+    from oimi.scenarios.session.runner import Session
 
-    The temporary folder lives as long as the context (scripts load lazily).
-    Raises ``RecordingError`` when the recording lacks what a rebuild needs.
-    """
+    return _rebuilt(recording, Session)
+
+
+def rebuilt_pipeline(recording: Recording) -> contextlib.AbstractContextManager[BuiltPipeline]:
+    """The recorded scenario's pipeline alone (``build_pipeline``), for redrive: no world is
+    built. As ``rebuilt_session`` otherwise."""
+    return _rebuilt(recording, build_pipeline)
+
+
+@contextlib.contextmanager
+def _rebuilt(recording: Recording, build: Callable[..., R]) -> Iterator[R]:
+    """``build(loaded, seed=, overrides=)`` of the recording's attached scenario."""
     where = recording.path
     scenario_meta = recording.meta.scenario
     if scenario_meta is None or scenario_meta.file is None or scenario_meta.seed is None:
@@ -77,13 +101,14 @@ def rebuilt_session(recording: Recording) -> Iterator[Session]:
         extensions = _attached_extensions(recording, base / "extensions")
         try:
             loaded = parse_scenario(raw, source=source, base_dir=base, loaded_extensions=extensions)
-            session = Session(loaded, seed=seed, overrides=recording.meta.variation or None)
+            overrides: Mapping[str, str] | None = recording.meta.variation or None
+            built = build(loaded, seed=seed, overrides=overrides)
         except LocatedError as error:  # a scenario or script error, placed in the temp folder
             text = str(error).replace(str(base) + "/", "")
             raise RecordingError(
                 f"the attached scenario does not load: {text}", source=where
             ) from None
-        yield session
+        yield built
 
 
 def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExtension]:
@@ -134,7 +159,7 @@ def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExten
     return loaded
 
 
-def rebuild_notes(recording: Recording, session: Session) -> list[str]:
+def rebuild_notes(recording: Recording, session: Rebuilt) -> list[str]:
     """What differs between the recording's set-up and the rebuilt one (likely causes of a
     divergence): oimi's version, its registries' versions and the configuration."""
     now = session.metadata().records()

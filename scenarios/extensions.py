@@ -37,7 +37,7 @@ from oimi.pipeline.think.library import BUILTIN_RULES
 from oimi.pipeline.think.rules import Rule
 from oimi.pipeline.think.stdlib import default_registry
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.humans import BUILTIN_BEHAVIOURS, BehaviourFactory
+from oimi.scenarios.simulation.humans import BUILTIN_BEHAVIOURS, BehaviourFactory
 
 ENTRY_POINT_GROUP: Final = "oimi.extensions"
 """Installed packages declare their extensions under this entry-point group."""

@@ -25,7 +25,6 @@ from oimi.pipeline.act.safety import safety_problems
 from oimi.pipeline.messages import Script
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError
 from oimi.pipeline.operator.generators import default_catalogue
-from oimi.scenarios.activities import check_script_file
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import (
     ExtensionError,
@@ -47,6 +46,7 @@ from oimi.scenarios.schema import (
     Waypoints,
     unit_of,
 )
+from oimi.scenarios.session.activities import check_script_file
 
 LIBRARY_DIR: Final = Path(__file__).resolve().parent / "library"
 """Where scenario files and their activities ship; scripts are looked up here second."""

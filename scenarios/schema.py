@@ -508,7 +508,8 @@ class Scenario(Spec, kw_only=True):
     name: str
     description: str = ""
     seed: int = 0
-    """Seeds every random generator of the session (see ``scenarios.world.stream_rng``)."""
+    """Seeds every random generator of the session (see
+    ``scenarios.simulation.world.stream_rng``)."""
     duration_s: SessionTime = 60.0
     tick_hz: int = DEFAULT_TICK_HZ
     """Simulated clock rate; must divide 1000 (ticks are whole milliseconds)."""

@@ -100,7 +100,7 @@ def bench_session(ticks: int, *, extra_children: int = 0):
     """A session of the bench scenario stretched to ``ticks`` ticks, with ``extra_children``
     copies of its children (same behaviours, new ids, spread over the open floor)."""
     from oimi.scenarios.loader import load_scenario
-    from oimi.scenarios.runner import Session
+    from oimi.scenarios.session.runner import Session
 
     loaded = load_scenario(BENCH_SCENARIO)
     scenario = loaded.scenario

@@ -50,7 +50,7 @@ def message_count(mcap: Path) -> int:
 
 def run_case(ticks: int, folder: str, rerun: bool, extra_children: int = 0) -> dict[str, Any]:
     """In a child: one recorded run, timed from its first tick until its files are closed."""
-    from oimi.scenarios.recording import recorded
+    from oimi.scenarios.session.recording import recorded
 
     session = bench_session(ticks, extra_children=extra_children)
     mcap, rrd = _paths(folder, "run", rerun)
@@ -78,8 +78,8 @@ def task_floor(ticks: int, folder: str, rerun: bool) -> dict[str, Any]:
     says whether it ended where the session's world did.
     """
     from oimi.pipeline.sink import MemorySink
-    from oimi.scenarios.recording import recorded
-    from oimi.scenarios.world import World, stream_rng
+    from oimi.scenarios.session.recording import recorded
+    from oimi.scenarios.simulation.world import World, stream_rng
 
     session = bench_session(ticks)
     mcap, rrd = _paths(folder, "floor", rerun)

@@ -30,6 +30,7 @@ from rosbags.rosbag2.errors import ReaderError, WriterError
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from oimi.live.inputs import JoystickGuard, Pad
 from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import (
     ActuatorCommands,
@@ -49,10 +50,9 @@ from oimi.ros2.bridge import rule_message, script_info
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.remote import make_remote, odometry
 from oimi.ros2.topics import RosTopic
-from oimi.scenarios.live.inputs import JoystickGuard, Pad
 from oimi.scenarios.loader import LoadedScenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import RunResult, Session
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import RunResult, Session
 
 BAG_VERSION: Final = 9
 JOY_REPEAT_MS: Final = 100

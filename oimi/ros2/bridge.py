@@ -1,6 +1,6 @@
 """``oimi bridge``: the pipeline as a ROS 2 participant, run as a live session.
 
-The live server (``scenarios/live/server.py``) paces the session to the wall clock and
+The live server (``oimi/live/server.py``) paces the session to the wall clock and
 serves the operator's App Interface and console as in ``oimi serve``. Each tick the
 bridge's session takes what arrived over DDS: map updates become the tick's sensor
 updates, ``Joy`` states go to the live session's joystick guard (the same dead-man
@@ -24,6 +24,8 @@ from typing import Final
 import msgspec
 from cyclonedds.util import duration
 
+from oimi.live.inputs import JoystickGuard
+from oimi.live.session import LiveSession
 from oimi.pipeline.events import (
     Event,
     JoystickInput,
@@ -39,8 +41,6 @@ from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.remote import make_remote, outputs_message
-from oimi.scenarios.live.inputs import JoystickGuard
-from oimi.scenarios.live.session import LiveSession
 from oimi.scenarios.loader import LoadedScenario
 
 JOY_OWNER: Final = "ros2:/joy"

@@ -14,8 +14,8 @@ import math
 from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.ros2 import types
-from oimi.scenarios.runner import Session
 from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
+from oimi.scenarios.session.runner import Session
 
 
 class RemoteSensors:

@@ -22,7 +22,7 @@ from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.remote import odometry, outputs_of
 from oimi.scenarios.loader import LoadedScenario
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.runner import Session
 
 CMD_VEL_TIMEOUT_MS: Final = 500
 """Simulated time without a ``cmd_vel`` after which the robot stands still."""

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 
 LIBRARY = Path(__file__).resolve().parents[2] / "scenarios" / "library"
 

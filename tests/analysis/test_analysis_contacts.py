@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import session_metrics
-from oimi.scenarios.humans import PACE
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.runner import Session
+from oimi.scenarios.simulation.humans import PACE
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 

@@ -7,7 +7,7 @@ import pytest
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import distances, session_metrics
 from oimi.recorder.metadata import RecordingMetadata
-from oimi.scenarios.humans import PACE
+from oimi.scenarios.simulation.humans import PACE
 
 
 def _load(path: Path):

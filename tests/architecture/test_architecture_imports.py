@@ -29,12 +29,6 @@ THIRD_PARTY: dict[str, set[str]] = {
 }
 """The libraries each package may import besides the standard library (DESIGN.md's table);
 ``oimi`` may import anything."""
-PENDING_MOVES: dict[str, set[str]] = {
-    "scenarios/live/": {"websockets"},
-    "scenarios/batch/": {"polars"},
-}
-"""Applications still under ``scenarios/`` that DESIGN.md places under ``oimi/`` (the move is
-deferred): the extra libraries they may import until they move."""
 FORBIDDEN_IN_CORE = {"threading", "asyncio", "random", "time", "datetime", "multiprocessing"}
 
 
@@ -88,10 +82,9 @@ def test_packages_use_only_the_libraries_design_allows(package: str) -> None:
     broken = []
     for path in modules_of(package):
         where = path.relative_to(ROOT).as_posix()
-        pending = set().union(*(v for k, v in PENDING_MOVES.items() if where.startswith(k)))
         for line, name in imported_modules(path):
             top = name.split(".")[0]
-            if top in stdlib or top in PACKAGES or top in THIRD_PARTY[package] | pending:
+            if top in stdlib or top in PACKAGES or top in THIRD_PARTY[package]:
                 continue
             broken.append(f"{where}:{line}: imports {name} (not in DESIGN.md's table)")
     assert not broken, "\n".join(broken)
@@ -147,3 +140,35 @@ def test_sense_think_and_act_never_import_each_other(stage: str) -> None:
         if any(name == o or name.startswith(o + ".") for o in others)
     ]
     assert not broken, "\n".join(broken)
+
+
+APPLICATIONS = ("oimi.live", "oimi.batch", "oimi.bench", "oimi.ros2")
+"""The applications beside the command line (DESIGN.md: they live under ``oimi/``)."""
+
+
+@pytest.mark.parametrize("package", [p for p in FOLDERS if p != "pipeline"])
+def test_the_folders_never_import_the_applications(package: str) -> None:
+    broken = [
+        f"{path.relative_to(ROOT)}:{line}: imports {name}"
+        for path in modules_of(package)
+        for line, name in raw_imports(path)
+        if any(name == a or name.startswith(a + ".") for a in APPLICATIONS)
+    ]
+    assert not broken, "\n".join(broken)
+
+
+def test_the_simulation_never_imports_the_session() -> None:
+    """The world, humans and sensors are driven by a session; they never reach back into it."""
+    broken = [
+        f"{path.relative_to(ROOT)}:{line}: imports {name}"
+        for path in sorted((ROOT / "scenarios" / "simulation").rglob("*.py"))
+        for line, name in imported_modules(path)
+        if name == "scenarios.session" or name.startswith("scenarios.session.")
+    ]
+    assert not broken, "\n".join(broken)
+
+
+def test_the_applications_live_under_oimi() -> None:
+    for app in ("live", "batch"):
+        assert (ROOT / "oimi" / app / "__init__.py").is_file(), app
+        assert not list((ROOT / "scenarios" / app).rglob("*.py")), app

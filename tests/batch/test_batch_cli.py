@@ -107,8 +107,8 @@ def test_a_resumed_batch_skips_finished_runs(tmp_path: Path, capsys) -> None:
 
 
 def test_a_finished_run_of_other_inputs_is_not_taken_for_this_one(tmp_path: Path) -> None:
-    from oimi.scenarios.batch.spec import expand
-    from oimi.scenarios.batch.tasks import finished_row, run_task
+    from oimi.batch.spec import expand
+    from oimi.batch.tasks import finished_row, run_task
 
     path = write_scenario(tmp_path, "alpha")
     task = expand([path], params={}, seeds=1, seed_range=None, out_dir=tmp_path)[0]

@@ -6,7 +6,8 @@ import os
 from pathlib import Path
 
 import pytest
-from oimi.scenarios.batch.executors import ExecutorError, ProcessPool
+
+from oimi.batch.executors import ExecutorError, ProcessPool
 
 
 def square(number: int) -> int:

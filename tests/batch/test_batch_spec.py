@@ -6,7 +6,9 @@ from pathlib import Path
 
 import pytest
 from batch_scenarios import write_scenario
-from oimi.scenarios.batch.spec import (
+from oimi.scenarios.errors import ScenarioError
+
+from oimi.batch.spec import (
     SpecError,
     check_unique,
     expand,
@@ -16,7 +18,6 @@ from oimi.scenarios.batch.spec import (
     parse_seed_range,
     task_name,
 )
-from oimi.scenarios.errors import ScenarioError
 
 
 def test_scenarios_times_grid_times_seeds_in_order_with_stable_names(tmp_path: Path) -> None:

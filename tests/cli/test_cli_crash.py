@@ -16,7 +16,7 @@ from mcap.reader import make_reader
 from oimi.pipeline.events import Topic
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
-from oimi.scenarios.recording import partial_path
+from oimi.scenarios.session.recording import partial_path
 from rerun.chunk import RrdReader
 
 from oimi.cli import main

@@ -80,8 +80,8 @@ def test_every_command_refuses_an_output_under_a_file_with_exit_2(
     assert main(argv) == 2
     captured = capsys.readouterr()
     assert captured.err.startswith(f"{a_file}/x"), captured.err
-    # run checks its outputs with the recordings' preflight (scenarios.recording), which words it
-    # its own way; every other command goes through oimi.paths
+    # run checks its outputs with the recordings' preflight (scenarios.session.recording), which
+    # words it its own way; every other command goes through oimi.paths
     assert "cannot write here: Not a directory" in captured.err or (
         command[0] == "run" and f"{a_file} is a file, not a folder" in captured.err
     )

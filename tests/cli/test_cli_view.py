@@ -14,8 +14,8 @@ from pathlib import Path
 import psutil
 import pytest
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 from rerun.chunk import RrdReader
 
 from oimi import cmd_view

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 from viewer_browser import REFUSED, browser, missing, viewing, wait_until
 
 from oimi.web_viewer import GUARD, content_security_policy, private_page

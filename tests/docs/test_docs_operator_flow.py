@@ -11,7 +11,7 @@ from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
 from oimi.pipeline.think.rulecodes import RuleCode
-from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
+from oimi.scenarios.session.activities import ACTIVITIES, ActivityLibrary
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 IDLE = ActivityLibrary([ACTIVITIES]).idle()

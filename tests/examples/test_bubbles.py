@@ -20,7 +20,7 @@ from oimi.replay.redrive import redrive
 from oimi.replay.rerun import rerun
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import ExtensionError, build_toolkit, load_extension
-from oimi.scenarios.humans import Arena, BehaviourView
+from oimi.scenarios.simulation.humans import Arena, BehaviourView
 
 import oimi
 

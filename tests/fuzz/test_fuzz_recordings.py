@@ -19,8 +19,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 
 from .fuzzing import assert_clean_outcome, fuzz_settings, run_cli
 

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import LIBRARY_DIR, apply_overrides, load_scenario
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.runner import Session
 
 from oimi.cli import main
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from oimi.pipeline.events import LockRelease
-from oimi.scenarios.live.inputs import NEUTRAL, JoystickGuard, Pad, Taken
+
+from oimi.live.inputs import NEUTRAL, JoystickGuard, Pad, Taken
 
 DRIVE = Pad(left_y=1.0, buttons=("LB",))
 

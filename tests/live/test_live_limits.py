@@ -9,10 +9,11 @@ from collections.abc import Awaitable, Callable
 
 import pytest
 from live_helpers import ROOM
-from oimi.scenarios.live import connections, server
-from oimi.scenarios.live.server import LiveServer, ServeConfig, listen
-from oimi.scenarios.live.session import LiveSession
 from oimi.scenarios.loader import load_scenario
+
+from oimi.live import connections, server
+from oimi.live.server import LiveServer, ServeConfig, listen
+from oimi.live.session import LiveSession
 
 WAIT_S = 10.0
 """Generous: each limit here acts within a second or two."""

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from oimi.scenarios.live.protocol import (
+
+from oimi.live.protocol import (
     MAX_LINE_BYTES,
     Add,
     ProtocolError,

@@ -13,7 +13,7 @@ import pytest
 from live_helpers import LineClient, served
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.session_info import new_session_info
+from oimi.scenarios.session.info import new_session_info
 
 ROOT = Path(__file__).resolve().parents[2]
 GREETING = ROOT / "scenarios" / "library" / "greeting.toml"

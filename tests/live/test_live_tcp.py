@@ -11,7 +11,8 @@ from live_helpers import LineClient, served, states
 from oimi.pipeline.events import JoystickInput, Topic, WorldState
 from oimi.recorder.reader import open_recording
 from oimi.replay.redrive import redrive
-from oimi.scenarios.live.protocol import MAX_LINE_BYTES
+
+from oimi.live.protocol import MAX_LINE_BYTES
 
 
 def test_tcp_client_runs_a_session_and_the_recording_replays_clean(tmp_path):

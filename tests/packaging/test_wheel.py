@@ -42,7 +42,7 @@ def test_the_wheel_claims_only_the_oimi_import_name(wheel: Path) -> None:
         "oimi/pipeline/script/dsl.lark",
         "oimi/scenarios/library/greeting.toml",
         "oimi/scenarios/library/activities/test_act.txt",
-        "oimi/scenarios/live/web/console.js",
+        "oimi/live/web/console.js",
         "oimi/recorder/foxglove_schemas/SceneUpdate.json",
         "oimi/ros2/msg/MapUpdate.msg",
     ):

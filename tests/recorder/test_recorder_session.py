@@ -15,10 +15,11 @@ from mcap.reader import make_reader
 from oimi.pipeline.events import TOPIC_TYPES, Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.recorder.reader import Recording, open_recording
-from oimi.scenarios import loader, runner
+from oimi.scenarios import loader
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session import runner
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 from recorder_foxglove_paths import FOXGLOVE_SCHEMAS
 from rerun.chunk import RrdReader
 

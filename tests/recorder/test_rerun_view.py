@@ -204,8 +204,8 @@ def test_the_zone_the_supervisor_reports_on_safety_is_the_one_drawn_bold(tmp_pat
 
 
 def test_the_scene_carries_the_sessions_zones_to_the_view() -> None:
-    from oimi.scenarios.recording import scene_of
     from oimi.scenarios.schema import Scenario
+    from oimi.scenarios.session.recording import scene_of
 
     scenario = msgspec.convert(
         {"name": "z", "robot": {"safety": {"stop_distance_m": 0.2, "slow_distance_m": 0.9}}},

@@ -18,8 +18,8 @@ from oimi.replay.golden import (
     stale_goldens,
 )
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session, library_scenarios
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session, library_scenarios
 from replay_tamper import SHORT
 
 

@@ -20,10 +20,12 @@ from oimi.replay.compare import (
 )
 from oimi.replay.redrive import REDRIVE_TOPICS, recorded_ticks, redrive
 from oimi.replay.rerun import rerun
-from oimi.scenarios.activities import ACTIVITIES
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.activities import ACTIVITIES
+from oimi.scenarios.session.build import build_pipeline
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
+from oimi.scenarios.simulation.world import World
 from replay_tamper import SHORT, rewrite
 
 from oimi.cli import main
@@ -67,6 +69,28 @@ def test_a_fresh_recording_redrives_clean_with_every_output_topic_compared(
     for topic in (*OUTPUT_TOPICS, Topic.JOYSTICK, Topic.SENSOR_UPDATES):
         assert comparison.compared[topic.value] > 0, topic
     assert Topic.WORLD_STATE.value not in comparison.compared
+
+
+def test_redrive_builds_no_world_and_a_session_the_same_pipeline(
+    recording: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Redrive uses ``build_pipeline`` alone: with the simulated world unbuildable it still
+    replays clean, and the pipeline it builds is configured as the session's was."""
+    loaded = load_scenario(SHORT)
+    session = Session(loaded)
+    built = build_pipeline(loaded)
+    assert msgspec.json.encode(built.config) == msgspec.json.encode(session.config)
+    assert built.metadata() == session.metadata()
+    assert built.attachments() == session.attachments()
+
+    def no_world(*args: object, **kwargs: object) -> None:
+        raise AssertionError("redrive built a world")
+
+    monkeypatch.setattr(World, "__init__", no_world)
+    with pytest.raises(AssertionError, match="built a world"):
+        Session(loaded)
+    result = redrive(recording)
+    assert result.ok, format_report(result)
 
 
 def test_a_fresh_recording_reruns_clean_world_state_included(recording: Path) -> None:

@@ -20,8 +20,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from oimi.scenarios.live.inputs import NEUTRAL, Pad
-
+from oimi.live.inputs import NEUTRAL, Pad
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import Node, take_all
 from oimi.ros2.joy import joy_of

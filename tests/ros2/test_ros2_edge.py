@@ -10,9 +10,9 @@ import pytest
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
 from oimi.pipeline.messages import Policy
-from oimi.scenarios.live.inputs import Pad
 
 from oimi.cli import main
+from oimi.live.inputs import Pad
 from oimi.ros2 import types
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.network import Network, NetworkError, domain_id_from

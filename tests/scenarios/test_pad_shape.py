@@ -5,8 +5,9 @@ from __future__ import annotations
 import msgspec
 import pytest
 from oimi.pipeline.events import Button, JoystickInput, LockRelease, Pad
-from oimi.scenarios.live import protocol
 from oimi.scenarios.schema import JoystickEvent
+
+from oimi.live import protocol
 
 DRIVE = Pad(left_x=0.25, left_y=-0.5, right_x=1.0, buttons=(Button.LB, Button.X))
 

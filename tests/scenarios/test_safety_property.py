@@ -36,7 +36,7 @@ from hypothesis import strategies as st
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.runner import Session
+from oimi.scenarios.session.runner import Session
 
 TICK_MS = 20
 MAX_SPEED_MPS = 0.5

@@ -12,7 +12,7 @@ from oimi.pipeline.operator.generators import GreetingGenerator
 from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.runner import RunResult, Session, library_scenarios
+from oimi.scenarios.session.runner import RunResult, Session, library_scenarios
 
 LIBRARY = {path.stem: path for path in library_scenarios()}
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import interrupts_held, recorded
-from oimi.scenarios.runner import Session, library_scenarios
+from oimi.scenarios.session.recording import interrupts_held, recorded
+from oimi.scenarios.session.runner import Session, library_scenarios
 
 
 def test_ctrl_c_is_ignored_while_the_files_are_being_finished() -> None:

@@ -7,7 +7,8 @@ import pytest
 from oimi.pipeline.act.safety import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import parse_scenario
-from oimi.scenarios.runner import Session, pipeline_config
+from oimi.scenarios.session.build import pipeline_config
+from oimi.scenarios.session.runner import Session
 
 
 def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:

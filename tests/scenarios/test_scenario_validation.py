@@ -12,14 +12,14 @@ from pathlib import Path
 import pytest
 from oimi.pipeline.events import BodyState, Topic, WorldState
 from oimi.scenarios import schema
-from oimi.scenarios.batch.spec import SpecError, expand, toml_literal
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.expectations import Tracker
 from oimi.scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.runner import Session
 from oimi.scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints, unit_of
+from oimi.scenarios.session.expectations import Tracker
+from oimi.scenarios.session.runner import Session
 
+from oimi.batch.spec import SpecError, expand, toml_literal
 from oimi.cli import main
 
 BASE = 'name = "bad"\n'

@@ -9,8 +9,8 @@ import pytest
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import FaultEvent, FaultMode, SensorKind, TouchEvent, TouchType
-from oimi.scenarios.sensors import Schedule, Sensors
-from oimi.scenarios.world import World, stream_rng
+from oimi.scenarios.simulation.sensors import Schedule, Sensors
+from oimi.scenarios.simulation.world import World, stream_rng
 
 STOP = ActuatorOutputs()
 

@@ -9,10 +9,10 @@ import msgspec
 import pytest
 from oimi.pipeline.events import encode
 from oimi.pipeline.messages import ActuatorOutputs
-from oimi.scenarios.humans import PACE
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
-from oimi.scenarios.world import World, stream_rng
+from oimi.scenarios.simulation.humans import PACE
+from oimi.scenarios.simulation.world import World, stream_rng
 
 STOP = ActuatorOutputs()
 
@@ -242,7 +242,7 @@ def test_waypoints_are_walked_in_order_at_the_given_speed():
         " speed_mps = 0.5 },"
         " { at_s = 10.0, kind = 'waypoints', waypoints = [[1.0, 1.0]] }]\n"
     )
-    run(w, STOP, 50)  # 1 s at 0.5 m/s times the seeded pace (scenarios.humans.PACE)
+    run(w, STOP, 50)  # 1 s at 0.5 m/s times the seeded pace (scenarios.simulation.humans.PACE)
     x, y = w.human_positions()[0][1:]
     assert 1.0 + 0.5 * PACE[0] - 1e-6 <= x <= 1.0 + 0.5 * PACE[1] + 1e-6 and y == 1.0
     run(w, STOP, 60, 50)  # 2.2 s: the first corner is behind

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from oimi.scenarios.humans import BehaviourView
+from oimi.scenarios.simulation.humans import BehaviourView
 
 
 class ChaseBubbles:

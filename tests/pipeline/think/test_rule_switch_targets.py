@@ -8,7 +8,7 @@ from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
 from oimi.pipeline.think.library import force_switch
-from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
+from oimi.scenarios.session.activities import ACTIVITIES, ActivityLibrary
 
 IDLE = ActivityLibrary([ACTIVITIES]).idle()
 """The shipped idle activity."""

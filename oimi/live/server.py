@@ -33,10 +33,14 @@ from collections.abc import Callable
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.events import Level, LogEntry, OperatorCommand
-from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.live import protocol
-from oimi.scenarios.live.connections import (
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request as HttpRequest
+from websockets.http11 import Response
+
+from oimi.live import protocol
+from oimi.live.connections import (
     HTTP_LINE,
     Addresses,
     Client,
@@ -53,8 +57,8 @@ from oimi.scenarios.live.connections import (
     quiet_logger,
     url_host,
 )
-from oimi.scenarios.live.inputs import RELEASE_TEXT, JoystickGuard
-from oimi.scenarios.live.protocol import (
+from oimi.live.inputs import RELEASE_TEXT, JoystickGuard
+from oimi.live.protocol import (
     MAX_LINE_BYTES,
     OPERATOR_REQUESTS,
     Hello,
@@ -63,15 +67,12 @@ from oimi.scenarios.live.protocol import (
     StateMessage,
     decode_request,
 )
-from oimi.scenarios.live.view import LiveView
-from oimi.scenarios.recording import scene_of
-from oimi.scenarios.runner import Session
-from oimi.scenarios.session_info import SessionInfo, with_fields
-from websockets.asyncio.server import ServerConnection, serve
-from websockets.datastructures import Headers
-from websockets.exceptions import ConnectionClosed
-from websockets.http11 import Request as HttpRequest
-from websockets.http11 import Response
+from oimi.live.view import LiveView
+from oimi.pipeline.events import Level, LogEntry, OperatorCommand
+from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.session.info import SessionInfo, with_fields
+from oimi.scenarios.session.recording import scene_of
+from oimi.scenarios.session.runner import Session
 
 __all__ = [
     "Addresses",
@@ -541,7 +542,7 @@ class LiveServer:
         if entry is None:
             return connection.respond(404, f"not found: {path}\n")
         name, content_type = entry
-        body = importlib.resources.files("oimi.scenarios.live").joinpath("web", name).read_bytes()
+        body = importlib.resources.files("oimi.live").joinpath("web", name).read_bytes()
         headers = Headers(
             [
                 ("Content-Type", content_type),

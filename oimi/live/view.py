@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Final
 
+from oimi.live.protocol import Block, SessionState, WorldMessage
 from oimi.pipeline.events import (
     Event,
     Level,
@@ -23,7 +24,6 @@ from oimi.pipeline.events import (
     WorldState,
 )
 from oimi.pipeline.operator.handler import GeneratorHandler
-from oimi.scenarios.live.protocol import Block, SessionState, WorldMessage
 
 FIRED_WINDOW_MS: Final = 1000
 """A rule stays in the live view's "firing" list this long after its condition held."""

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import msgspec
+
 from oimi.recorder.metadata import LiveRecord, RecordingMetadata, ScenarioRecord
 from oimi.scenarios.loader import LoadedScenario
-from oimi.scenarios.runner import RunResult, Session
+from oimi.scenarios.session.runner import RunResult, Session
 
 
 class LiveSession(Session):

@@ -17,9 +17,9 @@ from oimi.recorder.errors import RecordingError
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
-from oimi.scenarios.runner import Session
 from oimi.scenarios.schema import Scenario
-from oimi.scenarios.session_info import SESSION_RECORD, SessionInfo, TickCounter
+from oimi.scenarios.session.info import SESSION_RECORD, SessionInfo, TickCounter
+from oimi.scenarios.session.runner import Session
 
 
 def scene_of(scenario: Scenario) -> SceneGeometry:

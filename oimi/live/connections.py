@@ -2,7 +2,7 @@
 any recording opens), one class per kind of client with its outgoing queue and request
 budget, the gate of connections not yet admitted, and the console's Host/Origin check.
 
-:class:`scenarios.live.server.LiveServer` decides what a connection may do; this module
+:class:`oimi.live.server.LiveServer` decides what a connection may do; this module
 holds how connections are made, kept, limited and dropped (``docs/security.md``).
 """
 
@@ -16,12 +16,13 @@ import socket
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.errors import LocatedError
-from oimi.scenarios.live import protocol
-from oimi.scenarios.live.protocol import encode_message
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request as HttpRequest
+
+from oimi.live import protocol
+from oimi.live.protocol import encode_message
+from oimi.pipeline.errors import LocatedError
 
 OUT_QUEUE: Final = 256
 """Messages waiting for a client; one that falls this far behind is dropped."""

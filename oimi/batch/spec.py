@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
+
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import (
     TomlLocator,

@@ -26,8 +26,8 @@ import pymunk
 import pymunk.batch
 from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs
-from oimi.scenarios.humans import STILL, Arena, BehaviourFactory, HumanDriver
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1

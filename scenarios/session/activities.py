@@ -16,7 +16,7 @@ from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.reader import ScriptEntry
 from oimi.pipeline.think.stdlib import default_registry
 
-LIBRARY: Final = Path(__file__).resolve().parent / "library"
+LIBRARY: Final = Path(__file__).resolve().parents[1] / "library"
 """The shipped scenarios; their activities are in ``LIBRARY / "activities"``."""
 ACTIVITIES: Final = LIBRARY / "activities"
 IDLE: Final = "idle_activity"

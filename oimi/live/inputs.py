@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import Final
 
 import msgspec
+
 from oimi.pipeline.events import Button, LockRelease, Pad
 
 HEARTBEAT_TIMEOUT_S: Final = 0.5

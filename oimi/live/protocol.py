@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Annotated, Final
 
 import msgspec
+
 from oimi.pipeline.events import (
     ActivityEntry,
     BodyState,
@@ -28,7 +29,7 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.operator.generator import GeneratorInfo
 from oimi.recorder.scene import SceneGeometry
-from oimi.scenarios.session_info import FIELD_LIMITS
+from oimi.scenarios.session.info import FIELD_LIMITS
 
 MAX_LINE_BYTES: Final = 64 * 1024
 """The longest request accepted; a longer one is refused and the connection closed."""

@@ -32,7 +32,7 @@ from oimi.scenarios.schema import (
     SensorSpec,
     TouchEvent,
 )
-from oimi.scenarios.world import World, wrap_angle
+from oimi.scenarios.simulation.world import World, wrap_angle
 
 DECIMALS: Final = 4
 TRUE: Final = "s_true"

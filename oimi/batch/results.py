@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, Final
 
 import polars as pl
-from oimi.scenarios.batch.tasks import ResultRow
+
+from oimi.batch.tasks import ResultRow
 
 PARQUET: Final = "results.parquet"
 CSV: Final = "results.csv"

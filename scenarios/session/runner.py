@@ -7,13 +7,10 @@ once. Everything goes to the sinks; a ``Tracker`` checks the expectations.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from importlib import metadata as package_metadata
 from pathlib import Path
 
 import msgspec
-from oimi.pipeline.act.limits import RobotLimits
 from oimi.pipeline.events import (
     JoystickInput,
     LockRelease,
@@ -22,32 +19,25 @@ from oimi.pipeline.events import (
     SafetyZone,
     Topic,
 )
-from oimi.pipeline.loop import Pipeline, PipelineConfig
-from oimi.pipeline.messages import FORMAT_VERSION, ActuatorOutputs, MapUpdate, Script
-from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.pipeline.registries import Registries
-from oimi.pipeline.sink import FanOut, Sink
-from oimi.pipeline.think import library as rule_library
+from oimi.pipeline.sink import Sink
 from oimi.recorder.metadata import (
-    ConfigurationRecord,
-    OimiRecord,
     RecordingMetadata,
-    ScenarioRecord,
 )
-from oimi.scenarios.activities import ACTIVITIES, ActivityLibrary
-from oimi.scenarios.expectations import Tracker, Verdict
-from oimi.scenarios.extensions import extension_attachments, extensions_metadata
-from oimi.scenarios.loader import LoadedScenario, apply_overrides
+from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.schema import (
     BehaviourEvent,
     FaultEvent,
     JoystickEvent,
     OperatorEvent,
-    Scenario,
     TouchEvent,
 )
-from oimi.scenarios.sensors import Sensors
-from oimi.scenarios.world import World, stream_rng
+from oimi.scenarios.session.activities import ACTIVITIES
+from oimi.scenarios.session.build import build_pipeline
+from oimi.scenarios.session.expectations import Verdict
+from oimi.scenarios.simulation.sensors import Sensors
+from oimi.scenarios.simulation.world import World, stream_rng
 
 AUTO_START_VERBS = (OperatorVerb.GET_READY, OperatorVerb.START)
 """A scenario whose events use one of these drives the session itself; others auto-start."""
@@ -88,24 +78,6 @@ class RunResult(msgspec.Struct, frozen=True, kw_only=True):
         return all(v.ok for v in self.verdicts)
 
 
-def pipeline_config(scenario: Scenario) -> PipelineConfig:
-    """The pipeline's configuration for a scenario (tick length, robot limits and safety)."""
-    robot = scenario.robot
-    safety = robot.safety
-    if safety.robot_radius_m is None:
-        safety = msgspec.structs.replace(safety, robot_radius_m=robot.radius_m)
-    return PipelineConfig(
-        tick_ms=scenario.tick_ms,
-        limits=RobotLimits(
-            max_speed_mps=robot.max_speed_mps,
-            max_angular_speed_radps=robot.max_angular_speed_radps,
-            max_accel_mps2=robot.max_accel_mps2,
-            max_angular_accel_radps2=robot.max_angular_accel_radps2,
-        ),
-        safety=safety,
-    )
-
-
 class Session:
     """One scenario, set up and ready to tick; ``run`` plays it to the end."""
 
@@ -121,42 +93,19 @@ class Session:
         """``autostart=False`` leaves the scenario's activities selected but not started
         (a live session: the operator gets them ready and starts them). ``overrides``
         (``scenarios.loader.apply_overrides``) vary the scenario; recorded as ``variation``."""
-        scenario = loaded.scenario
-        self.overrides = dict(overrides or {})
-        if self.overrides:
-            scenario = apply_overrides(scenario, self.overrides)
-        if seed is not None:
-            scenario = msgspec.structs.replace(scenario, seed=seed)
-        self.loaded = loaded
-        self.scenario = scenario
+        built = build_pipeline(loaded, sinks=sinks, seed=seed, overrides=overrides)
+        self.built = built
+        scenario = self.scenario = built.scenario
+        self.loaded, self.overrides, self.toolkit = loaded, built.overrides, built.toolkit
+        self.registries: Registries = built.registries
+        self.library, self.activity_names = built.library, list(built.scripts)
+        self.tracker, self.sink = built.tracker, built.sink
+        self.config, self.pipeline = built.config, built.pipeline
         self.tick_ms = scenario.tick_ms
-        self.toolkit = loaded.toolkit
-        self.registries: Registries = loaded.toolkit.registries
-        self.library = ActivityLibrary(
-            [
-                loaded.source.parent,
-                loaded.source.parent / "activities",
-                ACTIVITIES,
-                *loaded.toolkit.activity_folders,
-            ]
-        )
-        scripts = self._activity_scripts()
-        self.activity_names = list(scripts)
-        self.tracker = Tracker(scenario)
-        self.sink = FanOut(self.tracker, *sinks)
         self.world = World(
             scenario, stream_rng(scenario.seed, "world"), behaviours=loaded.toolkit.behaviours
         )
         self.sensors = Sensors(scenario.sensors, scenario, stream_rng(scenario.seed, "sensors"))
-        self.config = pipeline_config(scenario)
-        self.pipeline = Pipeline(
-            self.config,
-            idle=self.library.idle(),
-            resolve=self.library.resolve,
-            handler=GeneratorHandler(self.registries.catalogue(scripts)),
-            sink=self.sink,
-            registries=self.registries,
-        )
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
         self.schedule = self._schedule()
@@ -165,14 +114,6 @@ class Session:
         self._command_id = 0
 
     # ------------------------------------------------------------------- set-up
-
-    def _activity_scripts(self) -> dict[str, Script]:
-        scripts: dict[str, Script] = {}
-        for path in self.loaded.activity_paths:
-            if path is not None:
-                script = self.library.load(path)
-                scripts[script.activityname] = script
-        return scripts
 
     def _selection(self) -> list[tuple[str, dict[str, str]]]:
         selection = []
@@ -304,53 +245,12 @@ class Session:
 
     def metadata(self) -> RecordingMetadata:
         """The recording's metadata: enough, with the attachments, to rebuild this run."""
-        s = self.scenario
-        return RecordingMetadata(
-            oimi=OimiRecord(
-                version=_version(),
-                format_version=str(FORMAT_VERSION),
-                rule_registry=self.registries.rules.version,
-                function_registry=self.registries.functions.version,
-            ),
-            scenario=ScenarioRecord(
-                name=s.name,
-                file=self.loaded.source.name,
-                seed=str(s.seed),
-                tick_hz=str(s.tick_hz),
-                duration_s=repr(s.duration_s),
-                ticks=str(s.ticks),
-            ),
-            configuration=ConfigurationRecord(
-                pipeline=msgspec.json.encode(self.config).decode(),
-                robot=msgspec.json.encode(s.robot).decode(),
-                sensors=msgspec.json.encode(s.sensors).decode(),
-            ),
-            variation=dict(self.overrides) if self.overrides else {},
-            extensions=extensions_metadata(self.toolkit.extensions)
-            if self.toolkit.extensions
-            else {},
-        )
+        return self.built.metadata()
 
     def attachments(self) -> list[tuple[str, bytes]]:
-        """The scenario file, every script its activity folders hold (first folder wins a name),
-        the rule library's source and every extension's sources (``extensions/NAME/PATH``)."""
-        files = [(f"scenario/{self.loaded.source.name}", self.loaded.raw)]
-        seen: set[str] = set()
-        for folder in self.library.folders:
-            for path in sorted([*folder.glob("*.json"), *folder.glob("*.txt")]):
-                if path.name not in seen:
-                    seen.add(path.name)
-                    files.append((f"activities/{path.name}", path.read_bytes()))
-        files.append(("rules/library.py", inspect.getsource(rule_library).encode()))
-        files += extension_attachments(self.toolkit.extensions)
-        return files
-
-
-def _version() -> str:
-    try:
-        return package_metadata.version("oimi")
-    except package_metadata.PackageNotFoundError:
-        return "0+unknown"
+        """The scenario file, the activity scripts, the rule library and the extensions'
+        sources (``BuiltPipeline.attachments``)."""
+        return self.built.attachments()
 
 
 def library_scenarios() -> list[Path]:

@@ -15,11 +15,12 @@ import traceback
 from pathlib import Path
 
 import msgspec
-from oimi.scenarios.batch.spec import Task
-from oimi.scenarios.expectations import Verdict
+
+from oimi.batch.spec import Task
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.recording import recorded
-from oimi.scenarios.runner import RunResult, Session, Summary
+from oimi.scenarios.session.expectations import Verdict
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import RunResult, Session, Summary
 
 RUN_COMPLETED = "run completed"
 """Name of the failing verdict a run that crashed gets instead of its expectations."""
