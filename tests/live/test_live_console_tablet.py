@@ -182,6 +182,9 @@ def test_two_fingers_hold_the_lock_and_drive_the_stick(tmp_path: Path) -> None:
         expect(page.locator("#engaged")).to_contain_text("engaged")
         touch("touchStart", finger1, finger2)  # the second finger pushes the stick forward
         expect(page.locator("#knob")).not_to_have_css("top", "58px")
+        # hold the push for a few ticks (50 Hz): the session records only the latest pad
+        # state of each tick, so a push lifted within one tick would never reach it
+        page.wait_for_timeout(300)
         touch("touchEnd", finger2)  # the stick finger lifts; the lock stays held
         expect(page.locator("#knob")).to_have_css("top", "58px")
         expect(page.locator("#lock")).to_have_class("hold lock held")
