@@ -8,7 +8,6 @@ switching on and off, and a ``/safety`` intervention every minute.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import subprocess
@@ -18,12 +17,18 @@ from pathlib import Path
 from typing import Final
 
 import msgspec
-from oimi.pipeline.events import BodyState, RuleDecision, RuleDecisions, Topic, WorldState
+from oimi.pipeline.events import (
+    BodyState,
+    RuleDecision,
+    RuleDecisions,
+    SafetyIntervention,
+    Topic,
+    WorldState,
+)
 from oimi.pipeline.think import rulecodes
 from oimi.recorder.mcap_sink import McapSink
 
 TICK_MS: Final = 20
-SAFETY_SCHEMA: Final = b'{"title": "oimi.SafetyIntervention", "type": "object"}'
 
 
 class MemoryFigure(msgspec.Struct, frozen=True, kw_only=True):
@@ -38,16 +43,12 @@ class MemoryFigure(msgspec.Struct, frozen=True, kw_only=True):
     """Peak of the same process analysing a one-minute recording (imports included), MB."""
 
 
-def add_safety_channel(sink: McapSink) -> None:
-    """Registers ``/safety`` on a sink (the supervisor's topic, which ``Topic`` may lack)."""
-    if Topic.__members__.get("SAFETY") is None:
-        sink._register("/safety", "oimi.SafetyIntervention", SAFETY_SCHEMA)
-
-
 def write_safety(sink: McapSink, time_ms: int, **fields: object) -> None:
-    """One ``/safety`` message (``SafetyIntervention`` as JSON) at ``time_ms``."""
-    message = {"tick": time_ms // TICK_MS, "time_ms": time_ms, **fields}
-    sink._add("/safety", time_ms * 1_000_000, json.dumps(message).encode())
+    """One ``/safety`` event (a ``SafetyIntervention``) at ``time_ms``."""
+    event = msgspec.convert(
+        {"tick": time_ms // TICK_MS, "time_ms": time_ms, **fields}, SafetyIntervention
+    )
+    sink.record(Topic.SAFETY, time_ms * 1_000_000, event)
 
 
 def synthetic_recording(path: Path, *, minutes: float) -> int:
@@ -55,7 +56,6 @@ def synthetic_recording(path: Path, *, minutes: float) -> int:
     ticks = round(minutes * 60_000 / TICK_MS)
     metadata = {"scenario": {"name": "synthetic", "seed": "0", "tick_hz": "50"}}
     with McapSink(path, metadata=metadata, foxglove_every_n_ticks=0) as sink:
-        add_safety_channel(sink)
         for tick in range(ticks):
             now = tick * TICK_MS
             phase = (now % 60_000) / 60_000

@@ -16,32 +16,15 @@ from typing import Final
 
 import msgspec
 import polars as pl
-from oimi.pipeline.events import RuleDecisions, Topic, WorldState
+from oimi.pipeline.act.safety import Interventions
+from oimi.pipeline.events import RuleDecisions, SafetyIntervention, Topic, WorldState
 from oimi.pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
 
-SAFETY_TOPIC: Final = "/safety"
-"""The safety supervisor's interventions (``SafetyIntervention``), read by name: a recording
-made before the supervisor existed simply has none."""
-
-STREAMED: Final = (Topic.WORLD_STATE.value, Topic.RULE_DECISIONS.value, SAFETY_TOPIC)
+STREAMED: Final = (Topic.WORLD_STATE.value, Topic.RULE_DECISIONS.value, Topic.SAFETY.value)
 """Topics folded message by message (never held as tables)."""
 
 MAX_SAMPLES: Final = 4000
 """Ticks kept for the plots: every tick of a short session, evenly thinned beyond."""
-
-
-class SafetyRecord(msgspec.Struct, kw_only=True):
-    """The fields of a ``/safety`` message that analysis reads (others are ignored)."""
-
-    tick: int
-    time_ms: int
-    phase: str
-    source: str = ""
-    zone: str = ""
-    human: str = ""
-    surface_distance_m: float | None = None
-    requested: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    allowed: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 class RuleEpisodes:
@@ -90,56 +73,8 @@ class RuleEpisodes:
         )
 
 
-class Intervention(msgspec.Struct, kw_only=True):
-    """One safety intervention being gathered from its ``/safety`` messages."""
-
-    started_ms: int
-    ended_ms: int | None = None
-    source: str
-    zones: list[str]
-    humans: list[str]
-    min_surface_distance_m: float | None
-    requested_mps: float
-    allowed_mps: float
-    changes: int = 0
-
-
-class SafetyEpisodes:
-    """The supervisor's interventions, each from its ``start`` to its ``end`` message."""
-
-    def __init__(self) -> None:
-        self.episodes: list[Intervention] = []
-        self._open: Intervention | None = None
-
-    def update(self, r: SafetyRecord) -> None:
-        requested = math.hypot(r.requested[0], r.requested[1])
-        o = self._open
-        if r.phase == "start" or o is None:
-            o = self._open = Intervention(
-                started_ms=r.time_ms,
-                source=r.source,
-                zones=[r.zone],
-                humans=[r.human] if r.human else [],
-                min_surface_distance_m=r.surface_distance_m,
-                requested_mps=requested,
-                allowed_mps=math.hypot(r.allowed[0], r.allowed[1]),
-            )
-            self.episodes.append(o)
-        else:
-            o.changes += r.phase == "change"
-            if r.zone and r.zone not in o.zones:
-                o.zones.append(r.zone)
-            if r.human and r.human not in o.humans:
-                o.humans.append(r.human)
-            if r.surface_distance_m is not None:
-                low = o.min_surface_distance_m
-                o.min_surface_distance_m = (
-                    min(low, r.surface_distance_m) if low is not None else r.surface_distance_m
-                )
-            o.requested_mps = max(o.requested_mps, requested)
-        if r.phase == "end":
-            o.ended_ms = r.time_ms
-            self._open = None
+class SafetyEpisodes(Interventions):
+    """The supervisor's interventions (``pipeline.act.safety``), as a table."""
 
     def frame(self, end_ms: int) -> pl.DataFrame:
         """One row per intervention (one still open ends at ``end_ms``)."""
@@ -147,6 +82,7 @@ class SafetyEpisodes:
             {
                 **msgspec.structs.asdict(e),
                 "ended_ms": e.ended_ms if e.ended_ms is not None else end_ms,
+                "source": str(e.source),
                 "zones": " → ".join(e.zones),
                 "humans": ", ".join(e.humans),
             }
@@ -163,6 +99,7 @@ class SafetyEpisodes:
             "allowed_mps": pl.Float64,
             "changes": pl.Int64,
         }
+        rows = [{k: row[k] for k in schema} for row in rows]
         return pl.DataFrame(rows, schema=schema) if rows else pl.DataFrame(schema=schema)
 
 
@@ -255,7 +192,7 @@ class StreamFolder:
         self.last_ms = 0
         self._world = msgspec.json.Decoder(WorldState)
         self._decisions = msgspec.json.Decoder(RuleDecisions)
-        self._safety = msgspec.json.Decoder(SafetyRecord)
+        self._safety = msgspec.json.Decoder(SafetyIntervention)
 
     def add(self, topic: str, data: bytes) -> None:
         if topic == Topic.WORLD_STATE:
@@ -268,7 +205,7 @@ class StreamFolder:
             message = self._decisions.decode(data)
             self.rules.update(message)
             self.last_ms = max(self.last_ms, message.time_ms)
-        elif topic == SAFETY_TOPIC:
+        elif topic == Topic.SAFETY:
             # a /safety message of another shape is not an intervention we can read
             with contextlib.suppress(msgspec.DecodeError):
                 self.safety.update(self._safety.decode(data))

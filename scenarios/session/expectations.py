@@ -10,18 +10,16 @@ import math
 from collections import Counter
 
 import msgspec
+from oimi.pipeline.act.safety import Interventions
 from oimi.pipeline.events import (
     REJECTING_SOURCES,
     Event,
     Level,
     LogEntries,
-    MotionSource,
     ProgressKind,
     ReaderProgress,
     RuleDecisions,
     SafetyIntervention,
-    SafetyPhase,
-    SafetyZone,
     Topic,
     WorldState,
 )
@@ -51,16 +49,6 @@ class Verdict(msgspec.Struct, frozen=True, kw_only=True):
     detail: str
 
 
-class SafetyEpisode(msgspec.Struct, kw_only=True):
-    """One intervention episode of the safety supervisor, as ``/safety`` told it."""
-
-    started_ms: int
-    zones: list[SafetyZone]
-    """Every zone it was in (start, then each change)."""
-    sources: list[MotionSource]
-    """Every source of motion it limited."""
-
-
 class Tracker:
     """A sink that keeps only the figures the expectations and the summary need."""
 
@@ -77,7 +65,8 @@ class Tracker:
         self.activity_states: dict[str, list[tuple[int, str]]] = {}
         self.rejections: list[str] = []
         self.contacts = 0
-        self.safety_episodes: list[SafetyEpisode] = []
+        self.safety = Interventions()
+        """The supervisor's episodes (the definition ``oimi analyse`` uses)."""
         self.last_ms = 0
         self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz)
         """Surface distances and contact episodes (the definitions ``oimi analyse`` uses)."""
@@ -92,7 +81,7 @@ class Tracker:
             case ReaderProgress():
                 self._progress(message)
             case SafetyIntervention():
-                self._safety(message)
+                self.safety.update(message)
             case LogEntries():
                 self.rejections += [
                     f"{message.time_ms} ms {e.source}: {e.message}"
@@ -116,15 +105,6 @@ class Tracker:
         inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
         if not inside and self.left_arena_ms is None:
             self.left_arena_ms = state.time_ms
-
-    def _safety(self, event: SafetyIntervention) -> None:
-        if event.phase is SafetyPhase.START or not self.safety_episodes:
-            self.safety_episodes.append(
-                SafetyEpisode(started_ms=event.time_ms, zones=[], sources=[])
-            )
-        if event.phase is not SafetyPhase.END:
-            self.safety_episodes[-1].zones.append(event.zone)
-            self.safety_episodes[-1].sources.append(event.source)
 
     def _progress(self, progress: ReaderProgress) -> None:
         for item in progress.items:
@@ -181,7 +161,7 @@ class Tracker:
                 count = sum(
                     (e.zone is None or e.zone in episode.zones)
                     and (e.source is None or e.source in episode.sources)
-                    for episode in self.safety_episodes
+                    for episode in self.safety.episodes
                 )
                 ok, bound = _within(count, e.at_least, e.at_most)
                 what = " ".join(str(x) for x in (e.source, e.zone) if x is not None)

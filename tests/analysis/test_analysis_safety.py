@@ -7,7 +7,7 @@ import itertools
 from pathlib import Path
 
 from oimi.analysis.load import load_session
-from oimi.analysis.memory import add_safety_channel, write_safety
+from oimi.analysis.memory import write_safety
 from oimi.analysis.metrics import session_metrics
 from oimi.analysis.stream import MAX_SAMPLES, Samples
 from oimi.pipeline.events import BodyState, Topic, WorldState
@@ -24,8 +24,6 @@ def _world(tick: int) -> WorldState:
 
 def _recording(path: Path, *, safety: bool) -> Path:
     with McapSink(path, metadata=METADATA, foxglove_every_n_ticks=0) as sink:
-        if safety:
-            add_safety_channel(sink)
         for tick in range(200):
             sink.record(Topic.WORLD_STATE, tick * 20_000_000, _world(tick))
             if not safety:
