@@ -12,8 +12,7 @@ import sys
 import warnings
 from pathlib import Path
 
-import polars as pl
-
+from oimi import console
 from oimi.analysis.dataset import build_dataset, recordings, safe_name
 from oimi.analysis.load import AnalysisWarning, SessionData
 from oimi.analysis.metrics import SessionMetrics, Verdicts
@@ -87,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
     if not single:
-        with _table_config():
+        with console.table_config():
             print(dataset.comparison.select(COMPARISON_COLUMNS))
         if args.out is not None:
             write_comparison_report(dataset.comparison, args.out, links=reports)
@@ -111,19 +110,6 @@ def recorded_verdicts(path: Path) -> Verdicts | None:
     return [(v.name, v.ok, v.detail) for v in tracker.verdicts()]
 
 
-def _table_config() -> pl.Config:
-    return pl.Config(
-        tbl_rows=40,
-        tbl_cols=-1,
-        tbl_width_chars=240,
-        tbl_hide_dataframe_shape=True,
-        tbl_hide_column_data_types=True,
-        tbl_formatting="ASCII_MARKDOWN",
-        float_precision=3,
-        fmt_str_lengths=60,
-    )
-
-
 def print_session_fields(metadata: RecordingMetadata) -> None:
     """A live session's date, child pseudonym, therapist and notes (from its ``session``
     metadata record); nothing for a scripted run."""
@@ -137,7 +123,7 @@ def print_session_fields(metadata: RecordingMetadata) -> None:
 
 def print_session(metrics: SessionMetrics) -> None:
     """The session's summary (metric, value) and its non-empty tables."""
-    with _table_config():
+    with console.table_config():
         print(f"session {metrics.session_id}")
         print(transposed(metrics.summary))
         for name in SESSION_TABLES:

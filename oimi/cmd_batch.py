@@ -215,16 +215,7 @@ def write_comparison(rows: Sequence[ResultRow], folder: Path) -> Path | None:
     dataset = build_dataset(list(recorded), verdicts=verdicts)
     index = write_comparison_report(dataset.comparison, folder, links={})
     groups = group_runs(dataset.comparison)
-    with pl.Config(
-        tbl_rows=60,
-        tbl_cols=-1,
-        tbl_width_chars=200,
-        tbl_hide_dataframe_shape=True,
-        tbl_hide_column_data_types=True,
-        tbl_formatting="ASCII_MARKDOWN",
-        float_precision=3,
-        fmt_str_lengths=60,
-    ):
+    with console.table_config(rows=60, width_chars=200):
         print(groups.select(c for c in GROUP_COLUMNS if c in groups.columns))
     return index
 

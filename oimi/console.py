@@ -6,9 +6,13 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.etree import ElementTree
 
 from oimi.scenarios.session.runner import RunResult
+
+if TYPE_CHECKING:
+    import polars as pl
 
 
 class Progress:
@@ -79,3 +83,19 @@ def write_junit(path: Path, results: Sequence[tuple[str, RunResult]]) -> None:
                 ).text = verdict.detail
     path.parent.mkdir(parents=True, exist_ok=True)
     ElementTree.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
+
+
+def table_config(*, rows: int = 40, width_chars: int = 240) -> pl.Config:
+    """How a command prints a polars table: Markdown, every column, no dtypes or shape."""
+    import polars as pl  # here: the commands that print no table start without polars
+
+    return pl.Config(
+        tbl_rows=rows,
+        tbl_cols=-1,
+        tbl_width_chars=width_chars,
+        tbl_hide_dataframe_shape=True,
+        tbl_hide_column_data_types=True,
+        tbl_formatting="ASCII_MARKDOWN",
+        float_precision=3,
+        fmt_str_lengths=60,
+    )
