@@ -5,8 +5,6 @@ from __future__ import annotations
 import contextlib
 import datetime
 import os
-import signal
-import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -19,6 +17,7 @@ from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.info import SESSION_RECORD, SessionInfo, TickCounter
+from oimi.scenarios.session.interrupts import interrupts_held
 from oimi.scenarios.session.runner import Session
 
 
@@ -256,17 +255,3 @@ def recorded(
                         _finish(partial, path, overwrite=overwrite)
                     else:  # it never recorded anything: withdraw the claim
                         partial.unlink(missing_ok=True)
-
-
-@contextlib.contextmanager
-def interrupts_held() -> Iterator[None]:
-    """Ignore Ctrl-C (SIGINT) for the duration, so that a second Ctrl-C cannot cut a file
-    short while it is being finished; a no-op outside the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)

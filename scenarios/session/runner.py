@@ -36,6 +36,7 @@ from oimi.scenarios.schema import (
 from oimi.scenarios.session.activities import ACTIVITIES
 from oimi.scenarios.session.build import build_pipeline
 from oimi.scenarios.session.expectations import Verdict
+from oimi.scenarios.session.interrupts import interrupts_between_ticks
 from oimi.scenarios.simulation.sensors import Sensors
 from oimi.scenarios.simulation.world import World, stream_rng
 
@@ -208,14 +209,19 @@ class Session:
         pace: Callable[[int], None] | None = None,
     ) -> RunResult:
         """Play every tick of the scenario; ``progress(tick, total)`` and ``pace(tick)`` are
-        called after each tick (pace sleeps to the wall clock in ``--realtime`` mode)."""
+        called after each tick (pace sleeps to the wall clock in ``--realtime`` mode).
+
+        Ctrl-C stops the run between two ticks (``KeyboardInterrupt``), never inside one,
+        so a recorder is never cut off in the middle of a write."""
         total = self.scenario.ticks
-        for tick in range(total):
-            self.step(tick)
-            if progress is not None:
-                progress(tick + 1, total)
-            if pace is not None:
-                pace(tick)
+        with interrupts_between_ticks() as checkpoint:
+            for tick in range(total):
+                self.step(tick)
+                if progress is not None:
+                    progress(tick + 1, total)
+                if pace is not None:
+                    pace(tick)
+                checkpoint()
         return self.result()
 
     def result(self) -> RunResult:
