@@ -14,7 +14,7 @@ import asyncio
 import sys
 from pathlib import Path
 
-from oimi.cmd_serve import _note as note
+from oimi.live.app import note
 from oimi.live.server import Addresses, LiveServer, ServeConfig
 from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
 from oimi.scenarios.loader import load_scenario
