@@ -44,7 +44,7 @@ from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.network import network_from_args
-from oimi.ros2.remote import make_remote, outputs_message
+from oimi.ros2.remote import RemoteBody, RemoteSensors, outputs_message
 from oimi.scenarios.loader import LoadedScenario
 
 JOY_OWNER: Final = "ros2:/joy"
@@ -119,9 +119,10 @@ class BridgeSession(LiveSession):
         seed: int | None = None,
         on_note: Callable[[str], None] | None = None,
     ) -> None:
-        super().__init__(loaded, seed=seed)
+        self.body = RemoteBody(loaded.scenario.robot.radius_m)
+        self.remote_sensors = RemoteSensors()
+        super().__init__(loaded, seed=seed, world=self.body, sensors=self.remote_sensors)
         self.network = node.network
-        self.body, self.remote_sensors = make_remote(self)
         self.on_note = on_note
         self.guard: JoystickGuard | None = None
         self._updates = node.reader(topics.MAP_UPDATES, depth=DEEP)
