@@ -15,8 +15,8 @@ from oimi import console
 from oimi.analysis.analyse import Analysis, analyse
 from oimi.analysis.metrics import SessionMetrics
 from oimi.analysis.report import transposed
-from oimi.paths import check_output
 from oimi.recorder.metadata import RecordingMetadata
+from oimi.recorder.outputs import check_output
 from oimi.replay.expectations import recorded_verdicts
 
 SESSION_TABLES = (

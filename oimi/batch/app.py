@@ -38,7 +38,7 @@ from oimi.batch.spec import (
 )
 from oimi.batch.tasks import ResultRow, finished_row, run_task
 from oimi.extension_args import extensions_of
-from oimi.paths import check_output
+from oimi.recorder.outputs import check_output
 
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"

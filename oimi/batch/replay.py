@@ -13,8 +13,8 @@ import polars as pl
 
 from oimi.batch.app import executor_for
 from oimi.batch.spec import SpecError
-from oimi.paths import check_output
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.outputs import check_output
 from oimi.replay.redrive import redrive
 
 REPLAY_RESULTS = "replay.csv"
