@@ -9,20 +9,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 from pathlib import Path
 
 from oimi import console
-from oimi.analysis.dataset import build_dataset, recordings, safe_name
-from oimi.analysis.load import AnalysisWarning, SessionData
-from oimi.analysis.metrics import SessionMetrics, Verdicts
-from oimi.analysis.report import transposed, write_comparison_report, write_session_report
-from oimi.paths import check_output
-from oimi.pipeline.errors import LocatedError
+from oimi.analysis.analyse import Analysis, analyse
+from oimi.analysis.metrics import SessionMetrics
+from oimi.analysis.report import transposed
 from oimi.recorder.metadata import RecordingMetadata
-from oimi.recorder.reader import open_recording
-from oimi.replay.rebuild import rebuilt_pipeline
-from oimi.scenarios.session.expectations import Tracker
+from oimi.recorder.outputs import check_output
+from oimi.replay.expectations import recorded_verdicts
 
 SESSION_TABLES = (
     "expectations",
@@ -62,52 +57,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output(args.out, folder=True)
-    files = recordings(args.paths)
-    single = len(files) == 1
-    reports: dict[str, str] = {}
-
-    def on_session(data: SessionData, metrics: SessionMetrics) -> None:
-        if single:
-            print_session_fields(data.metadata)
-            print_session(metrics)
-        if args.out is not None:
-            folder = args.out if single else args.out / "sessions" / safe_name(data.session_id)
-            index = write_session_report(data, metrics, folder)
-            reports[data.session_id] = str(index.relative_to(args.out))
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", AnalysisWarning)
-        dataset = build_dataset(
-            files,
-            folder=None if args.out is None or single else args.out,
-            on_session=on_session,
-            verdicts=recorded_verdicts,
-        )
-    for warning in caught:
-        print(f"warning: {warning.message}", file=sys.stderr)
-    if not single:
-        with console.table_config():
-            print(dataset.comparison.select(COMPARISON_COLUMNS))
-        if args.out is not None:
-            write_comparison_report(dataset.comparison, args.out, links=reports)
+    print_analysis(analyse(args.paths, out=args.out, verdicts=recorded_verdicts))
     if args.out is not None:
         print(f"report: {args.out / 'index.html'}")
     return 0
 
 
-def recorded_verdicts(path: Path) -> Verdicts | None:
-    """The expectations of the recording's attached scenario, checked against its messages
-    (the verdicts ``oimi run`` printed, which the recording does not hold), streamed;
-    None when the recording has no loadable scenario."""
-    recording = open_recording(path)
-    try:
-        with rebuilt_pipeline(recording) as built:
-            tracker = Tracker(built.scenario)
-    except LocatedError:
-        return None
-    for message in recording.iter_messages(Tracker.TOPICS):
-        tracker.record(message.topic, message.time_ns, message.decoded())
-    return [(v.name, v.ok, v.detail) for v in tracker.verdicts()]
+def print_analysis(analysis: Analysis) -> None:
+    """One session's fields and tables, or the comparison; then the warnings (stderr)."""
+    if analysis.session is not None:
+        metadata, metrics = analysis.session
+        print_session_fields(metadata)
+        print_session(metrics)
+    for warning in analysis.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    if analysis.session is None:
+        with console.table_config():
+            print(analysis.comparison.select(COMPARISON_COLUMNS))
 
 
 def print_session_fields(metadata: RecordingMetadata) -> None:

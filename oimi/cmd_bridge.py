@@ -11,17 +11,11 @@ this machine unless the --dds-* flags say otherwise (docs/ros2.md).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import sys
-from collections.abc import Iterator
 
-from oimi.cmd_serve import _note as note
 from oimi.cmd_serve import add_arguments as add_serve_arguments
-from oimi.cmd_serve import serve
-from oimi.live.server import LiveServer
-from oimi.live.session import LiveSession
-from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from oimi.scenarios.loader import LoadedScenario
+from oimi.cmd_serve import print_served
+from oimi.ros2.network import add_network_arguments, missing_extra
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,24 +27,7 @@ def run(args: argparse.Namespace) -> int:
     if why := missing_extra():
         print(f"oimi bridge: {why}", file=sys.stderr)
         return 2
-    from oimi.ros2.bridge import BridgeSession
-    from oimi.ros2.dds import Node
+    from oimi.ros2.bridge import serve_bridge
 
-    network = network_from_args(args)
-
-    @contextlib.contextmanager
-    def bridged(loaded: LoadedScenario) -> Iterator[BridgeSession]:
-        with Node(network) as node:
-            session = BridgeSession(loaded, node, seed=args.seed, on_note=note)
-            try:
-                yield session
-            finally:
-                session.stand_still()
-
-    def attach(session: LiveSession, server: LiveServer) -> None:
-        assert isinstance(session, BridgeSession)
-        session.attach(server.guard)
-
-    return serve(
-        args, command="oimi bridge", open_session=bridged, suffix="-bridge", on_server=attach
-    )
+    print_served(serve_bridge(args))
+    return 0

@@ -14,9 +14,9 @@ from pathlib import Path
 
 from oimi.cmd_check import report, report_error
 from oimi.extension_args import toolkit_of
-from oimi.paths import check_output, output_error
 from oimi.pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import compile_condition
+from oimi.recorder.outputs import check_output, output_error
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     source = Path(args.script)
     if args.output is not None:
-        check_output(args.output)
+        check_output(args.output, beside=True)  # written beside it, renamed into place
     try:
         data = source.read_bytes()
     except OSError as error:

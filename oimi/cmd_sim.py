@@ -10,15 +10,10 @@ on this machine unless the --dds-* flags say otherwise (docs/ros2.md).
 from __future__ import annotations
 
 import argparse
-import asyncio
 import sys
 from pathlib import Path
 
-from oimi.cmd_serve import _note as note
-from oimi.live.server import Addresses, LiveServer, ServeConfig
-from oimi.ros2.network import add_network_arguments, missing_extra, network_from_args
-from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.session.recording import recorded
+from oimi.ros2.network import add_network_arguments, missing_extra
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,29 +33,14 @@ def run(args: argparse.Namespace) -> int:
     if why := missing_extra():
         print(f"oimi sim: {why}", file=sys.stderr)
         return 2
-    from oimi.ros2.dds import Node
-    from oimi.ros2.sim import SimSession
+    from oimi.ros2.sim import simulate
 
-    loaded = load_scenario(args.scenario)
-    network = network_from_args(args)
-    if args.duration_s is not None and args.duration_s <= 0:
-        print("oimi sim: --duration-s must be positive", file=sys.stderr)
-        return 2
-    config = ServeConfig(tcp_port=None, http_port=None, duration_s=args.duration_s)
-    with Node(network) as node:
-        session = SimSession(loaded, node, seed=args.seed, on_note=note)
-        server = LiveServer(session, config, on_ready=_announce, on_note=note)
-        with recorded(session, mcap=args.output, rrd=None):
-            asyncio.run(server.run())
-    x, y, theta = session.world.robot_pose()
+    done = simulate(args)
+    x, y, theta = done.pose
     print(
-        f"stopped after {server.ticks} ticks; {session.mind.published} map updates sent, "
-        f"{session.commands_received} cmd_vel received; "
+        f"stopped after {done.ticks} ticks; {done.published} map updates sent, "
+        f"{done.received} cmd_vel received; "
         f"robot at ({x:.3f}, {y:.3f}) m, heading {theta:.3f} rad",
         flush=True,
     )
     return 0
-
-
-def _announce(_: Addresses) -> None:
-    print("simulating; Ctrl-C to stop", flush=True)

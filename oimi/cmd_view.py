@@ -22,8 +22,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Final
 
-from oimi.paths import check_output
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.outputs import check_output
 from oimi.recorder.rerun_sink import mcap_to_rrd
 from oimi.recorder.rrd import check_rrd
 from oimi.web_viewer import PrivateViewer

@@ -146,19 +146,28 @@ class ChannelSpec(NamedTuple):
     """One actuator channel (one row of :data:`CHANNELS`)."""
 
     channel: Channel
+    """Its name; also the noun its items are called by in errors (``a move``)."""
     field: str
     """The :class:`InstructionBlock` field holding its items (and their JSON key)."""
     item: type[Move] | type[Led] | type[AudioOut]
+    dsl: str
+    """The keyword of its item list in the script DSL (``MV(...)``)."""
+
+    def item_fields(self) -> tuple[tuple[str, type], ...]:
+        """The item Struct's fields and their types (``float``, ``int`` or ``str``), in
+        order: the values of a DSL item and the keys of a JSON item."""
+        return tuple((f.name, f.type) for f in msgspec.structs.fields(self.item))
 
 
 CHANNELS: Final = (
-    ChannelSpec(Channel.MOVE, "move", Move),
-    ChannelSpec(Channel.LED, "led", Led),
-    ChannelSpec(Channel.AUDIO, "audioout", AudioOut),
+    ChannelSpec(Channel.MOVE, "move", Move, "MV"),
+    ChannelSpec(Channel.LED, "led", Led, "LD"),
+    ChannelSpec(Channel.AUDIO, "audioout", AudioOut, "AO"),
 )
-"""The channel registry: each actuator channel, its block field and its item Struct, in the
-order their commands are issued within a tick. The actuator, the script validation and
-the JSON script format read it."""
+"""The channel registry: each actuator channel, its block field, its item Struct and its
+DSL keyword, in the order their commands are issued within a tick. The actuator, the
+script validation, the JSON script format, the DSL (grammar and compiler) and its
+renderer read it."""
 
 
 class JumpBlock(Message, tag="jump", tag_field="type"):

@@ -6,7 +6,7 @@ import msgspec
 
 from oimi.recorder.metadata import LiveRecord, RecordingMetadata, ScenarioRecord
 from oimi.scenarios.loader import LoadedScenario
-from oimi.scenarios.session.runner import RunResult, Session
+from oimi.scenarios.session.runner import Body, RunResult, SensorInputs, Session
 
 
 class LiveSession(Session):
@@ -17,8 +17,16 @@ class LiveSession(Session):
     result has no verdicts, and the recorded scenario record has no ``duration_s`` or
     ``ticks`` (the session's own are in its ``session`` record, written at the end)."""
 
-    def __init__(self, loaded: LoadedScenario, *, seed: int | None = None) -> None:
-        super().__init__(loaded, seed=seed, autostart=False)
+    def __init__(
+        self,
+        loaded: LoadedScenario,
+        *,
+        seed: int | None = None,
+        world: Body | None = None,
+        sensors: SensorInputs | None = None,
+    ) -> None:
+        """``world`` and ``sensors``: a robot reached elsewhere (``Session``'s)."""
+        super().__init__(loaded, seed=seed, autostart=False, world=world, sensors=sensors)
 
     def metadata(self) -> RecordingMetadata:
         metadata = super().metadata()

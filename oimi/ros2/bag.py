@@ -48,7 +48,7 @@ from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
 from oimi.ros2.joy import joy_of, pad_of
-from oimi.ros2.remote import make_remote, odometry
+from oimi.ros2.remote import RemoteBody, RemoteSensors, odometry
 from oimi.ros2.topics import RosTopic
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.session.recording import recorded
@@ -265,8 +265,8 @@ def replay_rosbag(
     """Drive the scenario's pipeline over the bag's inputs, recording to ``output``;
     the session's result, the number of ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
-    session = Session(loaded, seed=seed, autostart=not has_commands)
-    body, sensors = make_remote(session)
+    body, sensors = RemoteBody(loaded.scenario.robot.radius_m), RemoteSensors()
+    session = Session(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()

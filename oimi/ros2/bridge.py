@@ -16,15 +16,18 @@ bridge stops, it commands the robot to stand still.
 
 from __future__ import annotations
 
+import argparse
 import asyncio
 import contextlib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Final
 
 import msgspec
 from cyclonedds.util import duration
 
+from oimi.live.app import Served, note, serve
 from oimi.live.inputs import JoystickGuard
+from oimi.live.server import LiveServer
 from oimi.live.session import LiveSession
 from oimi.pipeline.events import (
     Event,
@@ -40,7 +43,8 @@ from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
-from oimi.ros2.remote import make_remote, outputs_message
+from oimi.ros2.network import network_from_args
+from oimi.ros2.remote import RemoteBody, RemoteSensors, outputs_message
 from oimi.scenarios.loader import LoadedScenario
 
 JOY_OWNER: Final = "ros2:/joy"
@@ -115,9 +119,10 @@ class BridgeSession(LiveSession):
         seed: int | None = None,
         on_note: Callable[[str], None] | None = None,
     ) -> None:
-        super().__init__(loaded, seed=seed)
+        self.body = RemoteBody(loaded.scenario.robot.radius_m)
+        self.remote_sensors = RemoteSensors()
+        super().__init__(loaded, seed=seed, world=self.body, sensors=self.remote_sensors)
         self.network = node.network
-        self.body, self.remote_sensors = make_remote(self)
         self.on_note = on_note
         self.guard: JoystickGuard | None = None
         self._updates = node.reader(topics.MAP_UPDATES, depth=DEEP)
@@ -190,3 +195,26 @@ class BridgeSession(LiveSession):
     def _note(self, text: str) -> None:
         if self.on_note is not None:
             self.on_note(text)
+
+
+def serve_bridge(args: argparse.Namespace) -> Served:
+    """``oimi bridge``: ``oimi serve``'s live session (``live.app.serve``, the same
+    arguments) whose robot is reached over DDS (the ``--dds-*`` arguments)."""
+    network = network_from_args(args)
+
+    @contextlib.contextmanager
+    def bridged(loaded: LoadedScenario) -> Iterator[BridgeSession]:
+        with Node(network) as node:
+            session = BridgeSession(loaded, node, seed=args.seed, on_note=note)
+            try:
+                yield session
+            finally:
+                session.stand_still()
+
+    def attach(session: LiveSession, server: LiveServer) -> None:
+        assert isinstance(session, BridgeSession)
+        session.attach(server.guard)
+
+    return serve(
+        args, command="oimi bridge", open_session=bridged, suffix="-bridge", on_server=attach
+    )

@@ -15,7 +15,6 @@ from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.ros2 import types
 from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
-from oimi.scenarios.session.runner import Session
 
 
 class RemoteSensors:
@@ -94,15 +93,6 @@ class RemoteBody:
             radius_m=self.radius_m,
         )
         return WorldState(tick=tick, time_ms=time_ms, robot=robot, led=self.led, audio=self.audio)
-
-
-def make_remote(session: Session) -> tuple[RemoteBody, RemoteSensors]:
-    """Give ``session`` a remote body and sensors in place of its simulated ones."""
-    body = RemoteBody(session.scenario.robot.radius_m)
-    sensors = RemoteSensors()
-    session.world = body  # type: ignore[assignment]
-    session.sensors = sensors  # type: ignore[assignment]
-    return body, sensors
 
 
 def odometry(

@@ -9,19 +9,26 @@ world steps, and the sensors' map updates and the odometry are published.
 
 from __future__ import annotations
 
+import argparse
+import asyncio
 from collections.abc import Callable, Iterable, Sequence
-from typing import Final
+from typing import Final, NamedTuple
 
 import msgspec
 
+from oimi.live.app import note
+from oimi.live.server import Addresses, LiveServer, ServeConfig
+from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import JoystickInput, OperatorCommand
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
+from oimi.ros2.network import network_from_args
 from oimi.ros2.remote import odometry, outputs_of
-from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.loader import LoadedScenario, load_scenario
+from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import Session
 
 CMD_VEL_TIMEOUT_MS: Final = 500
@@ -125,3 +132,41 @@ class SimSession(Session):
                 velocity=self.world.robot_body_velocity(),
             )
         )
+
+
+class Simulated(NamedTuple):
+    """A simulation that ended: what ``oimi sim`` reports."""
+
+    ticks: int
+    published: int
+    """Map updates sent."""
+    received: int
+    """``cmd_vel`` commands received."""
+    pose: tuple[float, float, float]
+    """Where the robot ended: x m, y m, heading rad."""
+
+
+def simulate(args: argparse.Namespace) -> Simulated:
+    """``oimi sim --ros2``: the scenario's room as a ROS 2 robot, paced to the wall clock by
+    the live server (no operator interfaces) until Ctrl-C or ``--duration-s``; with
+    ``--output``, its world recorded."""
+    loaded = load_scenario(args.scenario)
+    network = network_from_args(args)
+    if args.duration_s is not None and args.duration_s <= 0:
+        raise LocatedError("--duration-s must be positive", source="oimi sim")
+    config = ServeConfig(tcp_port=None, http_port=None, duration_s=args.duration_s)
+    with Node(network) as node:
+        session = SimSession(loaded, node, seed=args.seed, on_note=note)
+        server = LiveServer(session, config, on_ready=_announce, on_note=note)
+        with recorded(session, mcap=args.output, rrd=None):
+            asyncio.run(server.run())
+    return Simulated(
+        ticks=server.ticks,
+        published=session.mind.published,
+        received=session.commands_received,
+        pose=session.world.robot_pose(),
+    )
+
+
+def _announce(_: Addresses) -> None:
+    print("simulating; Ctrl-C to stop", flush=True)

@@ -22,14 +22,13 @@ from typing import Final, NoReturn
 from lark import Lark, Token, Transformer, UnexpectedInput
 from lark.exceptions import VisitError
 from oimi.pipeline.messages import (
+    CHANNELS,
     Action,
-    AudioOut,
     Block,
+    ChannelSpec,
     Goal,
     InstructionBlock,
     JumpBlock,
-    Led,
-    Move,
     MutexCmd,
     RuleAction,
     RuleMessage,
@@ -43,9 +42,6 @@ from oimi.pipeline.script.sourcemap import LineIndex, ParsedScript, Position, So
 from oimi.pipeline.script.validate import block_path, script_errors
 
 RULE_FIELDS: Final = ("rulecode", "id", "intopic", "outtopic", "action", "mutexcmd")
-MOVE_FIELDS: Final = ("v_x", "v_y", "v_theta", "wait_t", "duration")
-LED_FIELDS: Final = ("r", "g", "b", "turnas", "wait_t", "duration")
-AUDIO_FIELDS: Final = ("track_path", "wait_t", "duration")
 
 
 MAX_NESTING: Final = 64
@@ -78,11 +74,21 @@ class _TooDeep(Exception):
         self.token = token
 
 
+def channel_grammar() -> str:
+    """The grammar of an instruction block's channels, one item list per row of the channel
+    registry, in its order (``dsl.lark`` names ``_channels``)."""
+    rules = [f"_channels: {' '.join(f'channel_{s.dsl.lower()}' for s in CHANNELS)}"]
+    for spec in CHANNELS:
+        rules.append(f"channel_{spec.dsl.lower()}: {spec.dsl}_OPEN _strings? RPAR")
+        rules.append(f"{spec.dsl}_OPEN.3: /{spec.dsl}[ \\t]*\\(/")
+    return "\n".join(rules) + "\n"
+
+
 @functools.cache
 def _parser() -> Lark:
     grammar = Path(__file__).with_name("dsl.lark").read_text(encoding="utf-8")
     return Lark(
-        grammar,
+        grammar + channel_grammar(),
         parser="lalr",
         lexer="contextual",
         maybe_placeholders=False,
@@ -171,9 +177,8 @@ class ActionItem:
 
 @dataclass(frozen=True)
 class InstBody:
-    moves: list[Token]
-    leds: list[Token]
-    audios: list[Token]
+    channels: list[list[Token]]
+    """Each channel's item strings, in ``CHANNELS`` order."""
     flag: Text | None
 
 
@@ -255,13 +260,13 @@ class _Items(Transformer):
 
     def inst(self, children: list) -> InstBody:
         parts = [c for c in children if not isinstance(c, Token)]
-        moves, leds, audios = parts[0], parts[1], parts[2]
-        return InstBody(moves, leds, audios, parts[3] if len(parts) > 3 else None)
+        count = len(CHANNELS)
+        return InstBody(parts[:count], parts[count] if len(parts) > count else None)
 
-    def moves(self, children: list[Token]) -> list[Token]:
-        return [c for c in children if c.type == "STRING"]
-
-    leds = audios = moves
+    def __default__(self, data: str, children: list, meta: object) -> object:
+        if data.startswith("channel_"):  # one channel's item strings (channel_grammar)
+            return [c for c in children if c.type == "STRING"]
+        return super().__default__(data, children, meta)
 
     def flag(self, children: list[Token]) -> Text:
         return self.string(children[1])
@@ -465,21 +470,15 @@ class _Builder:
                 body = item.body
                 if body.flag is not None:
                     self.map.add(f"{path}.flagged", body.flag.at)
-                return InstructionBlock(
-                    move=tuple(
-                        Move(**self.values(t, MOVE_FIELDS, f"{path}.move[{i}]", "move"))
-                        for i, t in enumerate(body.moves)
-                    ),
-                    led=tuple(
-                        Led(**self.values(t, LED_FIELDS, f"{path}.led[{i}]", "led"))
-                        for i, t in enumerate(body.leds)
-                    ),
-                    audioout=tuple(
-                        AudioOut(**self.values(t, AUDIO_FIELDS, f"{path}.audioout[{i}]", "audio"))
-                        for i, t in enumerate(body.audios)
-                    ),
-                    flagged=None if body.flag is None else body.flag.value,
-                )
+                channels = {
+                    spec.field: tuple(
+                        spec.item(**self.values(token, spec, f"{path}.{spec.field}[{i}]"))
+                        for i, token in enumerate(tokens)
+                    )
+                    for spec, tokens in zip(CHANNELS, body.channels, strict=True)
+                }
+                flagged = None if body.flag is None else body.flag.value
+                return InstructionBlock(**channels, flagged=flagged)
             case JumpBody():
                 body = item.body
                 self.map.add(f"{path}.toparse", body.keyword_at, body.condition_at)
@@ -496,20 +495,22 @@ class _Builder:
                 return TerminusBlock()
         raise AssertionError(item)
 
-    def values(self, token: Token, names: tuple[str, ...], path: str, kind: str) -> dict:
-        """The fields of one quoted item string, numbers checked, positions recorded."""
+    def values(self, token: Token, spec: ChannelSpec, path: str) -> dict:
+        """The fields of one quoted item string, numbers checked, positions recorded. A
+        leading text field (a track's path) may hold commas: the numbers after it are
+        split off from the right."""
         self.map.add(path, _pos(token))
+        fields = dict(spec.item_fields())
+        names, kind = tuple(fields), spec.channel.value
         raw = token.value[1:-1]
         column0 = (token.column or 1) + 1
-        if kind == "audio":
-            cuts = [m.start() for m in re.finditer(",", raw)][-2:]
+        if fields[names[0]] is str:
+            cuts = [m.start() for m in re.finditer(",", raw)][-(len(names) - 1) :]
+            starts = [0, *(cut + 1 for cut in cuts)]
+            ends = [*cuts, len(raw)]
             pieces = (
-                [
-                    (0, raw[: cuts[0]]),
-                    (cuts[0] + 1, raw[cuts[0] + 1 : cuts[1]]),
-                    (cuts[1] + 1, raw[cuts[1] + 1 :]),
-                ]
-                if len(cuts) == 2
+                [(start, raw[start:end]) for start, end in zip(starts, ends, strict=True)]
+                if len(cuts) == len(names) - 1
                 else None
             )
         else:
@@ -520,7 +521,7 @@ class _Builder:
         if pieces is None or len(pieces) != len(names):
             got = 1 + raw.count(",") if raw.strip() else 0
             self.error(
-                f"{'an' if kind == 'audio' else 'a'} {kind} needs {len(names)} values "
+                f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} needs {len(names)} values "
                 f'"{", ".join(names)}", got {got}',
                 _pos(token),
             )
@@ -529,9 +530,9 @@ class _Builder:
             lead = len(piece) - len(piece.lstrip())
             at = ((token.line or 1), column0 + offset + min(lead, max(len(piece) - 1, 0)))
             self.map.add(f"{path}.{name}", at)
-            if name == "track_path":
+            if fields[name] is str:
                 out[name] = self.track(piece.strip(), at)
-            elif name in ("wait_t", "duration", "turnas"):
+            elif fields[name] is int:
                 number = parse_int(piece)
                 if number is None:
                     if parse_float(piece) is not None:
@@ -592,9 +593,7 @@ _TERMINALS: Final = {
     "TERMINUS": "blk_terminus",
     "JUMP": "blk_jump",
     "SENSOR": "blk_sensor",
-    "MV_OPEN": "MV(",
-    "LD_OPEN": "LD(",
-    "AO_OPEN": "AO(",
+    **{f"{spec.dsl}_OPEN": f"{spec.dsl}(" for spec in CHANNELS},
     "FLG_OPEN": "FLG(",
     "CND_OPEN": "CND(",
     "TRJMP_OPEN": "TRJMP(",
@@ -671,11 +670,9 @@ def _describe(
             f"unexpected text {word!r} outside brackets: items are written [like this] and "
             "comments % like this %"
         )
-    if "MV_OPEN" in expected or "LD_OPEN" in expected or "AO_OPEN" in expected:
-        return (
-            f"unexpected {word!r}: blk_inst needs MV(...) LD(...) AO(...), in this order "
-            "(each may be empty)"
-        )
+    if expected & {f"{spec.dsl}_OPEN" for spec in CHANNELS}:
+        lists = " ".join(f"{spec.dsl}(...)" for spec in CHANNELS)
+        return f"unexpected {word!r}: blk_inst needs {lists}, in this order (each may be empty)"
     if expected & {"CND_OPEN", "TRJMP_OPEN", "FLSJMP_OPEN"}:
         return (
             f"unexpected {word!r}: blk_jump needs CND(condition) TRJMP(label) FLSJMP(label), "

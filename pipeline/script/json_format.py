@@ -13,18 +13,17 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
+from functools import partial
 from typing import Any, Final, NoReturn
 
 from oimi.pipeline.messages import (
     CHANNELS,
     Action,
-    AudioOut,
     Block,
+    ChannelSpec,
     Goal,
     InstructionBlock,
     JumpBlock,
-    Led,
-    Move,
     MutexCmd,
     RuleAction,
     RuleMessage,
@@ -130,37 +129,22 @@ def _rule_json(message: RuleMessage) -> dict[str, Any]:
     }
 
 
+def _item_json(spec: ChannelSpec, item: Any) -> dict[str, Any]:
+    """A channel's item as the listing writes it: floats as quoted numbers, the rest as is."""
+    return {
+        name: format_number(getattr(item, name)) if kind is float else getattr(item, name)
+        for name, kind in spec.item_fields()
+    }
+
+
 def _block_json(block: Block) -> dict[str, Any]:
     match block:
         case InstructionBlock():
             out: dict[str, Any] = {"type": "instruction"}
             if block.flagged is not None:
                 out["flagged"] = block.flagged
-            out["move"] = [
-                {
-                    "v_x": format_number(m.v_x),
-                    "v_y": format_number(m.v_y),
-                    "v_theta": format_number(m.v_theta),
-                    "wait_t": m.wait_t,
-                    "duration": m.duration,
-                }
-                for m in block.move
-            ]
-            out["led"] = [
-                {
-                    "r": format_number(x.r),
-                    "g": format_number(x.g),
-                    "b": format_number(x.b),
-                    "turnas": x.turnas,
-                    "wait_t": x.wait_t,
-                    "duration": x.duration,
-                }
-                for x in block.led
-            ]
-            out["audioout"] = [
-                {"track_path": x.track_path, "wait_t": x.wait_t, "duration": x.duration}
-                for x in block.audioout
-            ]
+            for spec in CHANNELS:
+                out[spec.field] = [_item_json(spec, item) for item in getattr(block, spec.field)]
             return out
         case JumpBlock():
             return {
@@ -351,10 +335,12 @@ class _Reader:
         self.known(obj, path, fields[kind])
         if kind == "instruction":
             flagged = obj.get("flagged")
+            channels = {
+                spec.field: self.items(obj, path, spec.field, partial(self.item, spec))
+                for spec in CHANNELS
+            }
             return InstructionBlock(
-                move=self.items(obj, path, "move", self.move),
-                led=self.items(obj, path, "led", self.led),
-                audioout=self.items(obj, path, "audioout", self.audio),
+                **channels,
                 flagged=None if flagged is None else self.text(flagged, f"{path}.flagged"),
             )
         if kind == "jump":
@@ -377,34 +363,17 @@ class _Reader:
             _fail(where, f"Expected `array`, got `{_type_name(value)}` - at `{where}`")
         return tuple(read(item, f"{where}[{i}]") for i, item in enumerate(value))
 
-    def move(self, value: Any, path: str) -> Move:
-        obj = self.fields(value, path, ("v_x", "v_y", "v_theta", "wait_t", "duration"))
-        return Move(
-            v_x=self.float(obj, path, "v_x"),
-            v_y=self.float(obj, path, "v_y"),
-            v_theta=self.float(obj, path, "v_theta"),
-            wait_t=self.int(obj, path, "wait_t"),
-            duration=self.int(obj, path, "duration"),
-        )
-
-    def led(self, value: Any, path: str) -> Led:
-        obj = self.fields(value, path, ("r", "g", "b", "turnas", "wait_t", "duration"))
-        return Led(
-            r=self.float(obj, path, "r"),
-            g=self.float(obj, path, "g"),
-            b=self.float(obj, path, "b"),
-            turnas=self.int(obj, path, "turnas"),
-            wait_t=self.int(obj, path, "wait_t"),
-            duration=self.int(obj, path, "duration"),
-        )
-
-    def audio(self, value: Any, path: str) -> AudioOut:
-        obj = self.fields(value, path, ("track_path", "wait_t", "duration"))
-        return AudioOut(
-            track_path=self.text(obj["track_path"], f"{path}.track_path"),
-            wait_t=self.int(obj, path, "wait_t"),
-            duration=self.int(obj, path, "duration"),
-        )
+    def item(self, spec: ChannelSpec, value: Any, path: str) -> Any:
+        """One item of ``spec``'s channel: every field of its Struct, read by its type."""
+        fields = spec.item_fields()
+        obj = self.fields(value, path, tuple(name for name, _ in fields))
+        values: dict[str, Any] = {}
+        for name, kind in fields:
+            if kind is str:
+                values[name] = self.text(obj[name], f"{path}.{name}")
+            else:
+                values[name] = (self.float if kind is float else self.int)(obj, path, name)
+        return spec.item(**values)
 
     def rules(self, doc: dict[str, Any], name: str) -> tuple[RuleMessage, ...]:
         return self.items(doc, "", name, self.rule) if name in doc else ()

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import json
 import re
-from typing import Final
+from typing import Any, Final
 
 from oimi.pipeline.messages import (
+    CHANNELS,
     Block,
+    ChannelSpec,
     InstructionBlock,
     JumpBlock,
     RuleMessage,
@@ -76,14 +78,12 @@ def _block(block: Block, label: str, labels: dict[str, str], path: str) -> str:
     head = f"[b#{label}#"
     match block:
         case InstructionBlock():
-            moves = [_values(m.v_x, m.v_y, m.v_theta, m.wait_t, m.duration) for m in block.move]
-            leds = [_values(x.r, x.g, x.b, x.turnas, x.wait_t, x.duration) for x in block.led]
-            audios = [_quote(f"{x.track_path}, {x.wait_t}, {x.duration}") for x in block.audioout]
-            flag = "" if block.flagged is None else f"\n    FLG({_quote(block.flagged)})"
-            return (
-                f"{head}blk_inst:\n    MV({_list(moves)})\n    LD({_list(leds)})\n"
-                f"    AO({_list(audios)}){flag}]"
+            lists = "".join(
+                f"\n    {spec.dsl}({_list([_item(spec, x) for x in getattr(block, spec.field)])})"
+                for spec in CHANNELS
             )
+            flag = "" if block.flagged is None else f"\n    FLG({_quote(block.flagged)})"
+            return f"{head}blk_inst:{lists}{flag}]"
         case JumpBlock():
             _check_condition(block.toparse, path)
             true = labels.get(block.truejump, "")
@@ -97,9 +97,11 @@ def _block(block: Block, label: str, labels: dict[str, str], path: str) -> str:
     raise ScriptError(f"{path}: not a block: {block!r}", path=path)
 
 
-def _values(*numbers: float) -> str:
+def _item(spec: ChannelSpec, item: Any) -> str:
+    """One item of a channel as its quoted string of values (numbers at their shortest)."""
+    values = (getattr(item, name) for name, _ in spec.item_fields())
     return _quote(
-        ", ".join(format_number(float(n)) if isinstance(n, float) else str(n) for n in numbers)
+        ", ".join(format_number(float(v)) if isinstance(v, float) else str(v) for v in values)
     )
 
 

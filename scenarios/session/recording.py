@@ -11,8 +11,8 @@ from typing import Protocol
 
 import msgspec
 from oimi.pipeline.events import Event, Topic
-from oimi.recorder.errors import RecordingError
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
+from oimi.recorder.outputs import OutputError, check_output
 from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from oimi.scenarios.schema import Scenario
@@ -63,10 +63,6 @@ class ClosingSink(Protocol):
     def close(self) -> None: ...
 
 
-class OutputError(RecordingError):
-    """An output path that cannot or may not be written (``source`` names it)."""
-
-
 def partial_path(path: Path) -> Path:
     """Where a recording is written until it is closed: ``NAME.partial.mcap`` beside
     ``NAME.mcap``. A killed session leaves this file, which replay recovers."""
@@ -86,10 +82,11 @@ def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) 
 
 
 def check_outputs(paths: Iterable[Path | None], *, overwrite: bool) -> None:
-    """Refuse, before anything is opened, an output that exists (unless ``overwrite``), one
-    whose partial file exists (a killed session's, unless ``overwrite``), and one that
-    cannot be written (its folder is a file, or not writable); missing folders are made.
-    An :class:`OutputError` names the path."""
+    """Refuse, before anything is opened, an output that cannot be written
+    (``recorder.outputs.check_output``: its folder is a file, or not writable; missing
+    folders are made), one given twice, one that exists (unless ``overwrite``) and one
+    whose partial file exists (a killed session's, unless ``overwrite``). An
+    :class:`OutputError` names the path."""
     seen: set[Path] = set()
     for path in paths:
         if path is None:
@@ -98,35 +95,22 @@ def check_outputs(paths: Iterable[Path | None], *, overwrite: bool) -> None:
         if key in seen:
             raise OutputError("given twice as an output", source=str(path))
         seen.add(key)
-        if path.is_dir():
-            raise OutputError("is a folder, not a file", source=str(path))
-        partial = partial_path(path)
-        if not overwrite:
-            if path.exists() or path.is_symlink():
-                raise OutputError(
-                    "exists: refusing to replace a recording (pass --overwrite, or choose "
-                    "another name)",
-                    source=str(path),
-                )
-            if partial.exists():
-                raise OutputError(
-                    f"the unfinished recording {partial} exists (a killed session?): "
-                    "recover or move it first, or pass --overwrite",
-                    source=str(path),
-                )
-        folder = path.parent
-        ancestors = (folder, *folder.parents)
-        blocked = next((p for p in ancestors if p.exists() and not p.is_dir()), None)
-        if blocked is not None:
-            raise OutputError(f"{blocked} is a file, not a folder", source=str(path))
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
+        check_output(path, create=True, beside=True)
+        if overwrite:
+            continue
+        if path.exists() or path.is_symlink():
             raise OutputError(
-                f"cannot create its folder: {error.strerror or error}", source=str(path)
-            ) from None
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise OutputError(f"cannot write in {folder}: permission denied", source=str(path))
+                "exists: refusing to replace a recording (pass --overwrite, or choose "
+                "another name)",
+                source=str(path),
+            )
+        partial = partial_path(path)
+        if partial.exists():
+            raise OutputError(
+                f"the unfinished recording {partial} exists (a killed session?): "
+                "recover or move it first, or pass --overwrite",
+                source=str(path),
+            )
 
 
 def _claim(path: Path, *, overwrite: bool) -> Path:

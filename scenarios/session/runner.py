@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any, Protocol
 
 import msgspec
 from oimi.pipeline.events import (
@@ -18,6 +19,7 @@ from oimi.pipeline.events import (
     OperatorVerb,
     SafetyZone,
     Topic,
+    WorldState,
 )
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.pipeline.registries import Registries
@@ -79,6 +81,31 @@ class RunResult(msgspec.Struct, frozen=True, kw_only=True):
         return all(v.ok for v in self.verdicts)
 
 
+class Body(Protocol):
+    """What a session ticks as the robot's surroundings: the simulated ``World``, or a
+    robot that is somewhere else (``oimi.ros2.remote.RemoteBody``)."""
+
+    led: tuple[float, float, float]
+    audio: str
+
+    def step(self, outputs: ActuatorOutputs, *, tick: int) -> object: ...
+
+    def apply_event(self, event: BehaviourEvent) -> None: ...
+
+    def state(self, *, tick: int, time_ms: int) -> WorldState: ...
+
+
+class SensorInputs(Protocol):
+    """Where a session's map updates come from: the simulated ``Sensors``, or updates that
+    arrive from elsewhere (``oimi.ros2.remote.RemoteSensors``)."""
+
+    def sample(self, world: Any, *, tick: int, time_ms: int) -> list[MapUpdate]: ...
+
+    def touch(self, event: TouchEvent, *, time_ms: int) -> None: ...
+
+    def fault(self, event: FaultEvent) -> None: ...
+
+
 class Session:
     """One scenario, set up and ready to tick; ``run`` plays it to the end."""
 
@@ -90,10 +117,14 @@ class Session:
         seed: int | None = None,
         autostart: bool = True,
         overrides: Mapping[str, str] | None = None,
+        world: Body | None = None,
+        sensors: SensorInputs | None = None,
     ) -> None:
         """``autostart=False`` leaves the scenario's activities selected but not started
         (a live session: the operator gets them ready and starts them). ``overrides``
-        (``scenarios.loader.apply_overrides``) vary the scenario; recorded as ``variation``."""
+        (``scenarios.loader.apply_overrides``) vary the scenario; recorded as ``variation``.
+        ``world`` and ``sensors`` replace the simulated ones (a robot reached over ROS 2):
+        then no pymunk world is built, only the pipeline (``build_pipeline``)."""
         built = build_pipeline(loaded, sinks=sinks, seed=seed, overrides=overrides)
         self.built = built
         scenario = self.scenario = built.scenario
@@ -103,10 +134,12 @@ class Session:
         self.tracker, self.sink = built.tracker, built.sink
         self.config, self.pipeline = built.config, built.pipeline
         self.tick_ms = scenario.tick_ms
-        self.world = World(
+        self.world = world or World(
             scenario, stream_rng(scenario.seed, "world"), behaviours=loaded.toolkit.behaviours
         )
-        self.sensors = Sensors(scenario.sensors, scenario, stream_rng(scenario.seed, "sensors"))
+        self.sensors = sensors or Sensors(
+            scenario.sensors, scenario, stream_rng(scenario.seed, "sensors")
+        )
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
         self.schedule = self._schedule()

@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from oimi.recorder.outputs import OutputError, check_output
 
 from oimi.cli import main
-from oimi.paths import OutputError, check_output
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "scenarios" / "library" / "activities" / "test_act.txt"
@@ -36,26 +36,43 @@ def test_check_output_accepts_new_files_and_folders_below_existing_ones(tmp_path
 @pytest.mark.parametrize(
     ("relative", "folder", "why"),
     [
-        ("a_file/x.json", False, r"Not a directory \(.*a_file\)"),
-        ("a_file/deep/x", True, r"Not a directory \(.*a_file\)"),
-        ("a_file", True, "Not a directory"),
-        (".", False, "Is a directory"),
-        ("x" * 300 + "/y", False, "File name too long"),
+        ("a_file/x.json", False, r".*a_file is a file, not a folder"),
+        ("a_file/deep/x", True, r".*a_file is a file, not a folder"),
+        ("a_file", True, "is a file, not a folder"),
+        (".", False, "is a folder, not a file"),
+        ("x" * 300 + "/y", False, "cannot write here: File name too long"),
     ],
 )
 def test_check_output_refuses_impossible_paths_naming_them(
     tmp_path: Path, a_file: Path, relative: str, folder: bool, why: str
 ) -> None:
     target = tmp_path / relative
-    with pytest.raises(OutputError, match=f"cannot write here: {why}") as caught:
+    with pytest.raises(OutputError, match=f"^{target}: {why}") as caught:
         check_output(target, folder=folder)
     assert str(caught.value).startswith(f"{target}: ")
+
+
+def test_a_file_replaced_by_renaming_needs_its_folder_writable_not_itself(tmp_path: Path) -> None:
+    if os.geteuid() == 0:
+        pytest.skip("root writes anywhere")
+    shut = tmp_path / "shut"
+    shut.mkdir()
+    (shut / "x.mcap").write_bytes(b"")
+    shut.chmod(0o555)
+    try:
+        check_output(shut / "x.mcap")  # written in place: the file itself is writable
+        with pytest.raises(OutputError, match=f"cannot write in {shut}: permission denied"):
+            check_output(shut / "x.mcap", beside=True)
+        with pytest.raises(OutputError, match=f"cannot write in {shut}: permission denied"):
+            check_output(shut / "y.mcap")
+    finally:
+        shut.chmod(0o755)
 
 
 def test_a_read_only_filesystem_is_refused() -> None:
     if not Path("/proc/sys").is_dir():
         pytest.skip("no /proc")
-    with pytest.raises(OutputError, match=r"^/proc/sys/oimi/x\.csv: cannot write here: "):
+    with pytest.raises(OutputError, match=r"^/proc/sys/oimi/x\.csv: cannot write in /proc/sys"):
         check_output("/proc/sys/oimi/x.csv")
 
 
@@ -80,11 +97,8 @@ def test_every_command_refuses_an_output_under_a_file_with_exit_2(
     assert main(argv) == 2
     captured = capsys.readouterr()
     assert captured.err.startswith(f"{a_file}/x"), captured.err
-    # run checks its outputs with the recordings' preflight (scenarios.session.recording), which
-    # words it its own way; every other command goes through oimi.paths
-    assert "cannot write here: Not a directory" in captured.err or (
-        command[0] == "run" and f"{a_file} is a file, not a folder" in captured.err
-    )
+    # run's recordings add their own rules (scenarios.session.recording) to the same check
+    assert f"{a_file} is a file, not a folder" in captured.err
     assert "Traceback" not in captured.err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "x.mcap"]
 

@@ -1,5 +1,5 @@
 """The ROS 2 edge's small parts: the pad as joy_node reports it, the closed-by-default
-network, the remote sensors' refusals."""
+network, the remote sensors' refusals, the bridge's session without a simulated world."""
 
 from __future__ import annotations
 
@@ -10,13 +10,19 @@ import pytest
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
 from oimi.pipeline.messages import Policy
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.simulation.sensors import Sensors
+from oimi.scenarios.simulation.world import World
 
 from oimi.cli import main
 from oimi.live.inputs import Pad
 from oimi.ros2 import types
+from oimi.ros2.bridge import BridgeSession
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.network import Network, NetworkError, domain_id_from
-from oimi.ros2.remote import RemoteSensors
+from oimi.ros2.remote import RemoteBody, RemoteSensors
+
+ROOM = Path(__file__).with_name("ros2_room.toml")
 
 
 def test_joy_node_axes_are_read_with_x_flipped_and_lb_on_button_4():
@@ -64,7 +70,7 @@ def test_the_domain_comes_from_ros_domain_id():
 
 def test_a_bad_domain_id_is_refused_before_any_traffic(monkeypatch, capsys):
     monkeypatch.setenv("ROS_DOMAIN_ID", "999")
-    room = str(Path(__file__).with_name("ros2_room.toml"))
+    room = str(ROOM)
     assert main(["sim", "--ros2", room, "--duration-s", "1"]) == 2
     assert "ROS_DOMAIN_ID: '999' is not a domain id" in capsys.readouterr().err
 
@@ -80,3 +86,29 @@ def test_remote_sensors_number_updates_in_arrival_order_and_refuse_bad_policies(
         "map update for 'Human/c'/'poses' refused: policy 'X' is not 'R' or 'A'"
     ]
     assert sensors.sample(None, tick=1, time_ms=20) == []
+
+
+class _NoDds:
+    """A stand-in for the DDS node: readers and writers that are never used here."""
+
+    network = Network()
+
+    def reader(self, topic: object, **options: object) -> None:
+        return None
+
+    def writer(self, topic: object, **options: object) -> None:
+        return None
+
+
+def test_the_bridge_builds_the_pipeline_without_a_simulated_world(monkeypatch):
+    def no_world(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the bridge built a simulated world")
+
+    monkeypatch.setattr(World, "__init__", no_world)
+    monkeypatch.setattr(Sensors, "__init__", no_world)
+    session = BridgeSession(load_scenario(ROOM), _NoDds())  # type: ignore[arg-type]
+    assert isinstance(session.world, RemoteBody) and session.world is session.body
+    assert session.sensors is session.remote_sensors
+    assert session.pipeline is session.built.pipeline
+    state = session.world.state(tick=0, time_ms=0)
+    assert (state.robot.x_m, state.robot.radius_m) == (0.0, session.scenario.robot.radius_m)
