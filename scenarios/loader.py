@@ -39,6 +39,7 @@ from oimi.scenarios.schema import (
     Custom,
     FaultEvent,
     MinDistance,
+    OperatorEvent,
     RuleFired,
     Scenario,
     SensorKind,
@@ -610,6 +611,8 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
             )
         if isinstance(event, TouchEvent | BehaviourEvent) and event.human not in humans:
             yield (*where, "human"), f"event names an unknown human {event.human!r}"
+        if isinstance(event, OperatorEvent) and event.command.id != 0:
+            yield (*where, "command", "id"), "the session numbers the commands: leave id out"
         if isinstance(event, BehaviourEvent):
             yield from _check_segment(event.segment, (*where, "segment"), event.human, outside)
         if isinstance(event, FaultEvent) and event.id is not None and event.id != ids[event.sensor]:

@@ -5,8 +5,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from oimi.pipeline.events import OperatorCommand, OperatorVerb, Topic
+from oimi.pipeline.events import Topic
 from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.operator.commands import Add, Command, GetReady, Start
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
@@ -18,14 +19,12 @@ IDLE = ActivityLibrary([ACTIVITIES]).idle()
 """The shipped idle activity."""
 
 
-def replies(p: Pipeline, tick: int, *verbs: OperatorVerb) -> list[tuple[bool, str]]:
+def replies(p: Pipeline, tick: int, *kinds: type[Command]) -> list[tuple[bool, str]]:
     sink = MemorySink()
     p.sink = sink
     commands = [
-        OperatorCommand(
-            id=tick * 10 + i, verb=v, activity="test_dance" if v is OperatorVerb.ADD else ""
-        )
-        for i, v in enumerate(verbs)
+        kind(id=tick * 10 + i, **({"activity": "test_dance"} if kind is Add else {}))
+        for i, kind in enumerate(kinds)
     ]
     p.tick(tick=tick, commands=commands)
     states = sink.on(Topic.OPERATOR_STATE)
@@ -44,10 +43,10 @@ def test_get_ready_and_start_in_one_tick_start_is_refused_then_accepted_next_tic
         handler=GeneratorHandler(default_catalogue()),
         sink=MemorySink(),
     )
-    replies(p, 0, OperatorVerb.ADD)
-    both = replies(p, 1, OperatorVerb.GET_READY, OperatorVerb.START)
+    replies(p, 0, Add)
+    both = replies(p, 1, GetReady, Start)
     assert both[0][0] and both[1] == (False, "cannot start while the button shows loading")
-    assert replies(p, 2, OperatorVerb.START) == [(True, "started 1 activities")]
+    assert replies(p, 2, Start) == [(True, "started 1 activities")]
 
 
 def test_operator_md_lists_every_rule_code() -> None:

@@ -68,8 +68,7 @@ script = "activities/wait_for_child.txt"
 [[events]]
 kind = "operator"
 at_s = 1.0
-verb = "remove"
-activity = "no_such_activity"
+command = { cmd = "remove", activity = "no_such_activity" }
 
 [[events]]
 kind = "touch"

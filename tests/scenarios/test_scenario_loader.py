@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 import pytest
-from oimi.pipeline.events import OperatorVerb
+from oimi.pipeline.operator.commands import Add
 from oimi.pipeline.operator.generator import Catalogue
 from oimi.pipeline.operator.generators import DanceGenerator
 from oimi.scenarios.errors import ScenarioError
@@ -100,8 +100,7 @@ options = { tempo = "slow" }
 [[events]]
 at_s = 1.0
 kind = "operator"
-verb = "add"
-activity = "test_dance"
+command = { cmd = "add", activity = "test_dance" }
 
 [[events]]
 at_s = 2.0
@@ -184,7 +183,7 @@ def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
         FaultEvent,
         BehaviourEvent,
     ]
-    assert scenario.events[0].verb is OperatorVerb.ADD
+    assert scenario.events[0].command == Add(activity="test_dance")
     assert scenario.events[3].mode is FaultMode.OFFLINE
     assert scenario.events[4].segment == Stand()
     assert scenario.expect[0] == GoalReached(goal="greet", by_s=20.0)
