@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import pytest
+from oimi.pipeline.operator.commands import Add, Reorder
 
 from oimi.live.protocol import (
     MAX_LINE_BYTES,
-    Add,
     ProtocolError,
-    Reorder,
     Reply,
     Subscribe,
     decode_request,
@@ -33,6 +32,12 @@ def test_requests_decode_by_their_cmd():
         ('{"id": 3, "cmd": "fly"}', r"Invalid value 'fly' - at `\$.cmd`", 3),
         ('{"id": 5, "cmd": "add"}', "missing required field `activity`", 5),
         ('{"id": 6, "cmd": "reorder", "activity": "a", "position": "top"}', r"\$.position", 6),
+        (
+            '{"id": 8, "cmd": "reorder", "activity": "a", "position": -1}',
+            r">= 0 - at `\$.position`",
+            8,
+        ),
+        ('{"id": 9, "cmd": "stop", "activity": "a"}', "unknown field `activity`", 9),
         ('{"id": 7, "cmd": "start", "now": true}', "unknown field `now`", 7),
         ('["start"]', "bad request", None),
     ],
