@@ -275,6 +275,36 @@ ERRORS = [
         10,
     ),
     ("tick rate", "tick_hz = 60\n", r"tick_hz \(Hz\): 60 must divide 1000", 2),
+    (
+        "unknown operator command",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "strat" }\n',
+        r"events\[0\].command.cmd: Invalid value 'strat' \(one of list, add, remove, reorder,",
+        5,
+    ),
+    (
+        "operator command without its activity",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "remove" }\n',
+        r"events\[0\].command.activity: required, but missing$",
+        5,
+    ),
+    (
+        "operator command with another verb's field",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "stop", position = 1 }\n',
+        r"events\[0\].command.position \(index\): unknown field$",
+        5,
+    ),
+    (
+        "operator command with its own id",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "stop", id = 7 }\n',
+        r"events\[0\].command.id: the session numbers the commands: leave id out$",
+        5,
+    ),
+    (
+        "operator event in the old flat layout",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\nverb = "start"\n',
+        r'events\[0\].verb: unknown field; an operator event holds its command: command = \{ cmd',
+        5,
+    ),
 ]
 
 
