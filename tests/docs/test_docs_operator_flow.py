@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from oimi.pipeline.events import Topic
+import msgspec
+from oimi.pipeline.events import OperatorCommands, Topic, encode
 from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.operator.commands import Add, Command, GetReady, Start
 from oimi.pipeline.operator.generators import default_catalogue
@@ -54,3 +55,16 @@ def test_operator_md_lists_every_rule_code() -> None:
     Model parser": every code the library defines is documented."""
     rows = re.findall(r"^\| (\d+) \| `(\w+)` \|", (DOCS / "operator.md").read_text(), flags=re.M)
     assert [(int(code), name) for code, name in rows] == [(c.value, c.name) for c in RuleCode]
+
+
+def test_recording_md_shows_operator_commands_as_they_are_encoded() -> None:
+    """Each recorded line that docs/recording.md shows decodes into ``OperatorCommands`` and
+    encodes back to the same bytes (the union's tag first, only the verb's fields)."""
+    text = (DOCS / "recording.md").read_text(encoding="utf-8")
+    section = text.split("### Operator commands", 1)[1].split("```json\n", 1)[1]
+    lines = section.split("```", 1)[0].splitlines()
+    assert len(lines) == 3
+    for line in lines:
+        event = msgspec.json.decode(line, type=OperatorCommands)
+        assert encode(event).decode() == line
+    assert isinstance(msgspec.json.decode(lines[-1], type=OperatorCommands).commands[0], Start)
