@@ -14,9 +14,10 @@ from typing import Final
 
 import msgspec
 
-from oimi.pipeline.events import JoystickInput, OperatorCommand
+from oimi.pipeline.events import JoystickInput
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
+from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
