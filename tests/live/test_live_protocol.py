@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from typing import get_args
+
 import pytest
-from oimi.pipeline.operator.commands import Add, Reorder
+from oimi.pipeline.operator.commands import VERBS, Add, OperatorCommand, Reorder
 
 from oimi.live.protocol import (
     MAX_LINE_BYTES,
@@ -57,3 +59,13 @@ def test_replies_are_one_json_line_without_empty_fields():
     assert encode_message(Reply(id=2, ok=False, reason="busy")) == (
         b'{"type":"reply","id":2,"ok":false,"reason":"busy"}\n'
     )
+
+
+@pytest.mark.parametrize("verb", VERBS)
+def test_the_operators_commands_are_the_pipelines_own(verb):
+    """No second shape: the App Interface decodes the union the handler matches on."""
+    fields = {"add": ', "activity": "a"', "remove": ', "activity": "a"'}.get(verb, "")
+    if verb == "reorder":
+        fields = ', "activity": "a", "position": 0'
+    request = decode_request(f'{{"id": 3, "cmd": "{verb}"{fields}}}')
+    assert isinstance(request, get_args(OperatorCommand)) and request.verb == verb
