@@ -302,7 +302,7 @@ ERRORS = [
     (
         "operator event in the old flat layout",
         '[[events]]\nat_s = 1.0\nkind = "operator"\nverb = "start"\n',
-        r'events\[0\].verb: unknown field; an operator event holds its command: command = \{ cmd',
+        r"events\[0\].verb: unknown field; an operator event holds its command: command = \{ cmd",
         5,
     ),
 ]
