@@ -47,7 +47,9 @@ class AnalysisWarning(UserWarning):
 
 def polars_dtype(info: msgspec.inspect.Type) -> pl.DataType | None:
     """The polars type of a msgspec type; None for what NDJSON reading cannot type
-    (free-keyed dicts, tagged unions): such fields are left out of the frame."""
+    (free-keyed dicts): such fields are left out of the frame. A union of tagged Structs
+    (the operator's commands) is one struct of the tag and every member's fields, null
+    where a member has no such field."""
     match info:
         case msgspec.inspect.BoolType():
             return pl.Boolean()
@@ -68,6 +70,8 @@ def polars_dtype(info: msgspec.inspect.Type) -> pl.DataType | None:
             inner = [polars_dtype(t) for t in info.item_types]
             same = inner and all(i is not None and i == inner[0] for i in inner)
             return pl.List(inner[0]) if same else None  # type: ignore[arg-type]
+        case msgspec.inspect.UnionType() if all(_tagged(t) for t in info.types):
+            return pl.Struct(_union_schema(info.types))  # type: ignore[arg-type]
         case msgspec.inspect.UnionType() if info.includes_none and len(info.types) == 2:
             (inner,) = [t for t in info.types if not isinstance(t, msgspec.inspect.NoneType)]
             return polars_dtype(inner)
@@ -76,6 +80,20 @@ def polars_dtype(info: msgspec.inspect.Type) -> pl.DataType | None:
                 return None
             return pl.Struct(struct_schema(info.cls))
     return None
+
+
+def _tagged(info: msgspec.inspect.Type) -> bool:
+    return isinstance(info, msgspec.inspect.StructType) and info.tag is not None
+
+
+def _union_schema(members: Iterable[msgspec.inspect.StructType]) -> dict[str, pl.DataType]:
+    """The tag first, then each member's fields in the union's order (first type wins)."""
+    schema: dict[str, pl.DataType] = {}
+    for member in members:
+        schema.setdefault(member.tag_field, pl.String())  # type: ignore[arg-type]
+        for name, dtype in struct_schema(member.cls).items():
+            schema.setdefault(name, dtype)
+    return schema
 
 
 def struct_schema(cls: type[msgspec.Struct]) -> dict[str, pl.DataType]:

@@ -80,7 +80,7 @@ def activity_timeline(data: SessionData) -> pl.DataFrame:
     )
     added = (
         data["/operator/commands"]
-        .filter(pl.col("verb") == "add")
+        .filter(pl.col("cmd") == "add")
         .group_by("activity")
         .agg(selected_ms=pl.col("time_ms").min())
     )
@@ -247,7 +247,7 @@ def operator_commands(data: SessionData) -> pl.DataFrame:
     )
     return (
         data["/operator/commands"]
-        .select("time_ms", "id", "verb", "activity")
+        .select("time_ms", "id", "cmd", "activity")
         .join(replies, on="id", how="left")
         .sort("time_ms", "id")
     )

@@ -19,6 +19,7 @@ from oimi.pipeline.messages import (
     RuleMessage,
     WorldMap,
 )
+from oimi.pipeline.operator.commands import OperatorCommand
 
 
 class Topic(enum.StrEnum):
@@ -58,35 +59,9 @@ class SensorUpdates(Event):
     updates: tuple[MapUpdate, ...]
 
 
-class OperatorVerb(enum.StrEnum):
-    """The operator's commands (thesis 5.1)."""
-
-    LIST = "list"
-    ADD = "add"
-    REMOVE = "remove"
-    REORDER = "reorder"
-    GET_READY = "get_ready"
-    START = "start"
-    STOP = "stop"
-    RESTART = "restart"
-    CLEAR = "clear"
-
-
-class OperatorCommand(Message):
-    """One command from the operator's app or console."""
-
-    id: int
-    """The request's id, echoed in its reply."""
-    verb: OperatorVerb
-    activity: str = ""
-    """Generator name (add, remove, reorder)."""
-    options: dict[str, str] = {}
-    """Generator options (add)."""
-    position: int = 0
-    """New index in the selected list (reorder)."""
-
-
 class OperatorCommands(Event):
+    """The operator's commands applied this tick, in arrival order (numbered by the session)."""
+
     commands: tuple[OperatorCommand, ...]
 
 

@@ -38,6 +38,7 @@ from oimi.pipeline.events import (
     WorldState,
 )
 from oimi.pipeline.messages import InstructionBlock
+from oimi.pipeline.operator.commands import describe
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
@@ -391,8 +392,7 @@ class RerunSink:
                 acting[message.human] = None if message.phase == SafetyPhase.END else message.zone
             case OperatorCommands():
                 for c in message.commands:
-                    text = f"#{c.id} {c.verb.value} {c.activity}".rstrip()
-                    self._say("log/operator", text)
+                    self._say("log/operator", f"#{c.id} {describe(c)}")
             case _:
                 pass
 

@@ -45,7 +45,9 @@ def schema_data(topic: Topic) -> bytes:
 
     ``msgspec.json.schema`` puts every Struct under ``$defs``; the references are
     inlined (like Foxglove's own schemas) so that viewers without ``$ref`` support
-    can read it. Sorted keys keep the bytes stable from run to run.
+    can read it; a tagged union's ``discriminator`` (OpenAPI's, naming ``$defs``) is
+    dropped, each member's tag ``enum`` says the same. Sorted keys keep the bytes stable
+    from run to run.
     """
     kind = TOPIC_TYPES[topic]
     schema = msgspec.json.schema(kind)
@@ -69,7 +71,11 @@ def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -
         if name in seen:
             raise ValueError(f"recursive schema through {name!r} cannot be inlined")
         return _inline_refs(defs[name], defs, (*seen, name))
-    return {k: _inline_refs(v, defs, seen) for k, v in node.items() if k != "$defs"}
+    return {
+        k: _inline_refs(v, defs, seen)
+        for k, v in node.items()
+        if k not in ("$defs", "discriminator")
+    }
 
 
 @cache

@@ -44,6 +44,7 @@ from oimi.pipeline.events import (
     encode,
 )
 from oimi.pipeline.messages import Channel
+from oimi.pipeline.operator.commands import describe
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.runner import Session, library_scenarios
@@ -168,10 +169,7 @@ class Projection:
                 )
             case OperatorCommands():
                 for c in message.commands:
-                    options = "".join(f" {k}={v}" for k, v in sorted(c.options.items()))
-                    activity = f" {c.activity}" if c.activity else ""
-                    position = f" position={c.position}" if c.verb == "reorder" else ""
-                    self._add(t, tick, f"operator #{c.id} {c.verb}{activity}{options}{position}")
+                    self._add(t, tick, f"operator #{c.id} {describe(c)}")
             case OperatorState():
                 activities = ",".join(f"{a.name}:{a.state}" for a in message.activities)
                 self._add(t, tick, f"operator-state {message.button} {activities or '-'}")

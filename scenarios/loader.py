@@ -23,6 +23,7 @@ from typing import Any, Final
 import msgspec
 from oimi.pipeline.act.safety import safety_problems
 from oimi.pipeline.messages import Script
+from oimi.pipeline.operator.commands import VERBS
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.scenarios.errors import ScenarioError
@@ -39,6 +40,7 @@ from oimi.scenarios.schema import (
     Custom,
     FaultEvent,
     MinDistance,
+    OperatorEvent,
     RuleFired,
     Scenario,
     SensorKind,
@@ -416,14 +418,22 @@ def _invalid(message: str, document: Any) -> Invalid:
     text, _, path_text = message.partition(" - at ")
     path = parse_json_path(path_text.strip("`") or "$")
     if unknown := re.match(r"Object contains unknown field `([^`]+)`", text):
-        return Invalid((*path, unknown.group(1)), "unknown field")
+        hint = _OPERATOR_HINT if unknown.group(1) == "verb" else ""
+        return Invalid((*path, unknown.group(1)), "unknown field" + hint)
     if missing := re.match(r"Object missing required field `([^`]+)`", text):
         return Invalid((*path, missing.group(1)), "required, but missing")
     if bound := _OUT_OF_RANGE.match(text):
         return Invalid(
             path, f"must be {bound.group(2)} {bound.group(3)}, got {_value(document, path)}"
         )
+    if path[-1:] == ("cmd",) and text.startswith("Invalid value"):
+        return Invalid(path, f"{text} (one of {', '.join(VERBS)})")
     return Invalid(path, text)
+
+
+_OPERATOR_HINT: Final = (
+    '; an operator event holds its command: command = { cmd = "start" } (docs/scenario-files.md)'
+)
 
 
 def _value(document: Any, path: PathKey) -> str:
@@ -610,6 +620,8 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
             )
         if isinstance(event, TouchEvent | BehaviourEvent) and event.human not in humans:
             yield (*where, "human"), f"event names an unknown human {event.human!r}"
+        if isinstance(event, OperatorEvent) and event.command.id != 0:
+            yield (*where, "command", "id"), "the session numbers the commands: leave id out"
         if isinstance(event, BehaviourEvent):
             yield from _check_segment(event.segment, (*where, "segment"), event.human, outside)
         if isinstance(event, FaultEvent) and event.id is not None and event.id != ids[event.sensor]:

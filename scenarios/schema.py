@@ -24,8 +24,9 @@ from typing import Annotated, Final
 import msgspec
 from msgspec import Meta
 from oimi.pipeline.act.safety import SafetyConfig
-from oimi.pipeline.events import Button, MotionSource, OperatorVerb, Pad, SafetyZone
+from oimi.pipeline.events import Button, MotionSource, Pad, SafetyZone
 from oimi.pipeline.messages import TouchType
+from oimi.pipeline.operator.commands import OperatorCommand
 
 DEFAULT_TICK_HZ: Final = 50
 """Simulated clock rate when a scenario gives none (a tick of 20 ms)."""
@@ -340,12 +341,10 @@ class EventSpec(Spec, tag_field="kind", kw_only=True):
 
 
 class OperatorEvent(EventSpec, tag="operator", kw_only=True):
-    """A command from the operator's app (thesis 5.1)."""
+    """A command from the operator's app (thesis 5.1), as the App Interface receives it:
+    ``command = { cmd = "add", activity = "test_dance" }``. The session numbers it."""
 
-    verb: OperatorVerb
-    activity: str = ""
-    options: dict[str, str] = {}
-    position: Count = 0
+    command: OperatorCommand
 
 
 class JoystickEvent(EventSpec, tag="joystick", kw_only=True):

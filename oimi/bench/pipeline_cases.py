@@ -54,7 +54,8 @@ def bench_conditions(repetitions: int) -> list[Case]:
 
 def bench_latency() -> list[Case]:
     """Ticks from an input to the actuator command it causes (0: the same tick)."""
-    from oimi.pipeline.events import JoystickInput, OperatorVerb, Source, Topic
+    from oimi.pipeline.events import JoystickInput, Source, Topic
+    from oimi.pipeline.operator.commands import Stop
     from oimi.pipeline.sink import MemorySink
 
     session = bench_session(400)
@@ -68,7 +69,7 @@ def bench_latency() -> list[Case]:
     session.step(120, joystick=JoystickInput(tick=120, time_ms=2400))
     for tick in range(121, 150):
         session.step(tick)
-    session.step(150, commands=[session.command(OperatorVerb.STOP)])
+    session.step(150, commands=[session.command(Stop())])
     for tick in range(151, 200):
         session.step(tick)
 

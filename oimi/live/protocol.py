@@ -24,9 +24,9 @@ from oimi.pipeline.events import (
     BodyState,
     Button,
     LogEntry,
-    OperatorVerb,
     Pad,
 )
+from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.pipeline.operator.generator import GeneratorInfo
 from oimi.recorder.scene import SceneGeometry
 from oimi.scenarios.session.info import FIELD_LIMITS
@@ -40,64 +40,12 @@ PROTOCOL_VERSION: Final = 1
 class Request(
     msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True, tag_field="cmd"
 ):
-    """Base of every request: ``id`` is the client's, echoed in the reply."""
+    """Base of the session's own requests: ``id`` is the client's, echoed in the reply.
+
+    The operator's commands (``pipeline/operator/commands.py``) are requests too, tagged
+    by the same ``cmd``; the server hands them to the session as they are."""
 
     id: int = 0
-
-
-# ---------------------------------------------------------------- operator commands
-
-
-class ListActivities(Request, tag="list", kw_only=True):
-    """The available activities with their options (the reply's ``catalogue``)."""
-
-
-class Add(Request, tag="add", kw_only=True):
-    activity: str
-    options: dict[str, str] = {}
-
-
-class Remove(Request, tag="remove", kw_only=True):
-    activity: str
-
-
-class Reorder(Request, tag="reorder", kw_only=True):
-    activity: str
-    position: int
-
-
-class GetReady(Request, tag="get_ready", kw_only=True):
-    pass
-
-
-class Start(Request, tag="start", kw_only=True):
-    pass
-
-
-class Stop(Request, tag="stop", kw_only=True):
-    pass
-
-
-class Restart(Request, tag="restart", kw_only=True):
-    pass
-
-
-class Clear(Request, tag="clear", kw_only=True):
-    pass
-
-
-OPERATOR_REQUESTS: Final[dict[type[Request], OperatorVerb]] = {
-    ListActivities: OperatorVerb.LIST,
-    Add: OperatorVerb.ADD,
-    Remove: OperatorVerb.REMOVE,
-    Reorder: OperatorVerb.REORDER,
-    GetReady: OperatorVerb.GET_READY,
-    Start: OperatorVerb.START,
-    Stop: OperatorVerb.STOP,
-    Restart: OperatorVerb.RESTART,
-    Clear: OperatorVerb.CLEAR,
-}
-"""The requests that become an ``OperatorCommand`` applied at the next tick."""
 
 
 # ----------------------------------------------------------------- session requests
@@ -150,23 +98,7 @@ class SetSession(Request, tag="session", kw_only=True):
     notes: Annotated[str, msgspec.Meta(max_length=FIELD_LIMITS["notes"])] | None = None
 
 
-AnyRequest = (
-    ListActivities
-    | Add
-    | Remove
-    | Reorder
-    | GetReady
-    | Start
-    | Stop
-    | Restart
-    | Clear
-    | Auth
-    | Subscribe
-    | Unsubscribe
-    | GetState
-    | Joystick
-    | SetSession
-)
+AnyRequest = OperatorCommand | Auth | Subscribe | Unsubscribe | GetState | Joystick | SetSession
 
 _decoder = msgspec.json.Decoder(AnyRequest)
 

@@ -60,7 +60,6 @@ from oimi.live.connections import (
 from oimi.live.inputs import RELEASE_TEXT, JoystickGuard
 from oimi.live.protocol import (
     MAX_LINE_BYTES,
-    OPERATOR_REQUESTS,
     Hello,
     ProtocolError,
     Reply,
@@ -68,7 +67,8 @@ from oimi.live.protocol import (
     decode_request,
 )
 from oimi.live.view import LiveView
-from oimi.pipeline.events import Level, LogEntry, OperatorCommand
+from oimi.pipeline.events import Level, LogEntry
+from oimi.pipeline.operator.commands import Command, ListActivities, OperatorCommand
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.info import SessionInfo, with_fields
 from oimi.scenarios.session.recording import scene_of
@@ -141,7 +141,7 @@ class LiveServer:
         self._clients: list[Client] = []
         self._gate = Gate(MAX_PENDING)
         self._pending: list[OperatorCommand] = []
-        self._waiting: dict[int, tuple[Client, protocol.Request]] = {}
+        self._waiting: dict[int, tuple[Client, OperatorCommand]] = {}
         self._stop: asyncio.Event | None = None
         self._last_state = b""
         self._frame_every = max(1, FRAME_PERIOD_MS // session.tick_ms)
@@ -280,7 +280,7 @@ class LiveServer:
                 continue  # a scenario's own command
             client, request = waiting
             catalogue = None
-            if isinstance(request, protocol.ListActivities) and reply.ok:
+            if isinstance(request, ListActivities) and reply.ok:
                 catalogue = self.session.pipeline.handler.describe()
             client.send(
                 Reply(
@@ -398,18 +398,11 @@ class LiveServer:
         def reply(ok: bool, reason: str = "", **extra: object) -> None:
             client.send(Reply(id=request.id, ok=ok, reason=reason, **extra))  # type: ignore[arg-type]
 
-        verb = OPERATOR_REQUESTS.get(type(request))
-        if verb is not None:
-            command = self.session.command(
-                verb,
-                activity=getattr(request, "activity", ""),
-                options=dict(getattr(request, "options", {})),
-                position=getattr(request, "position", 0),
-            )
-            self._pending.append(command)
-            self._waiting[command.id] = (client, request)
-            return
         match request:
+            case Command():  # the operator's: numbered by the session, applied at the next tick
+                command = self.session.command(request)
+                self._pending.append(command)
+                self._waiting[command.id] = (client, request)
             case protocol.Subscribe():
                 client.subscribed, client.world = True, request.world
                 reply(True, "subscribed")

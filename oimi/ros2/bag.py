@@ -36,7 +36,6 @@ from oimi.pipeline.events import (
     ActuatorCommands,
     JoystickInput,
     MapSnapshot,
-    OperatorCommand,
     OperatorCommands,
     RuleChainState,
     SensorUpdates,
@@ -44,6 +43,7 @@ from oimi.pipeline.events import (
     WorldState,
 )
 from oimi.pipeline.messages import Channel, WorldMap
+from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info

@@ -33,12 +33,12 @@ from oimi.pipeline.events import (
     Event,
     JoystickInput,
     MapSnapshot,
-    OperatorCommand,
     RuleChainState,
     RuleDecisions,
     Topic,
 )
 from oimi.pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all

@@ -19,9 +19,10 @@ import msgspec
 from oimi.live.app import note
 from oimi.live.server import Addresses, LiveServer, ServeConfig
 from oimi.pipeline.errors import LocatedError
-from oimi.pipeline.events import JoystickInput, OperatorCommand
+from oimi.pipeline.events import JoystickInput
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
+from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all

@@ -27,12 +27,22 @@ from oimi.pipeline.events import (
     ActivityEntry,
     ActivityState,
     OperatorButton,
-    OperatorCommand,
     OperatorReply,
     OperatorState,
-    OperatorVerb,
 )
 from oimi.pipeline.messages import GeneratorNote, Message, Script, WorldMap
+from oimi.pipeline.operator.commands import (
+    Add,
+    Clear,
+    GetReady,
+    ListActivities,
+    OperatorCommand,
+    Remove,
+    Reorder,
+    Restart,
+    Start,
+    Stop,
+)
 from oimi.pipeline.operator.generator import (
     Catalogue,
     Generator,
@@ -158,19 +168,26 @@ class GeneratorHandler:
         """Do ``cmd`` completely or refuse it with a reason, changing nothing. ``world_map``
         is what generators see (a copy) when they generate."""
         self._seen = (world_map, now_ms)
-        handlers = {
-            OperatorVerb.LIST: self._list,
-            OperatorVerb.ADD: self._add,
-            OperatorVerb.REMOVE: self._remove,
-            OperatorVerb.REORDER: self._reorder,
-            OperatorVerb.GET_READY: self._get_ready,
-            OperatorVerb.START: self._start,
-            OperatorVerb.STOP: self._stop,
-            OperatorVerb.RESTART: self._restart,
-            OperatorVerb.CLEAR: self._clear,
-        }
         try:
-            reason, effects = handlers[cmd.verb](cmd)
+            match cmd:
+                case ListActivities():
+                    reason, effects = self._list()
+                case Add():
+                    reason, effects = self._add(cmd)
+                case Remove():
+                    reason, effects = self._remove(cmd)
+                case Reorder():
+                    reason, effects = self._reorder(cmd)
+                case GetReady():
+                    reason, effects = self._get_ready()
+                case Start():
+                    reason, effects = self._start()
+                case Stop():
+                    reason, effects = self._stop()
+                case Restart():
+                    reason, effects = self._restart()
+                case Clear():
+                    reason, effects = self._clear()
         except _Refused as refused:
             return HandlerResult(reply=OperatorReply(id=cmd.id, ok=False, reason=str(refused)))
         return HandlerResult(
@@ -282,10 +299,10 @@ class GeneratorHandler:
 
     # ------------------------------------------------------------ the commands
 
-    def _list(self, cmd: OperatorCommand) -> _Outcome:
+    def _list(self) -> _Outcome:
         return "available: " + ", ".join(self._catalogue.names()), ()
 
-    def _add(self, cmd: OperatorCommand) -> _Outcome:
+    def _add(self, cmd: Add) -> _Outcome:
         self._refuse_while("add", OperatorButton.LOADING, OperatorButton.STOP)
         name = cmd.activity
         if name not in self._catalogue:
@@ -302,7 +319,7 @@ class GeneratorHandler:
         self._button = OperatorButton.GET_READY
         return f"added {name!r}", ()
 
-    def _remove(self, cmd: OperatorCommand) -> _Outcome:
+    def _remove(self, cmd: Remove) -> _Outcome:
         self._refuse_while("remove", OperatorButton.LOADING)
         s = self._selected_or_refuse(cmd.activity)
         if s.state is ActivityState.CURRENT:
@@ -315,7 +332,7 @@ class GeneratorHandler:
             self._settle()
         return f"removed {s.name!r}", ()
 
-    def _reorder(self, cmd: OperatorCommand) -> _Outcome:
+    def _reorder(self, cmd: Reorder) -> _Outcome:
         self._refuse_while("reorder", OperatorButton.LOADING, OperatorButton.STOP)
         s = self._selected_or_refuse(cmd.activity)
         last = len(self._selected) - 1
@@ -325,7 +342,7 @@ class GeneratorHandler:
         self._selected.insert(cmd.position, s)
         return f"moved {s.name!r} to {cmd.position}", ()
 
-    def _get_ready(self, cmd: OperatorCommand) -> _Outcome:
+    def _get_ready(self) -> _Outcome:
         if self._button is not OperatorButton.GET_READY:
             raise _Refused(f"cannot get ready while the button shows {self._button.value}")
         if not self._selected:
@@ -365,7 +382,7 @@ class GeneratorHandler:
         self._button = OperatorButton.LOADING
         return f"generated {len(scripts)} scripts", ()
 
-    def _start(self, cmd: OperatorCommand) -> _Outcome:
+    def _start(self) -> _Outcome:
         if self._button is not OperatorButton.START:
             hint = {
                 OperatorButton.GET_READY: "; press get_ready first",
@@ -384,7 +401,7 @@ class GeneratorHandler:
         self._button = OperatorButton.STOP
         return f"started {len(todo)} activities", (PushScripts(entries=entries),)
 
-    def _stop(self, cmd: OperatorCommand) -> _Outcome:
+    def _stop(self) -> _Outcome:
         if self._button is not OperatorButton.STOP:
             raise _Refused(f"cannot stop: nothing runs (the button shows {self._button.value})")
         names = tuple(self._find(n).script.activityname for n in self._running)  # type: ignore[union-attr]
@@ -395,13 +412,13 @@ class GeneratorHandler:
         self._button = OperatorButton.START
         return "stopped", (StopActivities(activitynames=names),)
 
-    def _restart(self, cmd: OperatorCommand) -> _Outcome:
+    def _restart(self) -> _Outcome:
         self._refuse_while("restart", OperatorButton.LOADING, OperatorButton.STOP)
         for s in self._selected:
             s.state = ActivityState.NOT_YET_COMPLETED
         return "every activity is not yet completed", ()
 
-    def _clear(self, cmd: OperatorCommand) -> _Outcome:
+    def _clear(self) -> _Outcome:
         self._refuse_while("clear", OperatorButton.LOADING, OperatorButton.STOP)
         for s in self._selected:
             s.generator.shutdown()

@@ -15,13 +15,12 @@ import msgspec
 from oimi.pipeline.events import (
     JoystickInput,
     LockRelease,
-    OperatorCommand,
-    OperatorVerb,
     SafetyZone,
     Topic,
     WorldState,
 )
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
+from oimi.pipeline.operator.commands import Add, GetReady, OperatorCommand, Start
 from oimi.pipeline.registries import Registries
 from oimi.pipeline.sink import Sink
 from oimi.recorder.metadata import (
@@ -42,8 +41,8 @@ from oimi.scenarios.session.interrupts import interrupts_between_ticks
 from oimi.scenarios.simulation.sensors import Sensors
 from oimi.scenarios.simulation.world import World, stream_rng
 
-AUTO_START_VERBS = (OperatorVerb.GET_READY, OperatorVerb.START)
-"""A scenario whose events use one of these drives the session itself; others auto-start."""
+AUTO_START_COMMANDS = (GetReady, Start)
+"""A scenario whose events send one of these drives the session itself; others auto-start."""
 
 
 class Summary(msgspec.Struct, frozen=True, kw_only=True):
@@ -164,14 +163,14 @@ class Session:
             schedule.setdefault(tick, []).append(item)
 
         for name, options in self._selection():
-            at(0, OperatorEvent(at_s=0, verb=OperatorVerb.ADD, activity=name, options=options))
+            at(0, OperatorEvent(at_s=0, command=Add(activity=name, options=options)))
         drives = any(
-            isinstance(e, OperatorEvent) and e.verb in AUTO_START_VERBS
+            isinstance(e, OperatorEvent) and isinstance(e.command, AUTO_START_COMMANDS)
             for e in self.scenario.events
         )
         if self.scenario.activities and self.autostart and not drives:
-            at(0, OperatorEvent(at_s=0, verb=OperatorVerb.GET_READY))
-            at(1, OperatorEvent(at_s=0, verb=OperatorVerb.START))
+            at(0, OperatorEvent(at_s=0, command=GetReady()))
+            at(1, OperatorEvent(at_s=0, command=Start()))
         for event in self.scenario.events:
             tick = self._tick_of(event.at_s)
             at(tick, event)
@@ -198,14 +197,7 @@ class Session:
         for event in self.schedule.pop(tick, ()):
             match event:
                 case OperatorEvent():
-                    scheduled.append(
-                        self.command(
-                            event.verb,
-                            activity=event.activity,
-                            options=event.options,
-                            position=event.position,
-                        )
-                    )
+                    scheduled.append(self.command(event.command))
                 case JoystickEvent():
                     pad = event.pad
                     released = self._lock_held and not pad.locked
@@ -230,10 +222,11 @@ class Session:
             Topic.WORLD_STATE, time_ms * 1_000_000, self.world.state(tick=tick, time_ms=time_ms)
         )
 
-    def command(self, verb: OperatorVerb, **fields: object) -> OperatorCommand:
-        """A new operator command with the session's next id."""
+    def command(self, command: OperatorCommand) -> OperatorCommand:
+        """``command`` numbered with the session's next id (a client's or a scenario's own
+        id is not unique in the recording; the live server maps replies back)."""
         self._command_id += 1
-        return OperatorCommand(id=self._command_id, verb=verb, **fields)  # type: ignore[arg-type]
+        return msgspec.structs.replace(command, id=self._command_id)
 
     def run(
         self,

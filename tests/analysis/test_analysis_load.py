@@ -15,7 +15,15 @@ from oimi.analysis.load import (
     read_payloads,
     struct_schema,
 )
-from oimi.pipeline.events import ActuatorCommand, RuleDecision, RuleDecisions, Topic, encode
+from oimi.pipeline.events import (
+    ActuatorCommand,
+    OperatorCommands,
+    RuleDecision,
+    RuleDecisions,
+    Topic,
+    encode,
+)
+from oimi.pipeline.operator.commands import Reorder, Start
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
 
@@ -34,6 +42,21 @@ def test_optional_fixed_tuple_becomes_a_nullable_list() -> None:
     info = msgspec.inspect.type_info(ActuatorCommand)
     requested = next(f for f in info.fields if f.name == "requested")
     assert polars_dtype(requested.type) == pl.List(pl.Float64)
+
+
+def test_operator_commands_are_one_row_each_with_the_tag_and_nulls_for_absent_fields() -> None:
+    payload = encode(
+        OperatorCommands(
+            tick=3,
+            time_ms=60,
+            commands=(Reorder(id=1, activity="a", position=2), Start(id=2)),
+        )
+    )
+    table = payloads_to_tables(Topic.OPERATOR_COMMANDS, [payload])["/operator/commands"]
+    assert table.select("id", "cmd", "activity", "position").rows() == [
+        (1, "reorder", "a", 2),
+        (2, "start", None, None),
+    ]
 
 
 def test_decisions_are_exploded_one_row_per_rule() -> None:

@@ -82,7 +82,7 @@ def test_activity_timeline_and_goals_follow_the_reader(too_close) -> None:
 def test_operator_commands_carry_their_replies(too_close) -> None:
     _, metrics = too_close
     operator = metrics["operator"]
-    assert operator["verb"].to_list() == ["add", "get_ready", "start"]
+    assert operator["cmd"].to_list() == ["add", "get_ready", "start"]
     assert operator["ok"].to_list() == [True, True, True]
 
 

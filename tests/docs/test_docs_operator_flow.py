@@ -5,8 +5,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from oimi.pipeline.events import OperatorCommand, OperatorVerb, Topic
+import msgspec
+from oimi.pipeline.events import OperatorCommands, Topic, encode
 from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.operator.commands import Add, Command, GetReady, Start
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
@@ -18,14 +20,12 @@ IDLE = ActivityLibrary([ACTIVITIES]).idle()
 """The shipped idle activity."""
 
 
-def replies(p: Pipeline, tick: int, *verbs: OperatorVerb) -> list[tuple[bool, str]]:
+def replies(p: Pipeline, tick: int, *kinds: type[Command]) -> list[tuple[bool, str]]:
     sink = MemorySink()
     p.sink = sink
     commands = [
-        OperatorCommand(
-            id=tick * 10 + i, verb=v, activity="test_dance" if v is OperatorVerb.ADD else ""
-        )
-        for i, v in enumerate(verbs)
+        kind(id=tick * 10 + i, **({"activity": "test_dance"} if kind is Add else {}))
+        for i, kind in enumerate(kinds)
     ]
     p.tick(tick=tick, commands=commands)
     states = sink.on(Topic.OPERATOR_STATE)
@@ -44,10 +44,10 @@ def test_get_ready_and_start_in_one_tick_start_is_refused_then_accepted_next_tic
         handler=GeneratorHandler(default_catalogue()),
         sink=MemorySink(),
     )
-    replies(p, 0, OperatorVerb.ADD)
-    both = replies(p, 1, OperatorVerb.GET_READY, OperatorVerb.START)
+    replies(p, 0, Add)
+    both = replies(p, 1, GetReady, Start)
     assert both[0][0] and both[1] == (False, "cannot start while the button shows loading")
-    assert replies(p, 2, OperatorVerb.START) == [(True, "started 1 activities")]
+    assert replies(p, 2, Start) == [(True, "started 1 activities")]
 
 
 def test_operator_md_lists_every_rule_code() -> None:
@@ -55,3 +55,16 @@ def test_operator_md_lists_every_rule_code() -> None:
     Model parser": every code the library defines is documented."""
     rows = re.findall(r"^\| (\d+) \| `(\w+)` \|", (DOCS / "operator.md").read_text(), flags=re.M)
     assert [(int(code), name) for code, name in rows] == [(c.value, c.name) for c in RuleCode]
+
+
+def test_recording_md_shows_operator_commands_as_they_are_encoded() -> None:
+    """Each recorded line that docs/recording.md shows decodes into ``OperatorCommands`` and
+    encodes back to the same bytes (the union's tag first, only the verb's fields)."""
+    text = (DOCS / "recording.md").read_text(encoding="utf-8")
+    section = text.split("### Operator commands", 1)[1].split("```json\n", 1)[1]
+    lines = section.split("```", 1)[0].splitlines()
+    assert len(lines) == 3
+    for line in lines:
+        event = msgspec.json.decode(line, type=OperatorCommands)
+        assert encode(event).decode() == line
+    assert isinstance(msgspec.json.decode(lines[-1], type=OperatorCommands).commands[0], Start)

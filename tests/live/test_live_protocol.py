@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from typing import get_args
+
 import pytest
+from oimi.pipeline.operator.commands import VERBS, Add, OperatorCommand, Reorder
 
 from oimi.live.protocol import (
     MAX_LINE_BYTES,
-    Add,
     ProtocolError,
-    Reorder,
     Reply,
     Subscribe,
     decode_request,
@@ -33,6 +34,12 @@ def test_requests_decode_by_their_cmd():
         ('{"id": 3, "cmd": "fly"}', r"Invalid value 'fly' - at `\$.cmd`", 3),
         ('{"id": 5, "cmd": "add"}', "missing required field `activity`", 5),
         ('{"id": 6, "cmd": "reorder", "activity": "a", "position": "top"}', r"\$.position", 6),
+        (
+            '{"id": 8, "cmd": "reorder", "activity": "a", "position": -1}',
+            r">= 0 - at `\$.position`",
+            8,
+        ),
+        ('{"id": 9, "cmd": "stop", "activity": "a"}', "unknown field `activity`", 9),
         ('{"id": 7, "cmd": "start", "now": true}', "unknown field `now`", 7),
         ('["start"]', "bad request", None),
     ],
@@ -52,3 +59,13 @@ def test_replies_are_one_json_line_without_empty_fields():
     assert encode_message(Reply(id=2, ok=False, reason="busy")) == (
         b'{"type":"reply","id":2,"ok":false,"reason":"busy"}\n'
     )
+
+
+@pytest.mark.parametrize("verb", VERBS)
+def test_the_operators_commands_are_the_pipelines_own(verb):
+    """No second shape: the App Interface decodes the union the handler matches on."""
+    fields = {"add": ', "activity": "a"', "remove": ', "activity": "a"'}.get(verb, "")
+    if verb == "reorder":
+        fields = ', "activity": "a", "position": 0'
+    request = decode_request(f'{{"id": 3, "cmd": "{verb}"{fields}}}')
+    assert isinstance(request, get_args(OperatorCommand)) and request.verb == verb

@@ -61,11 +61,13 @@ def test_tcp_client_runs_a_session_and_the_recording_replays_clean(tmp_path):
     assert "recording:" in live.output
 
     rec = open_recording(recording)
-    commands = [
-        c.verb
+    recorded = [
+        c
         for m in rec.iter_messages(topics=[Topic.OPERATOR_COMMANDS])
         for c in m.decoded().commands  # type: ignore[attr-defined]
     ]
+    assert [c.id for c in recorded] == list(range(1, len(recorded) + 1))  # the session's
+    commands = [c.verb for c in recorded]
     assert commands[:4] == ["list", "add", "add", "add"]
     assert commands[-4:] == ["stop", "reorder", "restart", "clear"]
     comparison = redrive(recording)
@@ -109,7 +111,17 @@ def test_bad_lines_are_refused_and_the_session_goes_on(tmp_path):
         assert client.call(cmd="add", activity="example_act")["ok"]
         state = client.call(cmd="state")["state"]
         assert states(state) == {"example_act": "not_yet_completed"}
+
+        # Two clients' commands with the same id: each reply echoes its client's id.
+        same = LineClient.connect(live.tcp_port)
+        same.read()
+        client.send(id=99, cmd="add", activity="test_dance")
+        same.send(id=99, cmd="remove", activity="nothing")
+        assert client.reply_to(99)["ok"]
+        refused = same.reply_to(99)
+        assert not refused["ok"] and refused["reason"] == "'nothing' is not selected"
         client.close()
+        same.close()
         big.close()
         live.stop()
     assert live.returncode == 0, live.errors

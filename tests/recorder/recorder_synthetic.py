@@ -16,11 +16,9 @@ from oimi.pipeline.events import (
     MapChange,
     MapSnapshot,
     MotionSource,
-    OperatorCommand,
     OperatorCommands,
     OperatorReply,
     OperatorState,
-    OperatorVerb,
     ProgressItem,
     ProgressKind,
     ReaderProgress,
@@ -46,6 +44,7 @@ from oimi.pipeline.messages import (
     RuleMessage,
     WorldMap,
 )
+from oimi.pipeline.operator.commands import Add
 from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
 
 TICK_NS = 20_000_000
@@ -109,11 +108,7 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
         ),
         Topic.OPERATOR_COMMANDS: OperatorCommands(
             **t,
-            commands=(
-                OperatorCommand(
-                    id=tick, verb=OperatorVerb.ADD, activity="greet", options={"name": "Ana"}
-                ),
-            ),
+            commands=(Add(id=tick, activity="greet", options={"name": "Ana"}),),
         ),
         Topic.OPERATOR_STATE: OperatorState(
             **t,

@@ -15,6 +15,7 @@ from mcap.reader import make_reader
 from oimi.pipeline.events import TOPIC_TYPES, Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.recorder.reader import Recording, open_recording
+from oimi.recorder.topics import schema_data
 from oimi.scenarios import loader
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.session import runner
@@ -68,8 +69,7 @@ script = "activities/wait_for_child.txt"
 [[events]]
 kind = "operator"
 at_s = 1.0
-verb = "remove"
-activity = "no_such_activity"
+command = { cmd = "remove", activity = "no_such_activity" }
 
 [[events]]
 kind = "touch"
@@ -149,6 +149,13 @@ def test_every_message_validates_against_its_channels_json_schema(
             checked[channel.topic] += 1
     assert set(Topic) <= set(checked)
     assert {"/foxglove/scene", "/foxglove/tf", "/foxglove/log"} <= set(checked)
+
+
+@pytest.mark.parametrize("topic", list(Topic))
+def test_every_topic_schema_is_self_contained(topic: Topic) -> None:
+    """Viewers without ``$ref`` support read them: no reference is left, not even a tagged
+    union's discriminator mapping (the operator's commands)."""
+    assert b"$defs" not in schema_data(topic) and b"$ref" not in schema_data(topic)
 
 
 def test_metadata_and_attachments_alone_rebuild_the_same_run(

@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 import pytest
-from oimi.pipeline.events import OperatorVerb
+from oimi.pipeline.operator.commands import Add
 from oimi.pipeline.operator.generator import Catalogue
 from oimi.pipeline.operator.generators import DanceGenerator
 from oimi.scenarios.errors import ScenarioError
@@ -100,8 +100,7 @@ options = { tempo = "slow" }
 [[events]]
 at_s = 1.0
 kind = "operator"
-verb = "add"
-activity = "test_dance"
+command = { cmd = "add", activity = "test_dance" }
 
 [[events]]
 at_s = 2.0
@@ -184,7 +183,7 @@ def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
         FaultEvent,
         BehaviourEvent,
     ]
-    assert scenario.events[0].verb is OperatorVerb.ADD
+    assert scenario.events[0].command == Add(activity="test_dance")
     assert scenario.events[3].mode is FaultMode.OFFLINE
     assert scenario.events[4].segment == Stand()
     assert scenario.expect[0] == GoalReached(goal="greet", by_s=20.0)
@@ -276,6 +275,36 @@ ERRORS = [
         10,
     ),
     ("tick rate", "tick_hz = 60\n", r"tick_hz \(Hz\): 60 must divide 1000", 2),
+    (
+        "unknown operator command",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "strat" }\n',
+        r"events\[0\].command.cmd: Invalid value 'strat' \(one of list, add, remove, reorder,",
+        5,
+    ),
+    (
+        "operator command without its activity",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "remove" }\n',
+        r"events\[0\].command.activity: required, but missing$",
+        5,
+    ),
+    (
+        "operator command with another verb's field",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "stop", position = 1 }\n',
+        r"events\[0\].command.position \(index\): unknown field$",
+        5,
+    ),
+    (
+        "operator command with its own id",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "stop", id = 7 }\n',
+        r"events\[0\].command.id: the session numbers the commands: leave id out$",
+        5,
+    ),
+    (
+        "operator event in the old flat layout",
+        '[[events]]\nat_s = 1.0\nkind = "operator"\nverb = "start"\n',
+        r"events\[0\].verb: unknown field; an operator event holds its command: command = \{ cmd",
+        5,
+    ),
 ]
 
 

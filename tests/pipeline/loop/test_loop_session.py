@@ -8,8 +8,6 @@ import json
 import msgspec
 from oimi.pipeline.events import (
     JoystickInput,
-    OperatorCommand,
-    OperatorVerb,
     ProgressKind,
     Source,
     Topic,
@@ -30,6 +28,7 @@ from oimi.pipeline.messages import (
     RuleMessage,
     Script,
 )
+from oimi.pipeline.operator.commands import Add, Command, GetReady, OperatorCommand, Start
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
@@ -107,20 +106,20 @@ def pipeline(sink: MemorySink) -> Pipeline:
     )
 
 
-def cmd(i: int, verb: OperatorVerb, activity: str = "", **kw) -> OperatorCommand:
-    return OperatorCommand(id=i, verb=verb, activity=activity, **kw)
+def cmd(i: int, kind: type[Command], activity: str = "") -> OperatorCommand:
+    return kind(id=i, **({"activity": activity} if activity else {}))
 
 
 SCRIPTED = {
     0: dict(
         commands=[
-            cmd(1, OperatorVerb.ADD, "example_act"),
-            cmd(2, OperatorVerb.ADD, "test_dance"),
-            cmd(3, OperatorVerb.START),
+            cmd(1, Add, "example_act"),
+            cmd(2, Add, "test_dance"),
+            cmd(3, Start),
         ]
     ),
-    1: dict(commands=[cmd(4, OperatorVerb.GET_READY)]),
-    3: dict(commands=[cmd(5, OperatorVerb.START)], updates=[pose(1, 1.5, 60)]),
+    1: dict(commands=[cmd(4, GetReady)]),
+    3: dict(commands=[cmd(5, Start)], updates=[pose(1, 1.5, 60)]),
     40: dict(
         updates=[
             pose(2, 1.4, 800),

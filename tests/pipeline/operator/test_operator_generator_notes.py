@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from oimi.pipeline.events import OperatorCommand, OperatorVerb
 from oimi.pipeline.messages import GeneratorNote, Human, Script, WorldMap
+from oimi.pipeline.operator.commands import Add, Command, GetReady, Start
 from oimi.pipeline.operator.generator import BaseGenerator, Catalogue, OptionValue
 from oimi.pipeline.operator.generators.build import ScriptBuilder, led
 from oimi.pipeline.operator.handler import GeneratorHandler, OperatorButton
@@ -34,15 +34,15 @@ class Session:
         self.map = WorldMap(humans=[Human(id="c", creationtime=0, positionrho=1.2)])
         self.ids = 0
 
-    def do(self, verb: OperatorVerb, activity: str = "") -> str:
+    def do(self, kind: type[Command], activity: str = "") -> str:
         self.ids += 1
-        command = OperatorCommand(id=self.ids, verb=verb, activity=activity)
+        command = kind(id=self.ids, **({"activity": activity} if activity else {}))
         result = self.handler.handle(command, now_ms=self.ids * 20, world_map=self.map)
         assert result.reply.ok, result.reply.reason
         return result.reply.reason
 
     def get_ready(self) -> str:
-        self.do(OperatorVerb.GET_READY)
+        self.do(GetReady)
         self.handler.tick(0)
         script = self.handler.generated("looking")
         assert script is not None
@@ -55,7 +55,7 @@ def note(*, quiesce: bool = False, text: str = "") -> GeneratorNote:
 
 def test_a_generator_sees_a_copy_of_the_map_at_generate_time() -> None:
     s = Session()
-    s.do(OperatorVerb.ADD, "looking")
+    s.do(Add, "looking")
     assert s.get_ready() == "seen_0_made_1"
     assert s.generator.view is not None and s.generator.view.now_ms == 40
     assert [h.id for h in s.map.humans] == ["c"], "the generator emptied only its copy"
@@ -63,7 +63,7 @@ def test_a_generator_sees_a_copy_of_the_map_at_generate_time() -> None:
 
 def test_a_rule_note_is_heard_and_quiescence_shows_get_ready_then_regenerates() -> None:
     s = Session()
-    s.do(OperatorVerb.ADD, "looking")
+    s.do(Add, "looking")
     s.get_ready()
     assert s.handler.button is OperatorButton.START
     assert s.handler.deliver([note(text="popped 1")]) == [
@@ -78,9 +78,9 @@ def test_a_rule_note_is_heard_and_quiescence_shows_get_ready_then_regenerates() 
 
 def test_quiescence_while_running_waits_for_the_run_to_end() -> None:
     s = Session()
-    s.do(OperatorVerb.ADD, "looking")
+    s.do(Add, "looking")
     s.get_ready()
-    s.do(OperatorVerb.START)
+    s.do(Start)
     s.handler.deliver([note(quiesce=True)])
     assert s.handler.button is OperatorButton.STOP
     s.handler.activity_finished("looking", completed=True)

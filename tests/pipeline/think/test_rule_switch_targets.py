@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from oimi.pipeline.events import OperatorCommand, OperatorVerb, Topic
+from oimi.pipeline.events import Topic
 from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.operator.commands import Add, GetReady
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
@@ -25,9 +26,9 @@ def test_a_rule_switch_reaches_a_generated_script_before_it_was_started() -> Non
         handler=GeneratorHandler(default_catalogue()),
         sink=sink,
     )
-    add = OperatorCommand(id=1, verb=OperatorVerb.ADD, activity="test_dance")
+    add = Add(id=1, activity="test_dance")
     p.tick(tick=0, commands=[add])
-    p.tick(tick=1, commands=[OperatorCommand(id=2, verb=OperatorVerb.GET_READY)])
+    p.tick(tick=1, commands=[GetReady(id=2)])
     p.tick(tick=2)
     force_switch(p.map, "test_dance")
     p.tick(tick=3)
