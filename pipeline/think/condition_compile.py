@@ -223,6 +223,11 @@ class _Compiler:
             self.operand(arg, this_cls, spec.kind(i), spec.accepts(i))
             for i, arg in enumerate(call.args)
         )
+        if all(isinstance(arg, Literal) for arg in call.args):
+            # literal arguments are the same at every call: gather them once
+            args = tuple(get(None, None) for get in getters)  # type: ignore[arg-type]
+            if MISSING not in args:
+                return _bind_constant_call(spec, args)
         return _bind_call(spec, getters)
 
     # clauses ----------------------------------------------------------------------
@@ -276,13 +281,17 @@ class _Compiler:
         return _assign_step(f"{node.alias}${node.att}", node.scope, call, node.alias)
 
 
+def _bind_constant_call(spec: FunctionSpec, args: tuple[object, ...]) -> Getter:
+    """A call whose arguments are all literals (``B: closer_than (2.0)``) or none."""
+    fn = spec.fn
+    if spec.family is Family.B:
+        return lambda run, this: fn(run.ctx, this, *args)
+    return lambda run, this: fn(run.ctx, *args)
+
+
 def _bind_call(spec: FunctionSpec, getters: tuple[Getter, ...]) -> Getter:
     fn = spec.fn
     with_entity = spec.family is Family.B
-    if not getters:  # ``B: infront ()``, ``E: camera_offline ()``: no arguments to gather
-        if with_entity:
-            return lambda run, this: fn(run.ctx, this)
-        return lambda run, this: fn(run.ctx)
 
     def run_call(run: Run, this: Bound | None) -> object:
         args = []

@@ -2,7 +2,7 @@
 
 Two uses: a rule is skipped when every part its condition reads encodes as it did at
 its last evaluation (``rules.Memo``), and a body's changes are found by comparing
-the map's encoding before and after it (decoded only when they differ). Encodings are
+the map's parts before and after it (only the parts that differ are decoded). Encodings are
 msgpack, exact to the bit for numbers and twice as fast as JSON; diffs go through JSON
 so that they read as the recorded map does (``NaN`` is ``null``).
 """
@@ -22,6 +22,9 @@ from oimi.pipeline.messages import WorldMap
 MAX_CHANGE_TEXT: Final = 120
 """Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""
 
+FIELDS: Final = WorldMap.__struct_fields__
+"""The map's top-level parts, in the order it encodes them."""
+
 _encode = msgspec.msgpack.Encoder().encode
 
 
@@ -32,8 +35,9 @@ class MapParts:
     def __init__(self, world_map: WorldMap) -> None:
         self.world_map = world_map
         self._encoded: dict[str, bytes] = {}
-        self.baseline: bytes | None = None
-        """The whole map as the last fired rule left it: the ``before`` of the next body."""
+        self.baseline: dict[str, bytes] | None = None
+        """Top-level parts as the last fired rule left them: the ``before`` of the next body
+        (``None`` after a condition bound aliases or variables: not a body's doing)."""
 
     def encoded(self, path: str) -> bytes:
         """The part at ``path`` (``"humans"``, ``"robotstatus.touch"``), encoded."""
@@ -46,9 +50,22 @@ class MapParts:
         """Drop every cached encoding (the map may have changed)."""
         self._encoded.clear()
 
-    def whole(self) -> bytes:
-        """The whole map, encoded now."""
-        return _encode(self.world_map)
+    def before(self, names: tuple[str, ...]) -> dict[str, bytes]:
+        """The top-level parts ``names`` before a body: as the last fired rule left them."""
+        baseline = self.baseline
+        if baseline is None:
+            baseline = self.baseline = {}
+        for name in names:
+            if name not in baseline:
+                baseline[name] = self.encoded(name)
+        return {name: baseline[name] for name in names}
+
+    def after(self, names: tuple[str, ...]) -> dict[str, bytes]:
+        """The top-level parts ``names`` after a body (they become the baseline)."""
+        after = {name: self.encoded(name) for name in names}
+        assert self.baseline is not None
+        self.baseline.update(after)
+        return after
 
 
 Stores = tuple[tuple[tuple[str, str], ...], ...]
@@ -69,15 +86,20 @@ def _getter(path: str) -> Callable[[WorldMap], Any]:
     return operator.attrgetter(path)
 
 
-def map_changes(before: bytes, after: bytes) -> tuple[MapChange, ...]:
-    """The map's changes between two :meth:`MapParts.whole`, as :func:`diff` gives them."""
-    if before == after:
-        return ()
-    return tuple(diff(_as_json(before), _as_json(after)))
+def map_changes(before: dict[str, bytes], after: dict[str, bytes]) -> tuple[MapChange, ...]:
+    """The changes between the parts :meth:`MapParts.before` and :meth:`MapParts.after`
+    gave, as :func:`diff` gives them for the whole maps (parts in the map's order; only
+    the parts that differ are decoded)."""
+    return tuple(
+        change
+        for name in FIELDS
+        if name in before and before[name] != after[name]
+        for change in diff(_as_json(before[name]), _as_json(after[name]), name)
+    )
 
 
 def _as_json(encoded: bytes) -> Any:
-    """An encoded map as its JSON decodes."""
+    """An encoded part as the map's JSON decodes it."""
     return msgspec.json.decode(msgspec.json.encode(msgspec.msgpack.decode(encoded)))
 
 

@@ -20,6 +20,7 @@ from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condit
 from oimi.pipeline.think.errors import RuleSyntaxError
 from oimi.pipeline.think.functions import TIME, FunctionRegistry
 from oimi.pipeline.think.mapparts import (
+    FIELDS,
     MAX_CHANGE_TEXT,
     MapParts,
     Stores,
@@ -43,9 +44,10 @@ class RuleContext:
     condition binds scope-U aliases or variables, so a body's diff is its own)."""
     notes: list[GeneratorNote] = field(default_factory=list)
     """Messages the rules wrote to script generators this tick (delivered by the loop)."""
-    skip_unchanged: bool = True
-    """Skip a rule whose condition read the same as at its last evaluation, where it did
-    not hold and bound nothing: its decision is the same (off: every rule is evaluated)."""
+    shortcuts: bool = True
+    """Skip a rule whose condition would find what it read at its last evaluation that did
+    not hold (see :class:`Memo`), and compare only the parts of the map a body declares
+    it writes (:attr:`Rule.writes`). Off: every rule is evaluated, the whole map compared."""
 
 
 class Effect(enum.Enum):
@@ -68,6 +70,9 @@ class Rule:
     _memo: Memo | None = None
     condition_text: ClassVar[str] = "! {TRUE}"
     description: ClassVar[str] = ""
+    writes: ClassVar[tuple[str, ...] | None] = None
+    """The parts of the map (``WorldMap`` fields) the body may change; only these are
+    compared after it. ``None``: any part."""
     housekeeping: ClassVar[bool] = False
     """A rule that keeps the robot's mind running (kick-starting, blind stops, notes) rather
     than one a therapist reads: reports fold its firings away by default."""
@@ -113,7 +118,7 @@ class Rule:
             parts = ctx.parts = MapParts(world_map)
         stores = stores_of(world_map, ctx.tick_scope) if memo.stores else None
         inputs = None
-        if memo.paths is not None and ctx.skip_unchanged:
+        if memo.paths is not None and ctx.shortcuts:
             if memo.wait:
                 memo.wait -= 1
             else:
@@ -135,12 +140,12 @@ class Rule:
             parts.baseline = None  # the condition bound U-scope aliases: not the body's doing
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            before = parts.baseline = parts.baseline or parts.whole()
+            written = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
+            before = parts.before(written)
             effect = self.act(world_map, found, ctx)
             parts.forget()
             if effect is not Effect.UNCHANGED:
-                parts.baseline = parts.whole()
-                changes = map_changes(before, parts.baseline)
+                changes = map_changes(before, parts.after(written))
         decision = RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,
@@ -167,6 +172,9 @@ class RuleRegistry:
             if cls.rulecode in found:
                 taken = found[cls.rulecode].__name__
                 raise ValueError(f"rule code {cls.rulecode} of {cls.__name__} is taken by {taken}")
+            unknown = [part for part in cls.writes or () if part not in FIELDS]
+            if unknown:
+                raise ValueError(f"{cls.__name__}.writes: {unknown} are not parts of the map")
             try:
                 compile_condition(cls.condition_text, registry=functions)
             except RuleSyntaxError as error:

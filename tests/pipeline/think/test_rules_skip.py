@@ -77,7 +77,7 @@ REGISTRY = RuleRegistry([*BUILTIN_RULES, *EXTRA_RULES], functions=FUNCTIONS)
 
 
 def loaded(codes: list[int], *, skip: bool) -> RuleChain:
-    chain = RuleChain(REGISTRY, skip_unchanged=skip)
+    chain = RuleChain(REGISTRY, shortcuts=skip)
     chain.apply(
         RuleMessage(
             rulecode=code,
