@@ -116,10 +116,9 @@ class _Compiler:
                 raise located(f"expected {kind.value} here, got the alias {node.alias}", node.pos)
             optional = kind is ArgKind.OPTIONAL_ENTITY
             accepted = accepts or (object,)
-            if node.alias != THIS:
-                self.read_alias(node.alias)
             if node.alias == THIS:
                 return lambda run, this: this if isinstance(this, accepted) else MISSING
+            self.read_alias(node.alias)
 
             def entity(run: Run, this: Bound | None, _a: str = node.alias) -> object:
                 found = run.entity(_a)

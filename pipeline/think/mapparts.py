@@ -1,10 +1,10 @@
 """The map's parts as bytes during one pass of the rule chain.
 
 Two uses: a rule is skipped when every part its condition reads encodes as it did at
-its last evaluation (``rules.Memo``), and a body's changes are found by comparing
-the map's parts before and after it (only the parts that differ are decoded). Encodings are
-msgpack, exact to the bit for numbers and twice as fast as JSON; diffs go through JSON
-so that they read as the recorded map does (``NaN`` is ``null``).
+its last evaluation (``rules.Memo``), and a body's changes are found by comparing the
+map's parts before and after it (only the parts that differ are decoded). Encodings
+are msgpack, exact to the bit for numbers and twice as fast as JSON; diffs go through
+JSON so that they read as the recorded map does (``NaN`` is ``null``).
 """
 
 from __future__ import annotations
@@ -63,8 +63,7 @@ class MapParts:
     def after(self, names: tuple[str, ...]) -> dict[str, bytes]:
         """The top-level parts ``names`` after a body (they become the baseline)."""
         after = {name: self.encoded(name) for name in names}
-        assert self.baseline is not None
-        self.baseline.update(after)
+        self.baseline = {**(self.baseline or {}), **after}
         return after
 
 
