@@ -1,6 +1,6 @@
 """Differences between two JSON trees (decoded builtins: dicts, lists, leaves).
 
-The one walker behind a rule decision's map changes (``pipeline.think.rules.diff``)
+The one walker behind a rule decision's map changes (``pipeline.think.mapparts.diff``)
 and replay's first differing field (``replay.compare.first_difference``).
 """
 

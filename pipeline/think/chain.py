@@ -26,8 +26,12 @@ from oimi.pipeline.think.rules import Rule, RuleContext, RuleRegistry
 class RuleChain:
     """Active rules in order, held (delayed) and removed ones, and the propagation lock."""
 
-    def __init__(self, registry: RuleRegistry) -> None:
+    def __init__(self, registry: RuleRegistry, *, shortcuts: bool = True) -> None:
+        """``shortcuts``: skip rules that would find what they read unchanged, and compare
+        only the parts of the map a body declares it writes (the decisions are the same
+        either way; off for comparisons)."""
         self.registry = registry
+        self.shortcuts = shortcuts
         self.notes: list[GeneratorNote] = []
         self.active: list[Rule] = []
         self.held: dict[str, Rule] = {}
@@ -56,7 +60,7 @@ class RuleChain:
         """Pass the map through every active rule in order; nothing happens while locked."""
         if self.locked:
             return []
-        ctx = RuleContext(now_ms=now_ms)
+        ctx = RuleContext(now_ms=now_ms, shortcuts=self.shortcuts)
         decisions = [rule.decide(world_map, ctx) for rule in list(self.active)]
         self.notes += ctx.notes
         return decisions

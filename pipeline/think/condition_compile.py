@@ -1,7 +1,8 @@
 """Compiling a condition's AST to closures, checked against a function registry.
 
 ``compile_condition(text, registry=...)`` parses once, checks every class, field,
-operator and function, and builds the steps a :class:`Condition` runs.
+operator and function, and builds the steps a :class:`Condition` runs, with what they
+read (:attr:`Condition.reads`: the map fields, the clock, the alias and variable stores).
 """
 
 from __future__ import annotations
@@ -33,10 +34,12 @@ from oimi.pipeline.think.condition_parse import (
     parse_condition,
 )
 from oimi.pipeline.think.condition_runtime import (
+    ENTITY_READS,
     FAIL,
     GO,
     MISSING,
     NUMBER_OPS,
+    STORE_READS,
     TRUE,
     Condition,
     Getter,
@@ -67,6 +70,20 @@ def _suggest(name: str, options: Sequence[str]) -> str:
 class _Compiler:
     def __init__(self, registry: FunctionRegistry):
         self.registry = registry
+        self.reads: set[str] | None = set()
+        """What the steps compiled so far read (``None``: a function that may read anything)."""
+        self.alias_classes: dict[str, str] = {}
+        """The class each alias has once the CLASS clauses compiled so far succeeded."""
+
+    def read(self, *paths: str) -> None:
+        if self.reads is not None:
+            self.reads.update(paths)
+
+    def read_alias(self, alias: str) -> None:
+        """An alias looked up in the stores, and its entity in its class's list (in any
+        entity list when no earlier CLASS clause fixed its class)."""
+        cls = self.alias_classes.get(alias)
+        self.read(*STORE_READS, *((ENTITY_READS[cls],) if cls else ENTITY_READS.values()))
 
     # operands ---------------------------------------------------------------------
 
@@ -101,6 +118,7 @@ class _Compiler:
             accepted = accepts or (object,)
             if node.alias == THIS:
                 return lambda run, this: this if isinstance(this, accepted) else MISSING
+            self.read_alias(node.alias)
 
             def entity(run: Run, this: Bound | None, _a: str = node.alias) -> object:
                 found = run.entity(_a)
@@ -132,6 +150,7 @@ class _Compiler:
             field = node.field
             if node.alias == THIS:
                 return lambda run, this: getattr(this, field)
+            self.read_alias(node.alias)
 
             def other_field(run: Run, this: Bound | None, _a: str = node.alias) -> object:
                 return getattr(run.entity(_a), field, MISSING)
@@ -146,9 +165,11 @@ class _Compiler:
                     return attributes.get(att, MISSING)
 
                 return this_att
+            self.read_alias(node.alias)
             return lambda run, this, _a=node.alias: run.attribute(_a, att)
         if isinstance(node, VarRef):
             name = node.name
+            self.read(*STORE_READS)
 
             def variable(run: Run, this: Bound | None) -> object:
                 value = run.variable(name)
@@ -193,10 +214,19 @@ class _Compiler:
             raise located(
                 f"{call.name!r} does not apply to #{this_cls} (only {only})", call.name_pos
             )
+        if spec.reads is None:
+            self.reads = None
+        else:
+            self.read(*spec.reads)
         getters = tuple(
             self.operand(arg, this_cls, spec.kind(i), spec.accepts(i))
             for i, arg in enumerate(call.args)
         )
+        if all(isinstance(arg, Literal) for arg in call.args):
+            # literal arguments are the same at every call: gather them once
+            args = tuple(get(None, None) for get in getters)  # type: ignore[arg-type]
+            if MISSING not in args:
+                return _bind_constant_call(spec, args)
         return _bind_call(spec, getters)
 
     # clauses ----------------------------------------------------------------------
@@ -238,20 +268,29 @@ class _Compiler:
             call = self.call(node.call, Family.E)
             return lambda run: GO if call(run, None) is True else FAIL
         if isinstance(node, ClassClause):
-            return _class_step(node, tuple(self.criterion(c, node.cls) for c in node.criteria))
+            self.read(*STORE_READS, ENTITY_READS[node.cls])
+            criteria = tuple(self.criterion(c, node.cls) for c in node.criteria)
+            self.alias_classes[node.alias] = node.cls
+            return _class_step(node, criteria)
+        self.read(*STORE_READS)
         if isinstance(node, VarClause):
             return _assign_step(node.var, node.scope, self.call(node.call, Family.F), None)
+        self.read_alias(node.alias)
         call = self.call(node.call, Family.F)
         return _assign_step(f"{node.alias}${node.att}", node.scope, call, node.alias)
+
+
+def _bind_constant_call(spec: FunctionSpec, args: tuple[object, ...]) -> Getter:
+    """A call whose arguments are all literals (``B: closer_than (2.0)``) or none."""
+    fn = spec.fn
+    if spec.family is Family.B:
+        return lambda run, this: fn(run.ctx, this, *args)
+    return lambda run, this: fn(run.ctx, *args)
 
 
 def _bind_call(spec: FunctionSpec, getters: tuple[Getter, ...]) -> Getter:
     fn = spec.fn
     with_entity = spec.family is Family.B
-    if not getters:  # ``B: infront ()``, ``E: camera_offline ()``: no arguments to gather
-        if with_entity:
-            return lambda run, this: fn(run.ctx, this)
-        return lambda run, this: fn(run.ctx)
 
     def run_call(run: Run, this: Bound | None) -> object:
         args = []
@@ -326,7 +365,7 @@ def compile_condition(text: str, *, registry: FunctionRegistry | None = None) ->
     ast = parse_condition(text)
     if not ast.has_bang:
         if ast.left and isinstance(ast.left[0], TrueClause) and len(ast.left) == 1:
-            return Condition(text, (lambda run: TRUE,), (), registry.version)
+            return Condition(text, (lambda run: TRUE,), (), registry.version, reads=())
         if not ast.left:
             raise located("empty condition", (1, 1))
         first_eval = next((c for c in ast.left if isinstance(c, EvalClause)), None)
@@ -340,4 +379,5 @@ def compile_condition(text: str, *, registry: FunctionRegistry | None = None) ->
     steps = tuple(compiler.clause(c, True) for c in ast.left)
     steps += tuple(compiler.clause(c, False) for c in ast.right)
     aliases = tuple(c.alias for c in ast.left if isinstance(c, ClassClause))
-    return Condition(text, steps, aliases, registry.version)
+    reads = None if compiler.reads is None else tuple(sorted(compiler.reads))
+    return Condition(text, steps, aliases, registry.version, reads=reads)

@@ -37,6 +37,15 @@ def entity_ref(cls: str, entity: Bound) -> str:
 
 _ENTITY_FIELDS: Final = {m.name: m.field for m in ENTITY_LISTS}
 
+ENTITY_READS: Final = {**_ENTITY_FIELDS, ACTIVITY_CLASS: "robotstatus.activities"}
+"""Where a condition reads the entities of each class (a :attr:`Condition.reads` path)."""
+
+TICK_SCOPE: Final = "tick_scope"
+"""In :attr:`Condition.reads`: the rule chain's per-tick store (scope T)."""
+
+STORE_READS: Final = ("aliases", "variables", TICK_SCOPE)
+"""What looking up an alias or a variable reads: the map's scope-U stores and scope T."""
+
 
 def entities_of(world_map: WorldMap, cls: str) -> Sequence[Bound]:
     field = _ENTITY_FIELDS.get(cls)
@@ -235,14 +244,27 @@ class Evaluation(msgspec.Struct, frozen=True, kw_only=True):
 class Condition:
     """A compiled condition: closures only, no parsing at evaluation time."""
 
-    __slots__ = ("_steps", "aliases", "registry_version", "text")
+    __slots__ = ("_steps", "aliases", "reads", "registry_version", "text")
 
-    def __init__(self, text: str, steps: tuple[Step, ...], aliases: tuple[str, ...], version: str):
+    def __init__(
+        self,
+        text: str,
+        steps: tuple[Step, ...],
+        aliases: tuple[str, ...],
+        version: str,
+        *,
+        reads: tuple[str, ...] | None = None,
+    ):
         self.text = text
         self._steps = steps
         self.aliases = aliases
         """Aliases the condition's CLASS clauses bind, in order."""
         self.registry_version = version
+        self.reads = reads
+        """Everything an evaluation reads, sorted: map field paths (``"humans"``,
+        ``"robotstatus.touch"``), ``"now_ms"`` (the clock) and ``"tick_scope"``; ``None``
+        when it calls a function that may read anything. Two evaluations that find all of
+        these equal give the same result."""
 
     def evaluate(
         self, world_map: WorldMap, *, now_ms: int, tick_scope: dict[str, str] | None = None

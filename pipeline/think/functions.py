@@ -10,6 +10,11 @@ Arity and argument kinds come from the signature: a parameter annotated with an
 entity type takes an alias (``?child``), ``float``/``int`` a number (strings are
 cast when the condition runs; a failed cast makes the call false), ``str`` a
 text; defaults and ``*args`` are supported.
+
+A function may declare what it reads besides its arguments (``reads=("cameras",)``,
+``reads=(TIME,)``): map fields by path and the clock. A rule whose condition calls
+only declaring functions is skipped while nothing it reads changed; a function that
+declares nothing is taken to read everything, and its rules are always evaluated.
 """
 
 from __future__ import annotations
@@ -32,6 +37,9 @@ CLASS_NAMES: Final = (*(m.name for m in ENTITY_LISTS), ACTIVITY_CLASS)
 """The classes a ``CLASS`` clause can look for (``#Human``...)."""
 
 SPEC_ATTRIBUTE: Final = "__oimi_rule_function__"
+
+TIME: Final = "now_ms"
+"""In a function's ``reads``: it reads the clock (``ctx.now_ms``)."""
 
 
 class Family(enum.StrEnum):
@@ -83,6 +91,9 @@ class FunctionSpec:
     """For family B: the classes whose entities it applies to."""
     signature: str
     """``name (a, b=1, *rest)`` as shown in errors and the documentation."""
+    reads: tuple[str, ...] | None = None
+    """What it reads besides its arguments (and, for B, its entity): map field paths
+    (``"robotstatus.touch"``) and :data:`TIME`; ``None``: anything (never skipped)."""
 
     @property
     def doc(self) -> str:
@@ -108,31 +119,54 @@ class FunctionSpec:
         return f"{self.min_args} to {self.max_args}"
 
 
-def _mark(family: Family, name: str, classes: tuple[str, ...]) -> Callable:
+def check_read(path: str) -> str:
+    """``path`` if it names :data:`TIME` or a field of the map (``"humans"``,
+    ``"robotstatus.touch"``), else ``ValueError``."""
+    if path == TIME:
+        return path
+    struct: object = WorldMap
+    for part in path.split("."):
+        fields = getattr(struct, "__struct_fields__", ())
+        if part not in fields:
+            raise ValueError(f"{path!r} is not {TIME!r} nor a field path of the map")
+        struct = typing.get_type_hints(struct).get(part)
+    return path
+
+
+def _mark(
+    family: Family, name: str, classes: tuple[str, ...], reads: Iterable[str] | None
+) -> Callable:
+    declared = None if reads is None else tuple(check_read(path) for path in reads)
+
     def decorate(fn: Callable) -> Callable:
-        setattr(fn, SPEC_ATTRIBUTE, (family, name, classes))
+        setattr(fn, SPEC_ATTRIBUTE, (family, name, classes, declared))
         return fn
 
     return decorate
 
 
-def boolean(name: str, *, classes: Iterable[str] = CLASS_NAMES) -> Callable:
-    """Mark a B function ``fn(ctx, entity, *args) -> bool``, usable on entities of ``classes``."""
+def boolean(
+    name: str, *, classes: Iterable[str] = CLASS_NAMES, reads: Iterable[str] | None = None
+) -> Callable:
+    """Mark a B function ``fn(ctx, entity, *args) -> bool``, usable on entities of ``classes``;
+    ``reads``: what it reads besides its arguments and entity (``None``: anything)."""
     classes = tuple(classes)
     unknown = [c for c in classes if c not in CLASS_NAMES]
     if unknown:
         raise ValueError(f"unknown classes {unknown} for B function {name!r}")
-    return _mark(Family.B, name, classes)
+    return _mark(Family.B, name, classes, reads)
 
 
-def string(name: str) -> Callable:
-    """Mark an F function ``fn(ctx, *args) -> str | None`` (``None``: the assignment fails)."""
-    return _mark(Family.F, name, ())
+def string(name: str, *, reads: Iterable[str] | None = None) -> Callable:
+    """Mark an F function ``fn(ctx, *args) -> str | None`` (``None``: the assignment fails);
+    ``reads``: what it reads besides its arguments (``None``: anything)."""
+    return _mark(Family.F, name, (), reads)
 
 
-def evaluation(name: str) -> Callable:
-    """Mark an E function ``fn(ctx, *args) -> bool``."""
-    return _mark(Family.E, name, ())
+def evaluation(name: str, *, reads: Iterable[str] | None = None) -> Callable:
+    """Mark an E function ``fn(ctx, *args) -> bool``; ``reads``: what it reads besides its
+    arguments (``None``: anything)."""
+    return _mark(Family.E, name, (), reads)
 
 
 def _is_bound_type(tp: object) -> bool:
@@ -162,7 +196,7 @@ def spec_of(fn: Callable) -> FunctionSpec:
     mark = getattr(fn, SPEC_ATTRIBUTE, None)
     if mark is None:
         raise ValueError(f"{fn!r} is not marked with @boolean, @string or @evaluation")
-    family, name, classes = mark
+    family, name, classes, reads = mark
     hints = typing.get_type_hints(fn)
     params = list(inspect.signature(fn).parameters.values())
     skip = 2 if family is Family.B else 1  # ctx (and the entity for B)
@@ -204,6 +238,7 @@ def spec_of(fn: Callable) -> FunctionSpec:
         entity_types=tuple(entity_types),
         classes=classes,
         signature=f"{name} ({', '.join(shown)})",
+        reads=reads,
     )
 
 

@@ -4,7 +4,8 @@ Each rule's condition is its class attribute ``condition_text``; its body change
 the map (the current block and its ``changed`` flag, ``overridecmd``, variables,
 attributes). Bodies are idempotent per situation, so a rule that keeps firing
 does not keep restarting the actuators; a body that decides to do nothing returns
-``False``, which spares the chain comparing the map.
+``Effect.UNCHANGED``, which spares the chain comparing the map, and ``writes`` names
+the parts of the map a body may change (only these are encoded before it runs).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ class KickStarter(Rule):
 
     rulecode = rulecodes.KICK_STARTER
     condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
+    writes = ("humans", "scriptinfo")
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         child = found.entity(world_map, "?child")
@@ -86,6 +88,7 @@ class ChildTooClose(Rule):
 
     rulecode = rulecodes.CHILD_TOO_CLOSE
     condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
+    writes = ("humans", "scriptinfo")
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx, "?child")
@@ -96,6 +99,7 @@ class ObstacleTooClose(Rule):
 
     rulecode = rulecodes.OBSTACLE_TOO_CLOSE
     condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
+    writes = ("obstacles", "scriptinfo")
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx, "?thing")
@@ -111,6 +115,7 @@ class SensorsBlind(Rule):
 
     rulecode = rulecodes.SENSORS_BLIND
     condition_text = "! {E: camera_offline ()}"
+    writes = ("scriptinfo",)
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         return soften(world_map, found, ctx)
@@ -121,6 +126,7 @@ class ChildLeft(Rule):
 
     rulecode = rulecodes.CHILD_LEFT
     condition_text = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
+    writes = ("scriptinfo", "variables")
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         current = world_map.scriptinfo.currentactivity
@@ -149,6 +155,7 @@ class TouchReward(Rule):
 
     rulecode = rulecodes.TOUCH_REWARD
     condition_text = '! {E: touched ("C")}'
+    writes = ("scriptinfo", "variables")
     reward = InstructionBlock(
         led=(
             _led(1.0, 0.2, 0.2, duration=400),
@@ -169,6 +176,7 @@ class HugReward(Rule):
 
     rulecode = rulecodes.HUG_REWARD
     condition_text = '! {E: touched ("H")}'
+    writes = ("scriptinfo", "variables")
     reward = InstructionBlock(
         led=(_led(1.0, 0.5, 0.2, duration=1500),),
         audioout=(AudioOut(track_path="purr.wav", wait_t=0, duration=1500),),
@@ -184,6 +192,7 @@ class AttentionLost(Rule):
 
     rulecode = rulecodes.ATTENTION_LOST
     condition_text = "{CLASS #Human L ?child} ! {E: attention_low (?child, 5000)}"
+    writes = ("scriptinfo", "variables")
     repeat_ms: Final = 10_000
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
@@ -212,6 +221,7 @@ class BatteryLow(Rule):
 
     rulecode = rulecodes.BATTERY_LOW
     condition_text = "! {E: battery_below (120000)}"
+    writes = ("scriptinfo",)
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         info = world_map.scriptinfo
@@ -231,6 +241,7 @@ class JoystickNote(Rule):
 
     rulecode = rulecodes.JOYSTICK_NOTE
     condition_text = "! {E: joystick_engaged ()}"
+    writes = ("variables",)
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         since = str(world_map.robotstatus.joystick_engagedtime)
@@ -247,6 +258,7 @@ class ToyNearby(Rule):
 
     rulecode = rulecodes.TOY_NEARBY
     condition_text = "{CLASS #Object L ?toy ?THIS>&istarget OP= 1} ! {E: near (?toy, 1.0)}"
+    writes = ("objects",)
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         toy = found.entity(world_map, "?toy")

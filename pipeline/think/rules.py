@@ -9,20 +9,27 @@ from __future__ import annotations
 
 import enum
 import hashlib
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar, Final
 
-import msgspec
 from oimi.pipeline.events import MapChange, RuleDecision
-from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.messages import GeneratorNote, RuleMessage, WorldMap
+from oimi.pipeline.think.condition_runtime import STORE_READS
 from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
 from oimi.pipeline.think.errors import RuleSyntaxError
-from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.functions import TIME, FunctionRegistry
+from oimi.pipeline.think.mapparts import (
+    FIELDS,
+    MAX_CHANGE_TEXT,
+    MapParts,
+    Stores,
+    diff,
+    map_changes,
+    stores_of,
+)
 
-MAX_CHANGE_TEXT = 120
-"""Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""
+__all__ = ["MAX_CHANGE_TEXT", "Effect", "Rule", "RuleContext", "RuleRegistry", "diff"]
 
 
 @dataclass
@@ -31,11 +38,16 @@ class RuleContext:
 
     now_ms: int
     tick_scope: dict[str, str] = field(default_factory=dict)
-    snapshot: bytes | None = None
-    """The map's JSON as the last fired rule left it (saves encoding it again); reset when
-    a condition binds scope-U aliases or variables, so a body's diff is its own."""
+    parts: MapParts | None = None
+    """The map's parts encoded during this pass (made by the first rule): what skipped rules
+    compare, and the map as the last fired rule left it (its baseline is reset when a
+    condition binds scope-U aliases or variables, so a body's diff is its own)."""
     notes: list[GeneratorNote] = field(default_factory=list)
     """Messages the rules wrote to script generators this tick (delivered by the loop)."""
+    shortcuts: bool = True
+    """Skip a rule whose condition would find what it read at its last evaluation that did
+    not hold (see :class:`Memo`), and compare only the parts of the map a body declares
+    it writes (:attr:`Rule.writes`). Off: every rule is evaluated, the whole map compared."""
 
 
 class Effect(enum.Enum):
@@ -55,8 +67,12 @@ class Rule:
     """
 
     rulecode: ClassVar[int]
+    _memo: Memo | None = None
     condition_text: ClassVar[str] = "! {TRUE}"
     description: ClassVar[str] = ""
+    writes: ClassVar[tuple[str, ...] | None] = None
+    """The parts of the map (``WorldMap`` fields) the body may change; only these are
+    compared after it. ``None``: any part."""
     housekeeping: ClassVar[bool] = False
     """A rule that keeps the robot's mind running (kick-starting, blind stops, notes) rather
     than one a therapist reads: reports fold its firings away by default."""
@@ -89,25 +105,57 @@ class Rule:
         ctx.notes.append(GeneratorNote(generator=generator, rule=self.name, quiesce=True))
 
     def decide(self, world_map: WorldMap, ctx: RuleContext) -> RuleDecision:
-        """Evaluate the condition, run the body if it holds, and report what changed."""
-        bound = (dict(world_map.aliases), dict(world_map.variables))
-        found = self.condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
-        if (world_map.aliases, world_map.variables) != bound:
-            ctx.snapshot = None  # the condition bound U-scope aliases: not the body's doing
+        """Evaluate the condition, run the body if it holds, and report what changed.
+
+        A condition that declares what it reads (:attr:`Condition.reads`) and finds it as
+        at its last evaluation that did not hold is not run again (see :class:`Memo`)."""
+        condition = self.condition
+        memo = self._memo
+        if memo is None or memo.condition is not condition:
+            memo = self._memo = Memo(condition)
+        parts = ctx.parts
+        if parts is None or parts.world_map is not world_map:
+            parts = ctx.parts = MapParts(world_map)
+        stores = stores_of(world_map, ctx.tick_scope) if memo.stores else None
+        inputs = None
+        if memo.paths is not None and ctx.shortcuts:
+            if memo.wait:
+                memo.wait -= 1
+            else:
+                inputs = (stores, *[parts.encoded(path) for path in memo.paths])
+                last = memo.last
+                if last is not None and last[0] == inputs:
+                    memo.misses = 0
+                    if last[2] is not None:  # it bound or released aliases or variables
+                        _restore((world_map.aliases, world_map.variables, ctx.tick_scope), last[2])
+                        parts.baseline = None
+                    return last[1]
+                memo.missed()
+        found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
+        if not memo.known:
+            parts.forget()  # its functions may have changed anything
+        after = stores_of(world_map, ctx.tick_scope) if memo.stores else None
+        moved = after != stores
+        if moved:
+            parts.baseline = None  # the condition bound U-scope aliases: not the body's doing
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            before = ctx.snapshot = ctx.snapshot or msgspec.json.encode(world_map)
-            if self.act(world_map, found, ctx) is not Effect.UNCHANGED:
-                after = ctx.snapshot = msgspec.json.encode(world_map)
-                if after != before:
-                    changes = tuple(diff(msgspec.json.decode(before), msgspec.json.decode(after)))
-        return RuleDecision(
+            written = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
+            before = parts.before(written)
+            effect = self.act(world_map, found, ctx)
+            parts.forget()
+            if effect is not Effect.UNCHANGED:
+                changes = map_changes(before, parts.after(written))
+        decision = RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,
             fired=found.result,
             bindings=dict(found.bindings),
             changes=changes,
         )
+        if inputs is not None and not found.result:
+            memo.last = (inputs, decision, after if moved else None)
+        return decision
 
 
 class RuleRegistry:
@@ -124,6 +172,9 @@ class RuleRegistry:
             if cls.rulecode in found:
                 taken = found[cls.rulecode].__name__
                 raise ValueError(f"rule code {cls.rulecode} of {cls.__name__} is taken by {taken}")
+            unknown = [part for part in cls.writes or () if part not in FIELDS]
+            if unknown:
+                raise ValueError(f"{cls.__name__}.writes: {unknown} are not parts of the map")
             try:
                 compile_condition(cls.condition_text, registry=functions)
             except RuleSyntaxError as error:
@@ -151,18 +202,53 @@ class RuleRegistry:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
-    """The leaves that differ between two builtin trees, as compact ``MapChange``s (a list
-    whose length changed is one change; a missing key reads as ``null``)."""
-    for where, a, b in differences(old, new, path, whole_lists=True):
-        a, b = (None if a is ABSENT else a), (None if b is ABSENT else b)
-        if a != b:
-            yield MapChange(path=where, old=_text(a), new=_text(b))
+MAX_WAIT: Final = 8
+"""The most evaluations a rule whose inputs keep changing goes without comparing them."""
 
 
-def _text(value: Any) -> str:
-    text = msgspec.json.encode(value).decode()
-    return text if len(text) <= MAX_CHANGE_TEXT else text[: MAX_CHANGE_TEXT - 1] + "…"
+class Memo:
+    """What a rule remembers of its condition to skip evaluations that would repeat one.
+
+    An evaluation reads only :attr:`Condition.reads` (map parts, the stores) and writes
+    only the stores, so one that finds all of them as the last evaluation that did not
+    hold found them would decide the same and write the same. Comparing costs encoding
+    the parts read: after ``n`` differences in a row, a rule compares once in
+    ``min(n, MAX_WAIT)`` evaluations. A condition that may read anything (a function
+    without ``reads``) or reads the clock (new at every tick) is always evaluated.
+    """
+
+    __slots__ = ("condition", "known", "last", "misses", "paths", "stores", "wait")
+
+    def __init__(self, condition: Condition) -> None:
+        self.condition = condition
+        reads = getattr(condition, "reads", None)
+        self.known = reads is not None
+        """Whether the condition's reads are declared (else it may change the map)."""
+        self.stores = reads is None or any(path in STORE_READS for path in reads)
+        """Whether an evaluation may read and write the alias and variable stores."""
+        self.paths = (
+            None
+            if reads is None or TIME in reads
+            else tuple(path for path in reads if path not in STORE_READS)
+        )
+        """The map parts compared (``None``: never skipped)."""
+        self.last: tuple[tuple[object, ...], RuleDecision, Stores | None] | None = None
+        """The last evaluation that did not hold and was compared: what it found, its
+        decision and, when it wrote to the stores, what they held after it."""
+        self.misses = 0
+        self.wait = 0
+
+    def missed(self) -> None:
+        """The inputs differed: wait longer before comparing again."""
+        self.misses = min(self.misses + 1, MAX_WAIT)
+        self.wait = self.misses - 1
+
+
+def _restore(stores: tuple[dict[str, str], ...], contents: Stores) -> None:
+    """Make each store hold its items again, in the same order."""
+    for store, items in zip(stores, contents, strict=True):
+        store.clear()
+        store.update(items)
 
 
 RuleFactory = Callable[[RuleMessage], Rule]

@@ -13,6 +13,7 @@ from typing import Final
 
 from oimi.pipeline.messages import ENTITY_LISTS, ActivityTracking, Entity, GoalTracking, Object
 from oimi.pipeline.think.functions import (
+    TIME,
     Bound,
     FunctionContext,
     FunctionRegistry,
@@ -32,6 +33,9 @@ TOUCH_WINDOW_MS: Final = 1000
 
 SPATIAL: Final = tuple(m.name for m in ENTITY_LISTS)
 
+_KNOWN: Final = ("robotstatus.setfields",)
+"""What ``RobotStatus.known`` reads (declared by the functions that call it)."""
+
 
 def _number_text(value: float) -> str:
     """A number as an F function returns it: integers without ``.0``."""
@@ -45,7 +49,7 @@ def _in_front(theta_rad: float, max_angle_rad: float) -> bool:
 # ------------------------------------------------------------------------ family B
 
 
-@boolean("infront", classes=SPATIAL)
+@boolean("infront", classes=SPATIAL, reads=())
 def infront(ctx: FunctionContext, entity: Entity, max_angle_rad: float = FRONT_ANGLE_RAD) -> bool:
     """The entity's bearing is within ``max_angle_rad`` of the robot's heading.
 
@@ -54,7 +58,7 @@ def infront(ctx: FunctionContext, entity: Entity, max_angle_rad: float = FRONT_A
     return _in_front(entity.positiontheta, max_angle_rad)
 
 
-@boolean("closer_than", classes=SPATIAL)
+@boolean("closer_than", classes=SPATIAL, reads=())
 def closer_than(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     """The entity is nearer than ``distance_m`` to the robot.
 
@@ -63,7 +67,7 @@ def closer_than(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool
     return entity.positionrho < distance_m
 
 
-@boolean("farther_than", classes=SPATIAL)
+@boolean("farther_than", classes=SPATIAL, reads=())
 def farther_than(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     """The entity is farther than ``distance_m`` from the robot.
 
@@ -72,7 +76,7 @@ def farther_than(ctx: FunctionContext, entity: Entity, distance_m: float) -> boo
     return entity.positionrho > distance_m
 
 
-@boolean("has_attribute", classes=SPATIAL)
+@boolean("has_attribute", classes=SPATIAL, reads=())
 def has_attribute(ctx: FunctionContext, entity: Entity, name: str) -> bool:
     """The entity carries the free attribute ``name`` (set by sensors or generators).
 
@@ -81,7 +85,7 @@ def has_attribute(ctx: FunctionContext, entity: Entity, name: str) -> bool:
     return name in entity.attributes
 
 
-@boolean("attribute_is", classes=SPATIAL)
+@boolean("attribute_is", classes=SPATIAL, reads=())
 def attribute_is(ctx: FunctionContext, entity: Entity, name: str, value: str) -> bool:
     """The entity's free attribute ``name`` equals ``value``.
 
@@ -90,7 +94,7 @@ def attribute_is(ctx: FunctionContext, entity: Entity, name: str, value: str) ->
     return entity.attributes.get(name) == value
 
 
-@boolean("seen_within", classes=SPATIAL)
+@boolean("seen_within", classes=SPATIAL, reads=(TIME,))
 def seen_within(ctx: FunctionContext, entity: Entity, window_ms: float) -> bool:
     """The entity's position was updated in the last ``window_ms``.
 
@@ -99,7 +103,7 @@ def seen_within(ctx: FunctionContext, entity: Entity, window_ms: float) -> bool:
     return ctx.now_ms - entity.positionchangetime <= window_ms
 
 
-@boolean("tracked_for", classes=SPATIAL)
+@boolean("tracked_for", classes=SPATIAL, reads=())
 def tracked_for(ctx: FunctionContext, entity: Entity, duration_ms: float) -> bool:
     """The entity has been tracked (``permanencetime``) for at least ``duration_ms``.
 
@@ -108,7 +112,7 @@ def tracked_for(ctx: FunctionContext, entity: Entity, duration_ms: float) -> boo
     return entity.permanencetime >= duration_ms
 
 
-@boolean("is_target", classes=("Object",))
+@boolean("is_target", classes=("Object",), reads=())
 def is_target(ctx: FunctionContext, entity: Bound) -> bool:
     """The object is a target of the activity (``istarget``).
 
@@ -117,7 +121,7 @@ def is_target(ctx: FunctionContext, entity: Bound) -> bool:
     return isinstance(entity, Object) and entity.istarget
 
 
-@boolean("activity_is", classes=("Activity",))
+@boolean("activity_is", classes=("Activity",), reads=())
 def activity_is(ctx: FunctionContext, entity: Bound, status: str) -> bool:
     """The activity's status is ``status`` (``loaded``, ``running``, ``completed``...).
 
@@ -129,7 +133,7 @@ def activity_is(ctx: FunctionContext, entity: Bound, status: str) -> bool:
 # ------------------------------------------------------------------------ family F
 
 
-@string("attribute")
+@string("attribute", reads=())
 def attribute(ctx: FunctionContext, entity: Entity, name: str) -> str | None:
     """The entity's free attribute ``name`` (the assignment fails when it has none).
 
@@ -138,7 +142,7 @@ def attribute(ctx: FunctionContext, entity: Entity, name: str) -> str | None:
     return entity.attributes.get(name)
 
 
-@string("distance")
+@string("distance", reads=())
 def distance(ctx: FunctionContext, entity: Entity) -> str:
     """The entity's distance from the robot, m, as text.
 
@@ -147,7 +151,7 @@ def distance(ctx: FunctionContext, entity: Entity) -> str:
     return _number_text(entity.positionrho)
 
 
-@string("bearing")
+@string("bearing", reads=())
 def bearing(ctx: FunctionContext, entity: Entity) -> str:
     """The entity's bearing from the robot's heading, rad, as text.
 
@@ -156,7 +160,7 @@ def bearing(ctx: FunctionContext, entity: Entity) -> str:
     return _number_text(entity.positiontheta)
 
 
-@string("concat")
+@string("concat", reads=())
 def concat(ctx: FunctionContext, first: str, *rest: str) -> str:
     """The texts joined together.
 
@@ -165,7 +169,7 @@ def concat(ctx: FunctionContext, first: str, *rest: str) -> str:
     return first + "".join(rest)
 
 
-@string("now")
+@string("now", reads=(TIME,))
 def now(ctx: FunctionContext) -> str:
     """The simulated time of the evaluation, ms, as text.
 
@@ -174,7 +178,7 @@ def now(ctx: FunctionContext) -> str:
     return str(ctx.now_ms)
 
 
-@string("current_activity")
+@string("current_activity", reads=("scriptinfo.currentactivity",))
 def current_activity(ctx: FunctionContext) -> str:
     """The name of the running activity (``scriptinfo.currentactivity``).
 
@@ -186,7 +190,7 @@ def current_activity(ctx: FunctionContext) -> str:
 # ------------------------------------------------------------------------ family E
 
 
-@evaluation("near")
+@evaluation("near", reads=())
 def near(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     """The entity is nearer than ``distance_m`` (child too close).
 
@@ -195,7 +199,7 @@ def near(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     return entity.positionrho < distance_m
 
 
-@evaluation("far")
+@evaluation("far", reads=())
 def far(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     """The entity is farther than ``distance_m`` (child leaving the area).
 
@@ -204,7 +208,7 @@ def far(ctx: FunctionContext, entity: Entity, distance_m: float) -> bool:
     return entity.positionrho > distance_m
 
 
-@evaluation("lost")
+@evaluation("lost", reads=())
 def lost(ctx: FunctionContext, entity: Bound | None) -> bool:
     """The alias is unbound or its entity has left the map (child left the area).
 
@@ -213,7 +217,7 @@ def lost(ctx: FunctionContext, entity: Bound | None) -> bool:
     return entity is None
 
 
-@evaluation("attention_low")
+@evaluation("attention_low", reads=(TIME,))
 def attention_low(
     ctx: FunctionContext, entity: Entity, window_ms: float = ATTENTION_WINDOW_MS
 ) -> bool:
@@ -234,7 +238,7 @@ def attention_low(
     )
 
 
-@evaluation("touched")
+@evaluation("touched", reads=("robotstatus.touch", TIME))
 def touched(ctx: FunctionContext, touchtype: str, window_ms: float = TOUCH_WINDOW_MS) -> bool:
     """A touch of type ``touchtype`` (C, H, P, S, T; either case) started in the last
     ``window_ms``.
@@ -249,7 +253,7 @@ def touched(ctx: FunctionContext, touchtype: str, window_ms: float = TOUCH_WINDO
     )
 
 
-@evaluation("no_human_in_front")
+@evaluation("no_human_in_front", reads=("humans",))
 def no_human_in_front(ctx: FunctionContext, max_angle_rad: float = FRONT_ANGLE_RAD) -> bool:
     """No human of the map is within ``max_angle_rad`` of the robot's heading.
 
@@ -258,7 +262,7 @@ def no_human_in_front(ctx: FunctionContext, max_angle_rad: float = FRONT_ANGLE_R
     return not any(_in_front(h.positiontheta, max_angle_rad) for h in ctx.world_map.humans)
 
 
-@evaluation("battery_below")
+@evaluation("battery_below", reads=(*_KNOWN, "robotstatus.batterytimeleft"))
 def battery_below(ctx: FunctionContext, time_left_ms: float) -> bool:
     """The battery has less than ``time_left_ms`` left (false before any battery reading).
 
@@ -280,7 +284,7 @@ def _goal(ctx: FunctionContext, goalid: str) -> GoalTracking | None:
     return None
 
 
-@evaluation("goal_is")
+@evaluation("goal_is", reads=("robotstatus.activities", "scriptinfo.currentactivity"))
 def goal_is(ctx: FunctionContext, goalid: str, status: str) -> bool:
     """The goal ``goalid`` (of the running activity first, then any) has ``status``.
 
@@ -290,7 +294,7 @@ def goal_is(ctx: FunctionContext, goalid: str, status: str) -> bool:
     return goal is not None and goal.status == status
 
 
-@evaluation("elapsed_over")
+@evaluation("elapsed_over", reads=(*_KNOWN, "robotstatus.elapsedtime"))
 def elapsed_over(ctx: FunctionContext, elapsed_ms: float) -> bool:
     """More than ``elapsed_ms`` have passed since the session started (false while no
     ``elapsedtime`` was reported).
@@ -301,7 +305,7 @@ def elapsed_over(ctx: FunctionContext, elapsed_ms: float) -> bool:
     return status.known("elapsedtime") and status.elapsedtime > elapsed_ms
 
 
-@evaluation("var_is")
+@evaluation("var_is", reads=())
 def var_is(ctx: FunctionContext, value: str, expected: str) -> bool:
     """A variable's value (``@v``) equals ``expected`` (false when ``@v`` is unbound).
 
@@ -310,7 +314,7 @@ def var_is(ctx: FunctionContext, value: str, expected: str) -> bool:
     return value == expected
 
 
-@evaluation("joystick_engaged")
+@evaluation("joystick_engaged", reads=("robotstatus.joystick_engaged",))
 def joystick_engaged(ctx: FunctionContext) -> bool:
     """The operator holds the joystick's safety lock.
 
@@ -326,7 +330,7 @@ def _same(a: object, b: object) -> bool:
         return str(a) == str(b)
 
 
-@evaluation("equals")
+@evaluation("equals", reads=())
 def equals(ctx: FunctionContext, a: object, b: object) -> bool:
     """``a`` equals ``b``: numerically when both read as numbers, else as texts.
 
@@ -335,7 +339,7 @@ def equals(ctx: FunctionContext, a: object, b: object) -> bool:
     return _same(a, b)
 
 
-@evaluation("differs")
+@evaluation("differs", reads=())
 def differs(ctx: FunctionContext, a: object, b: object) -> bool:
     """The negation of ``equals``.
 
@@ -344,7 +348,7 @@ def differs(ctx: FunctionContext, a: object, b: object) -> bool:
     return not _same(a, b)
 
 
-@evaluation("less_than")
+@evaluation("less_than", reads=())
 def less_than(ctx: FunctionContext, a: float, b: float) -> bool:
     """``a < b`` as numbers (false when either is not a number).
 
@@ -353,7 +357,7 @@ def less_than(ctx: FunctionContext, a: float, b: float) -> bool:
     return a < b
 
 
-@evaluation("greater_than")
+@evaluation("greater_than", reads=())
 def greater_than(ctx: FunctionContext, a: float, b: float) -> bool:
     """``a > b`` as numbers (false when either is not a number).
 
@@ -362,7 +366,7 @@ def greater_than(ctx: FunctionContext, a: float, b: float) -> bool:
     return a > b
 
 
-@evaluation("camera_offline")
+@evaluation("camera_offline", reads=("cameras",))
 def camera_offline(ctx: FunctionContext) -> bool:
     """A camera of the robot reports ``isonline`` false (its readings stopped).
 
