@@ -8,16 +8,22 @@ recorder writes at most one message per topic per tick.
 from __future__ import annotations
 
 import enum
-from typing import ClassVar, Final
+from typing import Final
 
 import msgspec
 from oimi.pipeline.messages import (
+    Camera,
     Channel,
+    Human,
     InstructionBlock,
     MapUpdate,
     Message,
+    Object,
+    Obstacle,
+    RobotStatus,
     RuleMessage,
-    WorldMap,
+    ScriptInfo,
+    Sonar,
 )
 
 
@@ -181,21 +187,36 @@ class JoystickInput(Event):
 # ------------------------------------------------------------------------ outputs
 
 
-class MapSnapshot(Event):
-    """The world map after this tick's producer update and rule chain.
+class MapDelta(Event, omit_defaults=True):
+    """The world map after this tick's producer update and rule chain, when it changed:
+    a keyframe (the whole map) or a delta (what changed since the previous ``/map``
+    message).
 
-    ``map`` is the ``WorldMap``'s JSON exactly as the loop encoded it to see whether it
-    changed: an immutable snapshot that sinks write as it is, with no second encoding.
-    ``world_map()`` decodes it; the recorded schema describes it as a ``WorldMap``.
+    One Struct for both, told apart by ``keyframe``, so a topic keeps one schema and a
+    viewer reads the same fields in either: a keyframe has every section and every row;
+    a delta has only the sections that changed (``None``: unchanged), only the rows that
+    changed or appeared (whole rows, in the map's order) and, in ``removed``, the
+    ``Class/id`` (``Human/ada``) of each row forgotten. The loop writes a keyframe at its
+    first publish and then at the first change ``PipelineConfig.map_keyframe_ms`` or
+    more after the previous keyframe (``pipeline.mapdeltas``); ``pipeline.mapdeltas.
+    apply_delta`` rebuilds full maps (the recording reader's ``Recording.maps()``).
+    Defaults are left out of the JSON (an unchanged section is absent).
     """
 
-    map: msgspec.Raw
-    RAW_TYPES: ClassVar[dict[str, type]] = {"map": WorldMap}
-    """The type each raw field holds, for schemas."""
-
-    def world_map(self) -> WorldMap:
-        """The map as a Struct."""
-        return msgspec.json.decode(self.map, type=WorldMap)
+    keyframe: bool = False
+    """The whole map: applied to nothing (every earlier message may be skipped)."""
+    scriptinfo: ScriptInfo | None = None
+    lastupdatetime: int | None = None
+    robotstatus: RobotStatus | None = None
+    cameras: tuple[Camera, ...] = ()
+    sonars: tuple[Sonar, ...] = ()
+    humans: tuple[Human, ...] = ()
+    obstacles: tuple[Obstacle, ...] = ()
+    objects: tuple[Object, ...] = ()
+    variables: dict[str, str] | None = None
+    aliases: dict[str, str] | None = None
+    removed: tuple[str, ...] = ()
+    """``Class/id`` of the rows forgotten since the previous message (deltas only)."""
 
 
 class MapChange(Message):
@@ -446,7 +467,7 @@ TOPIC_TYPES: Final[dict[Topic, type[Event]]] = {
     Topic.OPERATOR_COMMANDS: OperatorCommands,
     Topic.OPERATOR_STATE: OperatorState,
     Topic.JOYSTICK: JoystickInput,
-    Topic.MAP: MapSnapshot,
+    Topic.MAP: MapDelta,
     Topic.RULE_DECISIONS: RuleDecisions,
     Topic.RULE_CHAIN: RuleChainState,
     Topic.READER_PROGRESS: ReaderProgress,

@@ -35,7 +35,7 @@ from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import (
     ActuatorCommands,
     JoystickInput,
-    MapSnapshot,
+    MapDelta,
     OperatorCommand,
     OperatorCommands,
     RuleChainState,
@@ -43,7 +43,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import Channel, WorldMap
+from oimi.pipeline.messages import Channel, ScriptInfo
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
@@ -95,7 +95,6 @@ EXPORTED: Final = (
 def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
     """The recording's messages as ROS 2 messages: (time ns, topic, sample)."""
     recording = open_recording(source)
-    world = msgspec.json.Decoder(WorldMap)
     info: types.ScriptInfo | None = None
     shown: tuple[object, object] | None = None
     held: tuple[int, Pad] | None = None  # a locked pad state and when it was last sent
@@ -147,8 +146,8 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                                 angular=types.Vector3(z=command.v_theta),
                             ),
                         )
-            case MapSnapshot():
-                now = script_info(world.decode(event.map))
+            case MapDelta(scriptinfo=ScriptInfo() as scriptinfo):  # it changed
+                now = script_info(scriptinfo)
                 if now != info:
                     info = now
                     yield t, topics.SCRIPT_INFO, now

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
     ActuatorCommand,
@@ -14,7 +13,7 @@ from oimi.pipeline.events import (
     LogEntries,
     LogEntry,
     MapChange,
-    MapSnapshot,
+    MapDelta,
     MotionSource,
     OperatorCommand,
     OperatorCommands,
@@ -44,7 +43,6 @@ from oimi.pipeline.messages import (
     Policy,
     RuleAction,
     RuleMessage,
-    WorldMap,
 )
 from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
 
@@ -122,13 +120,11 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
             replies=(OperatorReply(id=tick, ok=False, reason="busy"),),
         ),
         Topic.JOYSTICK: JoystickInput(**t, left_x=0.5, left_y=-0.25, buttons=("LB", "A")),
-        Topic.MAP: MapSnapshot(
+        Topic.MAP: MapDelta(
             **t,
-            map=msgspec.Raw(
-                msgspec.json.encode(
-                    WorldMap(lastupdatetime=tick * 20, humans=[Human(id="child1", creationtime=0)])
-                )
-            ),
+            keyframe=tick == 0,
+            lastupdatetime=tick * 20,
+            humans=(Human(id="child1", creationtime=0, positionrho=1.0 + tick / 100),),
         ),
         Topic.RULE_DECISIONS: RuleDecisions(
             **t,

@@ -8,6 +8,7 @@ import json
 import msgspec
 from oimi.pipeline.events import (
     JoystickInput,
+    MapDelta,
     OperatorCommand,
     OperatorVerb,
     ProgressKind,
@@ -16,6 +17,7 @@ from oimi.pipeline.events import (
     encode,
 )
 from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.mapdeltas import apply_delta
 from oimi.pipeline.messages import (
     Action,
     Goal,
@@ -29,6 +31,7 @@ from oimi.pipeline.messages import (
     RuleAction,
     RuleMessage,
     Script,
+    WorldMap,
 )
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import GeneratorHandler
@@ -208,15 +211,24 @@ def test_the_loop_stalls_until_an_update_or_the_block_moves_on() -> None:
         ],
     )
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
-    assert sink.on(Topic.MAP)[-1].world_map().humans[0].positionrho == 1.5
+    assert sink.on(Topic.MAP)[-1].humans[0].positionrho == 1.5, "the delta holds the change"
+    assert rebuilt(sink.on(Topic.MAP))[-1] == p.map
     p.tick(tick=11)
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
 
 
+def rebuilt(deltas: list[MapDelta]) -> list[WorldMap]:
+    """The full map after each ``/map`` message."""
+    return list(itertools.accumulate(deltas, apply_delta, initial=None))[1:]  # type: ignore[arg-type]
+
+
 def test_the_map_is_published_only_when_it_changed() -> None:
-    maps = run_session(50).on(Topic.MAP)
-    assert 0 < len(maps) < 50
-    assert all(a.map != b.map for a, b in itertools.pairwise(maps))
+    deltas = run_session(50).on(Topic.MAP)
+    assert 0 < len(deltas) < 50
+    assert [d.keyframe for d in deltas] == [True] + [False] * (len(deltas) - 1), (
+        "a keyframe first, then deltas within the first 5 s"
+    )
+    assert all(a != b for a, b in itertools.pairwise(rebuilt(deltas)))
 
 
 def test_a_rule_forced_switch_takes_effect_in_the_next_tick() -> None:
