@@ -108,9 +108,9 @@ class MapDeltas:
         gone = [i for i in kept if i not in fresh]
         expected = [i for i in kept if i in fresh] + [i for i in ids if i not in kept]
         self._ids[table] = fresh
-        self._rows[table] = [fresh[i] for i in ids] if len(fresh) == len(ids) else [
-            _copy(row) for row in live
-        ]
+        self._rows[table] = (
+            [fresh[i] for i in ids] if len(fresh) == len(ids) else [_copy(row) for row in live]
+        )
         return tuple(rows), gone, expected == ids
 
 
