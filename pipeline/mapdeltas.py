@@ -31,9 +31,13 @@ _UNSET: Final[Any] = object()
 
 
 def _copy(value: Any) -> Any:
-    """A deep copy (Structs through msgpack, which keeps every float bit)."""
+    """A deep copy (Structs through msgpack, which keeps every float bit; through JSON for
+    an int msgpack cannot hold, beyond 64 bits)."""
     if isinstance(value, msgspec.Struct):
-        return msgspec.msgpack.decode(msgspec.msgpack.encode(value), type=type(value))
+        try:
+            return msgspec.msgpack.decode(msgspec.msgpack.encode(value), type=type(value))
+        except OverflowError:
+            return msgspec.json.decode(msgspec.json.encode(value), type=type(value))
     if isinstance(value, dict):
         return dict(value)
     return value

@@ -47,14 +47,8 @@ def schema_data(topic: Topic) -> bytes:
     inlined (like Foxglove's own schemas) so that viewers without ``$ref`` support
     can read it. Sorted keys keep the bytes stable from run to run.
     """
-    kind = TOPIC_TYPES[topic]
-    schema = msgspec.json.schema(kind)
+    schema = msgspec.json.schema(TOPIC_TYPES[topic])
     defs = schema.get("$defs", {})
-    for field, held in getattr(kind, "RAW_TYPES", {}).items():
-        # A pre-encoded field (msgspec.Raw) is described by the type it holds.
-        held_schema = msgspec.json.schema(held)
-        defs.update(held_schema.get("$defs", {}))
-        defs[kind.__name__]["properties"][field] = {"$ref": held_schema["$ref"]}
     return msgspec.json.encode(_inline_refs(schema, defs, ()), order="sorted")
 
 

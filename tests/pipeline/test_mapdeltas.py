@@ -143,3 +143,13 @@ def test_a_delta_without_a_keyframe_or_removing_an_unknown_row_is_refused() -> N
         apply_delta(None, MapDelta(tick=3, time_ms=60, lastupdatetime=1))
     with pytest.raises(ValueError, match="removes 'Human/x'"):
         apply_delta(WorldMap(), MapDelta(tick=3, time_ms=60, removed=("Human/x",)))
+
+
+def test_a_value_beyond_64_bits_is_kept_and_rebuilt() -> None:
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    world.humans[0].appearanceon = 10**30  # a rule's arithmetic may go past int64
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert first is not None and delta is not None
+    assert apply_delta(apply_delta(None, first), delta) == world
