@@ -6,7 +6,9 @@ import itertools
 import json
 
 import msgspec
+import pytest
 from oimi.pipeline.events import (
+    Event,
     JoystickInput,
     MapDelta,
     OperatorCommand,
@@ -96,9 +98,9 @@ def pose(seq: int, rho: float, t: int) -> MapUpdate:
     )
 
 
-def pipeline(sink: MemorySink) -> Pipeline:
+def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
     return Pipeline(
-        PipelineConfig(),
+        config or PipelineConfig(),
         idle=ScriptEntry(activity="idle_activity", script=IDLE, source="idle_activity"),
         resolve=lambda name: (
             ScriptEntry(activity=name, script=WAIT, source=name)
@@ -219,7 +221,10 @@ def test_the_loop_stalls_until_an_update_or_the_block_moves_on() -> None:
 
 def rebuilt(deltas: list[MapDelta]) -> list[WorldMap]:
     """The full map after each ``/map`` message."""
-    return list(itertools.accumulate(deltas, apply_delta, initial=None))[1:]  # type: ignore[arg-type]
+    maps: list[WorldMap] = []
+    for delta in deltas:
+        maps.append(apply_delta(maps[-1] if maps else None, delta))
+    return maps
 
 
 def test_the_map_is_published_only_when_it_changed() -> None:
@@ -229,6 +234,39 @@ def test_the_map_is_published_only_when_it_changed() -> None:
         "a keyframe first, then deltas within the first 5 s"
     )
     assert all(a != b for a, b in itertools.pairwise(rebuilt(deltas)))
+
+
+class HeldMaps(MemorySink):
+    """Keeps, beside each ``/map`` message, the loop's own map as it was then."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pipeline: Pipeline | None = None
+        self.held: list[bytes] = []
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        if topic is Topic.MAP and self.pipeline is not None:
+            self.held.append(msgspec.json.encode(self.pipeline.map))
+        super().record(topic, time_ns, message)
+
+
+@pytest.mark.parametrize("keyframe_ms", [5000, 200])
+def test_the_maps_rebuilt_from_map_are_the_loops_map_at_each_publish(keyframe_ms: int) -> None:
+    """A whole session (1300 ticks; keyframes 5 s or 0.2 s apart): what ``/map`` records
+    rebuilds, message by message, the very map the loop held when it wrote it."""
+    sink = HeldMaps()
+    p = sink.pipeline = pipeline(sink, PipelineConfig(map_keyframe_ms=keyframe_ms))
+    for tick in range(1300):
+        p.tick(tick=tick, **SCRIPTED.get(tick, {}))
+    deltas = sink.on(Topic.MAP)
+    assert len(sink.held) == len(deltas) > 20
+    # held decoded as a WorldMap: the test's scripts put ints in float fields (Led.r=0)
+    # that a map read back spells 0.0; every value must be the same
+    typed = [msgspec.json.encode(msgspec.json.decode(h, type=WorldMap)) for h in sink.held]
+    assert [msgspec.json.encode(m) for m in rebuilt(deltas)] == typed
+    keyframes = [d.time_ms for d in deltas if d.keyframe]
+    assert keyframes[0] == deltas[0].time_ms and 1 < len(keyframes) < len(deltas)
+    assert all(b - a >= keyframe_ms for a, b in itertools.pairwise(keyframes))
 
 
 def test_a_rule_forced_switch_takes_effect_in_the_next_tick() -> None:
