@@ -43,12 +43,6 @@ def _copy(value: Any) -> Any:
     return value
 
 
-def _same(kept: Any, live: Any) -> bool:
-    if isinstance(live, dict):  # a dict's key order shows in its JSON: compare it too
-        return isinstance(kept, dict) and list(kept.items()) == list(live.items())
-    return kept is not _UNSET and kept == live
-
-
 class MapDeltas:
     """The loop's ``/map`` publisher: the message after a tick, when the map changed.
 
@@ -68,10 +62,13 @@ class MapDeltas:
     def after(self, world_map: WorldMap, *, tick: int, time_ms: int) -> MapDelta | None:
         """The ``/map`` message for the map after ``tick``; None when it did not change."""
         changed: dict[str, Any] = {}
+        sections = self._sections
         for name in SECTIONS:
             live = getattr(world_map, name)
-            if not _same(self._sections[name], live):
-                changed[name] = self._sections[name] = _copy(live)
+            kept = sections[name]  # a dict's key order shows in its JSON: compared too
+            if kept == live and (type(live) is not dict or list(kept) == list(live)):
+                continue
+            changed[name] = sections[name] = _copy(live)
         removed: list[str] = []
         keyframe = self._keyframe_ms is None or time_ms - self._keyframe_ms >= self.keyframe_ms
         for table in TABLES:
