@@ -9,11 +9,13 @@ rebuilds the full map from a keyframe and the deltas after it.
 
 Compared by value, the rebuilt map equals the loop's (``==``); JSON spellings that compare
 equal are not told apart (``0.0`` and ``-0.0``; an entity's ``attributes`` in another
-key order; the top-level dicts' key order is kept).
+key order; the top-level dicts' key order is kept), and an int in a float field (a value
+built in Python) is copied, so recorded, as a float.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from typing import Any, Final
 
@@ -31,13 +33,15 @@ _UNSET: Final[Any] = object()
 
 
 def _copy(value: Any) -> Any:
-    """A deep copy (Structs through msgpack, which keeps every float bit; through JSON for
-    an int msgpack cannot hold, beyond 64 bits)."""
+    """A deep copy: Structs through msgpack (fast, every float bit kept), or ``deepcopy``
+    for what a typed decode would refuse or change (an int beyond 64 bits; a value of
+    another type than its field's, which an extension's rule may write): the copy, and so
+    the recorded delta, holds exactly what the map held."""
     if isinstance(value, msgspec.Struct):
         try:
             return msgspec.msgpack.decode(msgspec.msgpack.encode(value), type=type(value))
-        except OverflowError:
-            return msgspec.json.decode(msgspec.json.encode(value), type=type(value))
+        except (OverflowError, msgspec.ValidationError):
+            return copy.deepcopy(value)
     if isinstance(value, dict):
         return dict(value)
     return value

@@ -153,3 +153,16 @@ def test_a_value_beyond_64_bits_is_kept_and_rebuilt() -> None:
     delta = deltas.after(world, tick=1, time_ms=20)
     assert first is not None and delta is not None
     assert apply_delta(apply_delta(None, first), delta) == world
+
+
+def test_a_value_of_the_wrong_type_is_recorded_as_it_is_not_a_crash() -> None:
+    """An extension's rule may write an int where the map holds strings: the loop goes on
+    and the delta holds what the map held (as format 1's snapshot did)."""
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    deltas.after(world, tick=0, time_ms=0)
+    world.humans[0].attributes["count"] = 3  # type: ignore[assignment]
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert delta is not None and b'"attributes":{"count":3}' in msgspec.json.encode(delta)
+    world.humans[0].attributes["count"] = 3  # type: ignore[assignment]
+    assert deltas.after(world, tick=2, time_ms=40) is None, "kept as it was: no change"
