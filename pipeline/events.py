@@ -8,7 +8,7 @@ recorder writes at most one message per topic per tick.
 from __future__ import annotations
 
 import enum
-from typing import Final
+from typing import ClassVar, Final
 
 import msgspec
 from oimi.pipeline.messages import (
@@ -187,6 +187,9 @@ class JoystickInput(Event):
 # ------------------------------------------------------------------------ outputs
 
 
+_ABSENT: Final = msgspec.Raw()
+
+
 class MapDelta(Event, omit_defaults=True):
     """The world map after this tick's producer update and rule chain, when it changed:
     a keyframe (the whole map) or a delta (what changed since the previous ``/map``
@@ -194,29 +197,45 @@ class MapDelta(Event, omit_defaults=True):
 
     One Struct for both, told apart by ``keyframe``, so a topic keeps one schema and a
     viewer reads the same fields in either: a keyframe has every section and every row;
-    a delta has only the sections that changed (``None``: unchanged), only the rows that
-    changed or appeared (whole rows, in the map's order) and, in ``removed``, the
-    ``Class/id`` (``Human/ada``) of each row forgotten. The loop writes a keyframe at its
-    first publish and then at the first change ``PipelineConfig.map_keyframe_ms`` or
-    more after the previous keyframe (``pipeline.mapdeltas``); ``pipeline.mapdeltas.
-    apply_delta`` rebuilds full maps (the recording reader's ``Recording.maps()``).
-    Defaults are left out of the JSON (an unchanged section is absent).
+    a delta has only the sections that changed (absent, an empty ``Raw``: unchanged), only
+    the rows that changed or appeared (whole rows, in the map's order) and, in
+    ``removed``, the ``Class/id`` (``Human/ada``) of each row forgotten. The loop writes a
+    keyframe at its first publish and then at the first change
+    ``PipelineConfig.map_keyframe_ms`` or more after the previous keyframe
+    (``pipeline.mapdeltas``). Sections and rows are the JSON the loop encoded to see what
+    changed (``msgspec.Raw``, written as they are; :data:`RAW_TYPES` says what each holds,
+    for the recorded schema); ``pipeline.mapdeltas.apply_delta`` decodes them into full
+    maps (the recording reader's ``Recording.maps()``). Defaults are left out of the JSON.
     """
 
     keyframe: bool = False
     """The whole map: applied to nothing (every earlier message may be skipped)."""
-    scriptinfo: ScriptInfo | None = None
-    lastupdatetime: int | None = None
-    robotstatus: RobotStatus | None = None
-    cameras: tuple[Camera, ...] = ()
-    sonars: tuple[Sonar, ...] = ()
-    humans: tuple[Human, ...] = ()
-    obstacles: tuple[Obstacle, ...] = ()
-    objects: tuple[Object, ...] = ()
-    variables: dict[str, str] | None = None
-    aliases: dict[str, str] | None = None
+    scriptinfo: msgspec.Raw = _ABSENT
+    lastupdatetime: msgspec.Raw = _ABSENT
+    robotstatus: msgspec.Raw = _ABSENT
+    cameras: tuple[msgspec.Raw, ...] = ()
+    sonars: tuple[msgspec.Raw, ...] = ()
+    humans: tuple[msgspec.Raw, ...] = ()
+    obstacles: tuple[msgspec.Raw, ...] = ()
+    objects: tuple[msgspec.Raw, ...] = ()
+    variables: msgspec.Raw = _ABSENT
+    aliases: msgspec.Raw = _ABSENT
     removed: tuple[str, ...] = ()
     """``Class/id`` of the rows forgotten since the previous message (deltas only)."""
+    RAW_TYPES: ClassVar[dict[str, object]] = {
+        "scriptinfo": ScriptInfo,
+        "lastupdatetime": int,
+        "robotstatus": RobotStatus,
+        "cameras": tuple[Camera, ...],
+        "sonars": tuple[Sonar, ...],
+        "humans": tuple[Human, ...],
+        "obstacles": tuple[Obstacle, ...],
+        "objects": tuple[Object, ...],
+        "variables": dict[str, str],
+        "aliases": dict[str, str],
+    }
+    """The type each raw field holds (the ``WorldMap`` field of the same name; a tuple of
+    its rows for a table), for schemas and decoding."""
 
 
 class MapChange(Message):

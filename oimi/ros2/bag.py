@@ -146,8 +146,8 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                                 angular=types.Vector3(z=command.v_theta),
                             ),
                         )
-            case MapDelta(scriptinfo=ScriptInfo() as scriptinfo):  # it changed
-                now = script_info(scriptinfo)
+            case MapDelta() if event.scriptinfo:  # the script's part changed
+                now = script_info(msgspec.json.decode(event.scriptinfo, type=ScriptInfo))
                 if now != info:
                     info = now
                     yield t, topics.SCRIPT_INFO, now

@@ -62,8 +62,8 @@ class ProgressPublisher:
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         match message:
-            case MapDelta(scriptinfo=ScriptInfo() as scriptinfo):  # it changed
-                info = script_info(scriptinfo)
+            case MapDelta() if message.scriptinfo:  # the script's part changed
+                info = script_info(self.map.scriptinfo)
                 if info != self._info:
                     self._info = info
                     self._script.write(info)

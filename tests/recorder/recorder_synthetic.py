@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
     ActuatorCommand,
@@ -123,8 +124,14 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
         Topic.MAP: MapDelta(
             **t,
             keyframe=tick == 0,
-            lastupdatetime=tick * 20,
-            humans=(Human(id="child1", creationtime=0, positionrho=1.0 + tick / 100),),
+            lastupdatetime=msgspec.Raw(b"%d" % (tick * 20)),
+            humans=(
+                msgspec.Raw(
+                    msgspec.json.encode(
+                        Human(id="child1", creationtime=0, positionrho=1.0 + tick / 100)
+                    )
+                ),
+            ),
         ),
         Topic.RULE_DECISIONS: RuleDecisions(
             **t,
