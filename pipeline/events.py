@@ -191,21 +191,18 @@ _ABSENT: Final = msgspec.Raw()
 
 
 class MapDelta(Event, omit_defaults=True):
-    """The world map after this tick's producer update and rule chain, when it changed:
-    a keyframe (the whole map) or a delta (what changed since the previous ``/map``
-    message).
+    """The world map after this tick's producer and rules, when it changed: a keyframe (the
+    whole map) or a delta (what changed since the previous ``/map`` message).
 
-    One Struct for both, told apart by ``keyframe``, so a topic keeps one schema and a
-    viewer reads the same fields in either: a keyframe has every section and every row;
-    a delta has only the sections that changed (absent, an empty ``Raw``: unchanged), only
-    the rows that changed or appeared (whole rows, in the map's order) and, in
-    ``removed``, the ``Class/id`` (``Human/ada``) of each row forgotten. The loop writes a
-    keyframe at its first publish and then at the first change
-    ``PipelineConfig.map_keyframe_ms`` or more after the previous keyframe
-    (``pipeline.mapdeltas``). Sections and rows are the JSON the loop encoded to see what
-    changed (``msgspec.Raw``, written as they are; :data:`RAW_TYPES` says what each holds,
-    for the recorded schema); ``pipeline.mapdeltas.apply_delta`` decodes them into full
-    maps (the recording reader's ``Recording.maps()``). Defaults are left out of the JSON.
+    One Struct for both, told apart by ``keyframe``, so the topic keeps one schema: a
+    keyframe has every section and row; a delta only the sections that changed (an empty
+    ``Raw``, left out of the JSON: unchanged), the rows that changed or appeared (whole, in
+    the map's order) and, in ``removed``, the ``Class/id`` (``Human/ada``) of rows
+    forgotten. Keyframes come first and then at the first change
+    ``PipelineConfig.map_keyframe_ms`` or more after the previous one. Parts are the JSON
+    the loop encoded (``msgspec.Raw``; :data:`RAW_TYPES` says what each holds);
+    ``pipeline.mapdeltas`` makes them and its ``apply_delta`` rebuilds full maps
+    (``Recording.maps()`` in the reader).
     """
 
     keyframe: bool = False
@@ -234,8 +231,7 @@ class MapDelta(Event, omit_defaults=True):
         "variables": dict[str, str],
         "aliases": dict[str, str],
     }
-    """The type each raw field holds (the ``WorldMap`` field of the same name; a tuple of
-    its rows for a table), for schemas and decoding."""
+    """The type each raw field holds (as ``WorldMap``'s; a table as a tuple of its rows)."""
 
 
 class MapChange(Message):
