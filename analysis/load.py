@@ -20,16 +20,19 @@ import pyarrow as pa
 import pyarrow.json as pa_json
 from oimi.analysis.stream import STREAMED, Streamed, StreamFolder
 from oimi.pipeline.events import TOPIC_TYPES, Topic
+from oimi.pipeline.messages import WorldMap
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
-from oimi.recorder.reader import RecoveryReport, open_recording
+from oimi.recorder.reader import Recording, RecoveryReport, open_recording
 from oimi.recorder.scan import ChunkScan
 
 TIME: Final = "time"
 """The simulated time as a ``pl.Duration("ms")`` column (beside ``time_ms``)."""
 
 DEFAULT_TOPICS: Final = tuple(t for t in Topic if t is not Topic.MAP)
-"""What is loaded unless asked: every topic but ``/map`` (large, and no metric needs it)."""
+"""What is loaded unless asked: every topic but ``/map`` (large, and no metric needs it).
+Asked for, ``/map`` is one row per ``/map`` message holding the *full* map as of it
+(:class:`MapRow`, rebuilt from keyframes and deltas by ``Recording.maps()``)."""
 
 LIGHT_TOPICS: Final = tuple(
     t for t in DEFAULT_TOPICS if t.value not in STREAMED and t is not Topic.SENSOR_UPDATES
@@ -195,8 +198,24 @@ def _shape(topic: Topic, frame: pl.DataFrame) -> dict[str, pl.DataFrame]:
     return tables
 
 
+class MapRow(WorldMap, kw_only=True):
+    """A row of the ``/map`` table: the full map after one ``/map`` message."""
+
+    tick: int
+    time_ms: int
+
+
 def topic_schema(topic: Topic) -> dict[str, pl.DataType]:
-    return struct_schema(TOPIC_TYPES[topic])
+    """The frame's columns for a topic's JSON rows (``/map``: :class:`MapRow`'s)."""
+    return struct_schema(MapRow if topic is Topic.MAP else TOPIC_TYPES[topic])
+
+
+def _map_payloads(recording: Recording) -> list[bytes]:
+    """Each full map rebuilt from ``/map`` (``Recording.maps()``) as a :class:`MapRow`."""
+    return [
+        msgspec.json.encode(MapRow(tick=tick, time_ms=time_ms, **msgspec.structs.asdict(m)))
+        for tick, time_ms, m in recording.maps()
+    ]
 
 
 def empty_tables(topics: Iterable[Topic] = DEFAULT_TOPICS) -> dict[str, pl.DataFrame]:
@@ -306,7 +325,8 @@ def load_session(
         wanted = tuple(t for t in wanted if t in LIGHT_TOPICS)
     payloads: dict[Topic, list[bytes]] = {t: [] for t in wanted}
     folder = StreamFolder(tick_ms=1000 // _tick_hz(recording.meta, name))
-    names = frozenset(t.value for t in wanted) | (frozenset(STREAMED) if stream else frozenset())
+    names = frozenset(t.value for t in wanted if t is not Topic.MAP)
+    names |= frozenset(STREAMED) if stream else frozenset()
     streamed = 0
     with open(name, "rb") as file:
         scan = ChunkScan(file, names)
@@ -316,6 +336,8 @@ def load_session(
                 streamed += 1
             else:
                 payloads[Topic(topic)].append(data)
+    if Topic.MAP in payloads:
+        payloads[Topic.MAP] = _map_payloads(recording)
     recovery = recording.recovery or scan.report()
     if recovery is not None and not streamed and not any(payloads.values()):
         raise RecordingError(f"nothing recoverable: {recovery}", source=name)

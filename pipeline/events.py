@@ -12,12 +12,18 @@ from typing import ClassVar, Final
 
 import msgspec
 from oimi.pipeline.messages import (
+    Camera,
     Channel,
+    Human,
     InstructionBlock,
     MapUpdate,
     Message,
+    Object,
+    Obstacle,
+    RobotStatus,
     RuleMessage,
-    WorldMap,
+    ScriptInfo,
+    Sonar,
 )
 from oimi.pipeline.operator.commands import OperatorCommand
 
@@ -156,21 +162,51 @@ class JoystickInput(Event):
 # ------------------------------------------------------------------------ outputs
 
 
-class MapSnapshot(Event):
-    """The world map after this tick's producer update and rule chain.
+_ABSENT: Final = msgspec.Raw()
 
-    ``map`` is the ``WorldMap``'s JSON exactly as the loop encoded it to see whether it
-    changed: an immutable snapshot that sinks write as it is, with no second encoding.
-    ``world_map()`` decodes it; the recorded schema describes it as a ``WorldMap``.
+
+class MapDelta(Event, omit_defaults=True):
+    """The world map after this tick's producer and rules, when it changed: a keyframe (the
+    whole map) or a delta (what changed since the previous ``/map`` message).
+
+    One Struct for both, told apart by ``keyframe``, so the topic keeps one schema: a
+    keyframe has every section and row; a delta only the sections that changed (an empty
+    ``Raw``, left out of the JSON: unchanged), the rows that changed or appeared (whole, in
+    the map's order) and, in ``removed``, the ``Class/id`` (``Human/ada``) of rows
+    forgotten. Keyframes come first and then at the first change
+    ``PipelineConfig.map_keyframe_ms`` or more after the previous one. Parts are the JSON
+    the loop encoded (``msgspec.Raw``; :data:`RAW_TYPES` says what each holds);
+    ``pipeline.mapdeltas`` makes them and its ``apply_delta`` rebuilds full maps
+    (``Recording.maps()`` in the reader).
     """
 
-    map: msgspec.Raw
-    RAW_TYPES: ClassVar[dict[str, type]] = {"map": WorldMap}
-    """The type each raw field holds, for schemas."""
-
-    def world_map(self) -> WorldMap:
-        """The map as a Struct."""
-        return msgspec.json.decode(self.map, type=WorldMap)
+    keyframe: bool = False
+    """The whole map: applied to nothing (every earlier message may be skipped)."""
+    scriptinfo: msgspec.Raw = _ABSENT
+    lastupdatetime: msgspec.Raw = _ABSENT
+    robotstatus: msgspec.Raw = _ABSENT
+    cameras: tuple[msgspec.Raw, ...] = ()
+    sonars: tuple[msgspec.Raw, ...] = ()
+    humans: tuple[msgspec.Raw, ...] = ()
+    obstacles: tuple[msgspec.Raw, ...] = ()
+    objects: tuple[msgspec.Raw, ...] = ()
+    variables: msgspec.Raw = _ABSENT
+    aliases: msgspec.Raw = _ABSENT
+    removed: tuple[str, ...] = ()
+    """``Class/id`` of the rows forgotten since the previous message (deltas only)."""
+    RAW_TYPES: ClassVar[dict[str, object]] = {
+        "scriptinfo": ScriptInfo,
+        "lastupdatetime": int,
+        "robotstatus": RobotStatus,
+        "cameras": tuple[Camera, ...],
+        "sonars": tuple[Sonar, ...],
+        "humans": tuple[Human, ...],
+        "obstacles": tuple[Obstacle, ...],
+        "objects": tuple[Object, ...],
+        "variables": dict[str, str],
+        "aliases": dict[str, str],
+    }
+    """The type each raw field holds (as ``WorldMap``'s; a table as a tuple of its rows)."""
 
 
 class MapChange(Message):
@@ -421,7 +457,7 @@ TOPIC_TYPES: Final[dict[Topic, type[Event]]] = {
     Topic.OPERATOR_COMMANDS: OperatorCommands,
     Topic.OPERATOR_STATE: OperatorState,
     Topic.JOYSTICK: JoystickInput,
-    Topic.MAP: MapSnapshot,
+    Topic.MAP: MapDelta,
     Topic.RULE_DECISIONS: RuleDecisions,
     Topic.RULE_CHAIN: RuleChainState,
     Topic.READER_PROGRESS: ReaderProgress,

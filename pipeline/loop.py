@@ -20,7 +20,6 @@ from oimi.pipeline.events import (
     Level,
     LogEntries,
     LogEntry,
-    MapSnapshot,
     OperatorCommand,
     OperatorCommands,
     OperatorReply,
@@ -30,6 +29,7 @@ from oimi.pipeline.events import (
     SensorUpdates,
     Topic,
 )
+from oimi.pipeline.mapdeltas import MapDeltas
 from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
     ActuatorOutputs,
@@ -57,6 +57,11 @@ class PipelineConfig(Message):
     """Folder (relative) inside which ``script_vect`` paths must resolve."""
     safety: SafetyConfig = msgspec.field(default_factory=SafetyConfig)
     """The safety supervisor's zones (always on; see ``pipeline.act.safety``)."""
+    map_keyframe_ms: int = 5000
+    """``/map`` writes the whole map (a keyframe) at its first message and then at the first
+    change this long or more after the previous keyframe; deltas in between
+    (``pipeline.mapdeltas``). 5 s: a reader seeking a tick decodes at most 5 s of deltas,
+    and keyframes stay a small part of the recording."""
 
 
 class Pipeline:
@@ -94,7 +99,7 @@ class Pipeline:
         self.handler = handler
         self.sink = sink
         self._started = False
-        self._last_map = b""
+        self._map_deltas = MapDeltas(keyframe_ms=config.map_keyframe_ms)
         self._last_place: tuple[str, str, str, str] = ("", "", "", "")
         self._last_operator = b""
         self._operator_moved = False
@@ -296,10 +301,9 @@ class Pipeline:
         )
 
     def _publish_map(self, emitter: _Emitter) -> None:
-        encoded = msgspec.json.encode(self.map)
-        if encoded != self._last_map:
-            self._last_map = encoded
-            emitter.emit(Topic.MAP, MapSnapshot, map=msgspec.Raw(encoded))
+        delta = self._map_deltas.after(self.map, tick=emitter.tick, time_ms=emitter.time_ms)
+        if delta is not None:
+            self.sink.record(Topic.MAP, emitter.time_ns, delta)
 
     def _publish_operator(self, emitter: _Emitter) -> None:
         if not self._operator_moved:

@@ -7,20 +7,22 @@ written by another format version, raises :class:`RecordingError`.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
 import zlib
 from collections.abc import Iterable, Iterator
 from functools import cache
-from typing import IO, Final
+from typing import IO, Final, NamedTuple
 
 import msgspec
 import zstandard
 from mcap.exceptions import EndOfFile, InvalidMagic, McapError
 from mcap.reader import SeekingReader
 from mcap.records import AttachmentIndex
-from oimi.pipeline.events import TOPIC_TYPES, Event, Topic
-from oimi.pipeline.messages import FORMAT_VERSION
+from oimi.pipeline.events import TOPIC_TYPES, Event, MapDelta, Topic
+from oimi.pipeline.mapdeltas import apply_delta
+from oimi.pipeline.messages import FORMAT_VERSION, WorldMap
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
@@ -98,6 +100,19 @@ class RecordedMessage(msgspec.Struct, frozen=True, kw_only=True):
             ) from None
 
 
+class RecordedMap(NamedTuple):
+    """The full map as of one ``/map`` message (``Recording.maps()``)."""
+
+    tick: int
+    time_ms: int
+    map: WorldMap
+    """Rebuilt from the keyframe before it and the deltas since; shares its unchanged
+    parts with the previous one: read-only."""
+
+
+_map_decoder: Final = msgspec.json.Decoder(MapDelta)
+
+
 class Recording:
     """An opened recording; :meth:`iter_messages` re-reads the file on each call."""
 
@@ -158,6 +173,34 @@ class Recording:
                 raise RecordingError(str(error), source=self.path) from None
             if scan.damage is not None:
                 self.recovery = scan.report()
+
+
+    def maps(self) -> Iterator[RecordedMap]:
+        """The full map after each ``/map`` message, in order: keyframes and deltas applied
+        (``pipeline.mapdeltas.apply_delta``), the one way to read maps back. A delta
+        that cannot be applied raises :class:`RecordingError` naming the message."""
+        world_map: WorldMap | None = None
+        for message in self.iter_messages((Topic.MAP,)):
+            try:
+                delta = _map_decoder.decode(message.payload_bytes)
+                world_map = apply_delta(world_map, delta)
+            except (msgspec.DecodeError, ValueError) as error:
+                raise RecordingError(
+                    f"/map message {message.sequence} (tick {message.tick}): {error}",
+                    source=self.path,
+                ) from None
+            yield RecordedMap(delta.tick, delta.time_ms, world_map)
+
+    def map_at(self, tick: int) -> WorldMap | None:
+        """The map as it was at the end of ``tick`` (the last ``/map`` message at or before
+        it, rebuilt); None before the first."""
+        found = None
+        with contextlib.closing(self.maps()) as maps:
+            for recorded in maps:
+                if recorded.tick > tick:
+                    break
+                found = recorded.map
+        return found
 
 
 _TOPIC_NAMES: Final = frozenset(t.value for t in Topic)

@@ -49,15 +49,27 @@ def schema_data(topic: Topic) -> bytes:
     dropped, each member's tag ``enum`` says the same. Sorted keys keep the bytes stable
     from run to run.
     """
-    kind = TOPIC_TYPES[topic]
-    schema = msgspec.json.schema(kind)
+    schema = msgspec.json.schema(_described(TOPIC_TYPES[topic]))
     defs = schema.get("$defs", {})
-    for field, held in getattr(kind, "RAW_TYPES", {}).items():
-        # A pre-encoded field (msgspec.Raw) is described by the type it holds.
-        held_schema = msgspec.json.schema(held)
-        defs.update(held_schema.get("$defs", {}))
-        defs[kind.__name__]["properties"][field] = {"$ref": held_schema["$ref"]}
     return msgspec.json.encode(_inline_refs(schema, defs, ()), order="sorted")
+
+
+def _described(kind: type[msgspec.Struct]) -> type[msgspec.Struct]:
+    """The Struct whose schema describes ``kind``'s JSON: ``kind`` itself, or for one with
+    pre-encoded fields (``msgspec.Raw``, listed in its ``RAW_TYPES``) a twin of the same
+    name in which each of them has the type it holds (optional, as when absent)."""
+    held: dict[str, object] = getattr(kind, "RAW_TYPES", {})
+    if not held:
+        return kind
+    fields: list[tuple[str, object] | tuple[str, object, object]] = []
+    for field in msgspec.structs.fields(kind):
+        if field.name in held:
+            fields.append((field.name, held[field.name], None))
+        elif field.required:
+            fields.append((field.name, field.type))
+        else:
+            fields.append((field.name, field.type, field.default))
+    return msgspec.defstruct(kind.__name__, fields, kw_only=True, omit_defaults=True)
 
 
 def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -> object:

@@ -35,14 +35,14 @@ from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import (
     ActuatorCommands,
     JoystickInput,
-    MapSnapshot,
+    MapDelta,
     OperatorCommands,
     RuleChainState,
     SensorUpdates,
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import Channel, WorldMap
+from oimi.pipeline.messages import Channel, ScriptInfo
 from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
@@ -95,7 +95,6 @@ EXPORTED: Final = (
 def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
     """The recording's messages as ROS 2 messages: (time ns, topic, sample)."""
     recording = open_recording(source)
-    world = msgspec.json.Decoder(WorldMap)
     info: types.ScriptInfo | None = None
     shown: tuple[object, object] | None = None
     held: tuple[int, Pad] | None = None  # a locked pad state and when it was last sent
@@ -147,8 +146,8 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                                 angular=types.Vector3(z=command.v_theta),
                             ),
                         )
-            case MapSnapshot():
-                now = script_info(world.decode(event.map))
+            case MapDelta() if event.scriptinfo:  # the script's part changed
+                now = script_info(msgspec.json.decode(event.scriptinfo, type=ScriptInfo))
                 if now != info:
                     info = now
                     yield t, topics.SCRIPT_INFO, now

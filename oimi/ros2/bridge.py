@@ -32,12 +32,12 @@ from oimi.live.session import LiveSession
 from oimi.pipeline.events import (
     Event,
     JoystickInput,
-    MapSnapshot,
+    MapDelta,
     RuleChainState,
     RuleDecisions,
     Topic,
 )
-from oimi.pipeline.messages import ActuatorOutputs, RuleMessage, WorldMap
+from oimi.pipeline.messages import ActuatorOutputs, RuleMessage, ScriptInfo, WorldMap
 from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
@@ -66,8 +66,8 @@ class ProgressPublisher:
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         match message:
-            case MapSnapshot():
-                info = script_info(self.map)
+            case MapDelta() if message.scriptinfo:  # the script's part changed
+                info = script_info(self.map.scriptinfo)
                 if info != self._info:
                     self._info = info
                     self._script.write(info)
@@ -90,9 +90,8 @@ def rule_message(rule: RuleMessage) -> types.RuleMessage:
     )
 
 
-def script_info(world_map: WorldMap) -> types.ScriptInfo:
+def script_info(info: ScriptInfo) -> types.ScriptInfo:
     """The map's ``scriptinfo`` as ``oimi_msgs/ScriptInfo``."""
-    info = world_map.scriptinfo
     return types.ScriptInfo(
         currentactivity=info.currentactivity,
         scriptpath=info.scriptpath,

@@ -97,6 +97,16 @@ def test_every_message_of_the_loaded_topics_is_read(walk_mcap: Path) -> None:
     assert data.session_id == "walk at robot-seed0"
 
 
+def test_the_map_asked_for_is_the_full_map_after_each_map_message(walk_mcap: Path) -> None:
+    maps = list(open_recording(walk_mcap).maps())
+    frame = load_session(walk_mcap, topics=["/map"])["/map"]
+    assert frame["tick"].to_list() == [m.tick for m in maps]
+    assert frame["lastupdatetime"].to_list() == [m.map.lastupdatetime for m in maps]
+    rhos = frame["humans"].list.eval(pl.element().struct.field("positionrho")).to_list()
+    assert rhos == [[h.positionrho for h in m.map.humans] for m in maps]
+    assert all(rhos), "every row holds every human, not only the ones a delta changed"
+
+
 def test_a_truncated_recording_is_loaded_up_to_the_damage_with_a_warning(
     too_close_mcap: Path, tmp_path: Path
 ) -> None:

@@ -14,7 +14,7 @@ from oimi.pipeline.events import (
     LogEntries,
     LogEntry,
     MapChange,
-    MapSnapshot,
+    MapDelta,
     MotionSource,
     OperatorCommands,
     OperatorReply,
@@ -42,7 +42,6 @@ from oimi.pipeline.messages import (
     Policy,
     RuleAction,
     RuleMessage,
-    WorldMap,
 )
 from oimi.pipeline.operator.commands import Add
 from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
@@ -117,12 +116,16 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
             replies=(OperatorReply(id=tick, ok=False, reason="busy"),),
         ),
         Topic.JOYSTICK: JoystickInput(**t, left_x=0.5, left_y=-0.25, buttons=("LB", "A")),
-        Topic.MAP: MapSnapshot(
+        Topic.MAP: MapDelta(
             **t,
-            map=msgspec.Raw(
-                msgspec.json.encode(
-                    WorldMap(lastupdatetime=tick * 20, humans=[Human(id="child1", creationtime=0)])
-                )
+            keyframe=tick == 0,
+            lastupdatetime=msgspec.Raw(b"%d" % (tick * 20)),
+            humans=(
+                msgspec.Raw(
+                    msgspec.json.encode(
+                        Human(id="child1", creationtime=0, positionrho=1.0 + tick / 100)
+                    )
+                ),
             ),
         ),
         Topic.RULE_DECISIONS: RuleDecisions(

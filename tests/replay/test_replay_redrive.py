@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import msgspec
@@ -149,6 +150,52 @@ def test_a_changed_message_is_reported_with_topic_tick_field_and_both_values(
             "before it (matched):",
         ):
             assert text in report
+
+
+def test_a_changed_map_delta_is_reported_at_its_tick_and_field(
+    recording: Path, tmp_path: Path
+) -> None:
+    """``/map`` records deltas: one that says a human is elsewhere diverges at its tick."""
+    deltas = [
+        (index, message.tick)
+        for index, message in enumerate(open_recording(recording).iter_messages([Topic.MAP]))
+        if b'"humans"' in message.payload_bytes and b'"keyframe"' not in message.payload_bytes
+    ]
+    index, tick = deltas[len(deltas) // 2]
+
+    def edit(topic: str, at: int, data: bytes) -> bytes:
+        if topic != "/map" or at != index:
+            return data
+        event = msgspec.json.decode(data)
+        event["humans"][0]["positionrho"] += 1.0
+        return msgspec.json.encode(event)
+
+    tampered = tmp_path / "map.mcap"
+    rewrite(recording, tampered, message=edit)
+    d = redrive(tampered).divergence
+    assert d is not None
+    assert (d.kind, d.topic, d.tick, d.path) == ("changed", "/map", tick, "$.humans[0].positionrho")
+    rebuilt = open_recording(tampered).map_at(tick)
+    original = open_recording(recording).map_at(tick)
+    assert rebuilt is not None and original is not None and rebuilt != original
+
+
+def test_the_reader_rebuilds_the_full_map_at_every_map_message(recording: Path) -> None:
+    opened = open_recording(recording)
+    maps = list(opened.maps())
+    assert len(maps) == opened.summary[Topic.MAP.value] and maps[0].tick == 0
+    last = maps[-1]
+    assert opened.map_at(last.tick + 1000) == last.map
+    assert opened.map_at(maps[1].tick - 1) == maps[0].map
+    assert opened.map_at(-1) is None
+    keyframes = [m.tick for m in opened.iter_messages([Topic.MAP]) if b'"keyframe"' in
+                 m.payload_bytes]
+    assert keyframes[0] == 0 and all(b - a >= 250 for a, b in itertools.pairwise(keyframes)), (
+        "keyframes at least 5 s (250 ticks) apart"
+    )
+    session = Session(load_scenario(SHORT))
+    session.run()
+    assert last.map == session.pipeline.map, "the last map rebuilt is the loop's last map"
 
 
 def test_a_removed_message_is_reported_as_produced_but_not_recorded(

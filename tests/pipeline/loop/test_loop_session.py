@@ -6,14 +6,18 @@ import itertools
 import json
 
 import msgspec
+import pytest
 from oimi.pipeline.events import (
+    Event,
     JoystickInput,
+    MapDelta,
     ProgressKind,
     Source,
     Topic,
     encode,
 )
 from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.mapdeltas import apply_delta
 from oimi.pipeline.messages import (
     Action,
     Goal,
@@ -27,6 +31,7 @@ from oimi.pipeline.messages import (
     RuleAction,
     RuleMessage,
     Script,
+    WorldMap,
 )
 from oimi.pipeline.operator.commands import Add, Command, GetReady, OperatorCommand, Start
 from oimi.pipeline.operator.generators import default_catalogue
@@ -92,9 +97,9 @@ def pose(seq: int, rho: float, t: int) -> MapUpdate:
     )
 
 
-def pipeline(sink: MemorySink) -> Pipeline:
+def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
     return Pipeline(
-        PipelineConfig(),
+        config or PipelineConfig(),
         idle=ScriptEntry(activity="idle_activity", script=IDLE, source="idle_activity"),
         resolve=lambda name: (
             ScriptEntry(activity=name, script=WAIT, source=name)
@@ -207,15 +212,61 @@ def test_the_loop_stalls_until_an_update_or_the_block_moves_on() -> None:
         ],
     )
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
-    assert sink.on(Topic.MAP)[-1].world_map().humans[0].positionrho == 1.5
+    (child,) = sink.on(Topic.MAP)[-1].humans
+    assert msgspec.json.decode(child)["positionrho"] == 1.5, "the delta holds the change"
+    assert rebuilt(sink.on(Topic.MAP))[-1] == p.map
     p.tick(tick=11)
     assert sink.on(Topic.RULE_DECISIONS)[-1].tick == 10
 
 
+def rebuilt(deltas: list[MapDelta]) -> list[WorldMap]:
+    """The full map after each ``/map`` message."""
+    maps: list[WorldMap] = []
+    for delta in deltas:
+        maps.append(apply_delta(maps[-1] if maps else None, delta))
+    return maps
+
+
 def test_the_map_is_published_only_when_it_changed() -> None:
-    maps = run_session(50).on(Topic.MAP)
-    assert 0 < len(maps) < 50
-    assert all(a.map != b.map for a, b in itertools.pairwise(maps))
+    deltas = run_session(50).on(Topic.MAP)
+    assert 0 < len(deltas) < 50
+    assert [d.keyframe for d in deltas] == [True] + [False] * (len(deltas) - 1), (
+        "a keyframe first, then deltas within the first 5 s"
+    )
+    assert all(a != b for a, b in itertools.pairwise(rebuilt(deltas)))
+
+
+class HeldMaps(MemorySink):
+    """Keeps, beside each ``/map`` message, the loop's own map as it was then."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pipeline: Pipeline | None = None
+        self.held: list[bytes] = []
+
+    def record(self, topic: Topic, time_ns: int, message: Event) -> None:
+        if topic is Topic.MAP and self.pipeline is not None:
+            self.held.append(msgspec.json.encode(self.pipeline.map))
+        super().record(topic, time_ns, message)
+
+
+@pytest.mark.parametrize("keyframe_ms", [5000, 200])
+def test_the_maps_rebuilt_from_map_are_the_loops_map_at_each_publish(keyframe_ms: int) -> None:
+    """A whole session (1300 ticks; keyframes 5 s or 0.2 s apart): what ``/map`` records
+    rebuilds, message by message, the very map the loop held when it wrote it."""
+    sink = HeldMaps()
+    p = sink.pipeline = pipeline(sink, PipelineConfig(map_keyframe_ms=keyframe_ms))
+    for tick in range(1300):
+        p.tick(tick=tick, **SCRIPTED.get(tick, {}))
+    deltas = sink.on(Topic.MAP)
+    assert len(sink.held) == len(deltas) > 20
+    # held decoded as a WorldMap: the test's scripts put ints in float fields (Led.r=0)
+    # that a map read back spells 0.0; every value must be the same
+    typed = [msgspec.json.encode(msgspec.json.decode(h, type=WorldMap)) for h in sink.held]
+    assert [msgspec.json.encode(m) for m in rebuilt(deltas)] == typed
+    keyframes = [d.time_ms for d in deltas if d.keyframe]
+    assert keyframes[0] == deltas[0].time_ms and 1 < len(keyframes) < len(deltas)
+    assert all(b - a >= keyframe_ms for a, b in itertools.pairwise(keyframes))
 
 
 def test_a_rule_forced_switch_takes_effect_in_the_next_tick() -> None:

@@ -1,0 +1,160 @@
+"""``/map`` as keyframes and deltas: what the loop publishes, and the way back to full maps.
+
+:class:`MapDeltas` keeps a copy of every part of the map it last published (each section
+of ``WorldMap`` and each row of each listed class, by id) and, after a tick, compares the
+live map with them by value (struct equality: one C call per unchanged table, no JSON
+encoded or decoded to find what changed). Only the parts that differ are encoded (into the
+:class:`~pipeline.events.MapDelta`, as ``msgspec.Raw``: the sink writes them as they are)
+and copied. :func:`apply_delta` is the one function that rebuilds full maps from a
+keyframe and the deltas after it.
+
+A recorded part is the live part's JSON at its change, so a rebuilt map equals the loop's
+(``==``). A change between values that compare equal is not one (``0.0`` and ``-0.0``; an
+entity's ``attributes`` reordered; the top-level dicts' key order is compared); and a
+value decodes into its field's type (an int a Python caller put in a float field comes
+back a float).
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any, Final
+
+import msgspec
+from oimi.pipeline.events import MapDelta
+from oimi.pipeline.messages import MAP_LISTS, WorldMap
+
+TABLES: Final = tuple(m.field for m in MAP_LISTS)
+"""The map's listed classes' fields (rows with ids: a delta lists the changed rows)."""
+SECTIONS: Final = tuple(f for f in WorldMap.__struct_fields__ if f not in TABLES)
+"""The map's other fields (a delta holds each whole, when it changed)."""
+_CLASS: Final = {m.field: m.name for m in MAP_LISTS}
+_FIELD: Final = {m.name: m.field for m in MAP_LISTS}
+_DECODERS: Final[dict[str, msgspec.json.Decoder[Any]]] = {
+    name: msgspec.json.Decoder(MapDelta.RAW_TYPES[name]) for name in SECTIONS
+} | {m.field: msgspec.json.Decoder(m.struct) for m in MAP_LISTS}
+"""Each section's and each table's row's decoder."""
+_encode: Final = msgspec.json.Encoder().encode
+_UNSET: Final[Any] = object()
+
+
+def _copy(value: Any) -> Any:
+    """A deep copy to compare with later: Structs through msgpack (fast, every float bit
+    kept), or ``deepcopy`` for what a typed decode would refuse (an int beyond 64 bits; a
+    value of another type than its field's, which an extension's rule may write)."""
+    if isinstance(value, msgspec.Struct):
+        try:
+            return msgspec.msgpack.decode(msgspec.msgpack.encode(value), type=type(value))
+        except (OverflowError, msgspec.ValidationError):
+            return copy.deepcopy(value)
+    return dict(value) if isinstance(value, dict) else value
+
+
+class MapDeltas:
+    """The loop's ``/map`` publisher: the message after a tick, when the map changed.
+
+    ``keyframe_ms``: a keyframe is written at the first publish and then at the first
+    change at least this long after the previous keyframe (also when a table's rows
+    cannot be said as a delta: two rows with one id, or rows that changed order).
+    """
+
+    def __init__(self, *, keyframe_ms: int) -> None:
+        self.keyframe_ms = keyframe_ms
+        self._keyframe_ms: int | None = None
+        self._sections: dict[str, Any] = dict.fromkeys(SECTIONS, _UNSET)
+        """A copy of each section as last published."""
+        self._rows: dict[str, list[Any]] = {t: [] for t in TABLES}
+        """A copy of each table's rows as last published, in the map's order."""
+        self._ids: dict[str, dict[str, Any]] = {t: {} for t in TABLES}
+
+    def after(self, world_map: WorldMap, *, tick: int, time_ms: int) -> MapDelta | None:
+        """The ``/map`` message for the map after ``tick``; None when it did not change."""
+        changed: dict[str, Any] = {}
+        sections = self._sections
+        for name in SECTIONS:
+            live = getattr(world_map, name)
+            kept = sections[name]  # a dict's key order shows in its JSON: compared too
+            if kept == live and (type(live) is not dict or list(kept) == list(live)):
+                continue
+            sections[name] = _copy(live)
+            changed[name] = msgspec.Raw(_encode(live))
+        keyframe = self._keyframe_ms is None or time_ms - self._keyframe_ms >= self.keyframe_ms
+        removed: list[str] = []
+        for table in TABLES:
+            live_rows: list[Any] = getattr(world_map, table)
+            if live_rows == self._rows[table]:
+                continue
+            rows, gone, ordered = self._table(table, live_rows)
+            changed[table] = rows
+            removed += (f"{_CLASS[table]}/{i}" for i in gone)
+            keyframe = keyframe or not ordered
+        if not changed:
+            return None
+        if not keyframe:
+            return MapDelta(tick=tick, time_ms=time_ms, removed=tuple(removed), **changed)
+        self._keyframe_ms = time_ms
+        return MapDelta(
+            tick=tick,
+            time_ms=time_ms,
+            keyframe=True,
+            **{name: msgspec.Raw(_encode(getattr(world_map, name))) for name in SECTIONS},
+            **{t: tuple(msgspec.Raw(_encode(r)) for r in getattr(world_map, t)) for t in TABLES},
+        )
+
+    def _table(
+        self, table: str, live: list[Any]
+    ) -> tuple[tuple[msgspec.Raw, ...], list[str], bool]:
+        """Update a table's kept rows to ``live``: the rows that changed or appeared (their
+        JSON), the ids gone, and whether a delta can say it (unique ids, kept rows in their
+        old order, new ones at the end)."""
+        kept = self._ids[table]
+        rows = []
+        fresh: dict[str, Any] = {}
+        for row in live:
+            old = kept.get(row.id)
+            if old is None or old != row:
+                old = _copy(row)
+                rows.append(msgspec.Raw(_encode(row)))
+            fresh[row.id] = old
+        ids = [row.id for row in live]
+        gone = [i for i in kept if i not in fresh]
+        expected = [i for i in kept if i in fresh] + [i for i in fresh if i not in kept]
+        self._ids[table] = fresh
+        unique = len(fresh) == len(ids)
+        self._rows[table] = [fresh[i] for i in ids] if unique else [_copy(r) for r in live]
+        return tuple(rows), gone, unique and expected == ids
+
+
+def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
+    """The map after ``delta``: a keyframe's map (a section it lacks has its default), or
+    ``world_map`` (the map of the previous ``/map`` message, left unchanged) with the
+    delta's sections and rows in place, its new rows appended and its removed rows dropped.
+    The result shares its unchanged parts with ``world_map``: treat it as read-only.
+    ValueError for a delta with no map to apply to, or one that removes a row the map
+    does not have (``msgspec.DecodeError`` for a part that does not decode)."""
+    if delta.keyframe:
+        return WorldMap(
+            **{n: _DECODERS[n].decode(getattr(delta, n)) for n in SECTIONS if getattr(delta, n)},
+            **{t: [_DECODERS[t].decode(r) for r in getattr(delta, t)] for t in TABLES},
+        )
+    if world_map is None:
+        raise ValueError(f"the delta of tick {delta.tick} has no keyframe before it")
+    gone: dict[str, set[str]] = {}
+    for objectid in delta.removed:
+        name, _, ident = objectid.partition("/")
+        if name not in _FIELD or all(r.id != ident for r in getattr(world_map, _FIELD[name])):
+            raise ValueError(f"the delta of tick {delta.tick} removes {objectid!r}, not in the map")
+        gone.setdefault(_FIELD[name], set()).add(ident)
+    fields: dict[str, Any] = {}
+    for name in SECTIONS:
+        data = getattr(delta, name)
+        fields[name] = _DECODERS[name].decode(data) if data else getattr(world_map, name)
+    for table in TABLES:
+        rows: list[Any] = getattr(world_map, table)
+        changed = {row.id: row for row in map(_DECODERS[table].decode, getattr(delta, table))}
+        dropped = gone.get(table, set())
+        if changed or dropped:
+            rows = [changed.pop(r.id, r) for r in rows if r.id not in dropped]
+            rows += changed.values()
+        fields[table] = list(rows)
+    return WorldMap(**fields)

@@ -1,0 +1,169 @@
+"""``/map`` as keyframes and deltas: what the loop publishes rebuilds exactly the map it had."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+from oimi.pipeline.events import MapDelta
+from oimi.pipeline.mapdeltas import SECTIONS, TABLES, MapDeltas, apply_delta
+from oimi.pipeline.messages import (
+    Camera,
+    GoalEvent,
+    Human,
+    Object,
+    Obstacle,
+    Pose,
+    WorldMap,
+)
+
+ROWS = {"humans": Human, "obstacles": Obstacle, "objects": Object, "cameras": Camera}
+IDS = st.sampled_from(["a", "b", "c"])
+TABLES_ = st.sampled_from(["humans", "humans", "objects", "cameras"])
+
+mutation = st.one_of(
+    st.tuples(st.just("add"), TABLES_, IDS),
+    st.tuples(st.just("add"), TABLES_, IDS),
+    st.tuples(st.just("forget"), TABLES_, IDS),
+    st.tuples(st.just("move"), st.sampled_from(["humans", "obstacles", "objects"]), IDS),
+    st.tuples(st.just("pose"), st.just("humans"), IDS),
+    st.tuples(st.just("attribute"), st.just("humans"), IDS),
+    st.tuples(st.just("swap"), TABLES_, IDS),
+    st.tuples(st.just("time"), st.just(""), IDS),
+    st.tuples(st.just("variable"), st.just(""), IDS),
+    st.tuples(st.just("goal"), st.just(""), IDS),
+    st.tuples(st.just("block"), st.just(""), IDS),
+    st.tuples(st.just("publish"), st.just(""), IDS),
+    st.tuples(st.just("publish"), st.just(""), IDS),
+)
+
+
+def mutate(world: WorldMap, step: tuple[str, str, str], n: int) -> None:
+    """One change of the map, as the producer, the reader or a rule might make it."""
+    kind, table, ident = step
+    rows = getattr(world, table) if table else []
+    row = next((r for r in rows if r.id == ident), None)
+    match kind:
+        case "add" if row is None:
+            cls = ROWS[table]
+            rows.append(cls(id=ident) if cls is Camera else cls(id=ident, creationtime=n))
+        case "forget" if row is not None:
+            rows.remove(row)
+        case "move" if row is not None:
+            row.positionrho, row.positiontheta = n / 7, -n / 3
+        case "pose" if row is not None:
+            row.poses.append(Pose(positionrho=n / 5, positiontheta=0.5, positionchangetime=n))
+            del row.poses[:-3]  # a circular register of 3
+        case "attribute" if row is not None:
+            row.attributes[ident] = str(n)
+        case "swap" if len(rows) > 1:  # rows change order: only a keyframe can say it
+            rows[0], rows[-1] = rows[-1], rows[0]
+        case "time":
+            world.lastupdatetime = n
+        case "variable":
+            world.variables.pop(ident, None) if n % 3 == 0 else world.variables.update({ident: "1"})
+        case "goal":
+            world.robotstatus.goalreached.append(GoalEvent(goalid=ident, timestamp=n))
+        case "block":
+            world.scriptinfo.blockid = f"blk{n}"
+
+
+PUBLISH = ("publish", "", "")
+ADD_AB = [("add", "humans", "a"), ("add", "humans", "b"), ("add", "objects", "a"), PUBLISH]
+
+
+@settings(derandomize=True, max_examples=300, deadline=None)
+@example(steps=[*ADD_AB, ("swap", "humans", ""), PUBLISH], keyframe_ms=60_000)
+@example(steps=[*ADD_AB, ("forget", "humans", "a"), ("add", "humans", "a")], keyframe_ms=60_000)
+@example(steps=[*ADD_AB, ("forget", "objects", "a"), ("pose", "humans", "b")], keyframe_ms=60_000)
+@given(
+    steps=st.lists(mutation, max_size=40),
+    keyframe_ms=st.sampled_from([20, 100, 60_000]),
+)
+def test_keyframes_and_deltas_rebuild_the_map_the_loop_had_at_each_publish(
+    steps: list[tuple[str, str, str]], keyframe_ms: int
+) -> None:
+    world = WorldMap()
+    deltas = MapDeltas(keyframe_ms=keyframe_ms)
+    rebuilt: WorldMap | None = None
+    published = 0
+    for n, step in enumerate([*steps, PUBLISH]):
+        if step[0] != "publish":
+            mutate(world, step, n)
+            continue
+        delta = deltas.after(world, tick=n, time_ms=n * 20)
+        if delta is None:
+            assert rebuilt is None or rebuilt == world, "no message only when nothing changed"
+            continue
+        published += 1
+        recorded = msgspec.json.decode(msgspec.json.encode(delta), type=MapDelta)
+        rebuilt = apply_delta(rebuilt, recorded)
+        assert rebuilt == world
+        assert msgspec.json.encode(rebuilt) == msgspec.json.encode(world)
+        assert published > 1 or delta.keyframe, "the first message is a keyframe"
+        world = msgspec.json.decode(msgspec.json.encode(world), type=WorldMap)  # no aliasing
+
+
+def test_a_delta_holds_only_the_changed_rows_and_sections_and_the_forgotten_ids() -> None:
+    world = WorldMap(humans=[Human(id="a", creationtime=0), Human(id="b", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    assert first is not None and first.keyframe and len(first.humans) == 2
+    assert deltas.after(world, tick=1, time_ms=20) is None
+    world.humans[1].positionrho = 2.0
+    world.humans.pop(0)
+    world.lastupdatetime = 40
+    delta = deltas.after(world, tick=2, time_ms=40)
+    assert delta is not None and not delta.keyframe
+    humans = [msgspec.json.decode(h, type=Human) for h in delta.humans]
+    assert humans == [world.humans[0]] and delta.removed == ("Human/a",)
+    assert bytes(delta.lastupdatetime) == b"40" and not delta.scriptinfo and not delta.robotstatus
+    assert b'"scriptinfo"' not in msgspec.json.encode(delta), "unchanged sections are left out"
+    assert apply_delta(apply_delta(None, first), delta) == world
+
+
+def test_a_keyframe_comes_again_at_the_first_change_after_the_interval() -> None:
+    world = WorldMap()
+    deltas = MapDeltas(keyframe_ms=100)
+    kinds = []
+    for tick in range(12):
+        world.lastupdatetime = tick if tick % 2 else world.lastupdatetime  # odd ticks change
+        delta = deltas.after(world, tick=tick, time_ms=tick * 20)
+        kinds.append(None if delta is None else delta.keyframe)
+    assert kinds == [True, False, None, False, None, True, None, False, None, False, None, True]
+
+
+def test_the_map_delta_has_a_field_for_every_part_of_the_map() -> None:
+    assert set(SECTIONS) | set(TABLES) == set(WorldMap.__struct_fields__)
+    assert set(WorldMap.__struct_fields__) < set(MapDelta.__struct_fields__)
+
+
+def test_a_delta_without_a_keyframe_or_removing_an_unknown_row_is_refused() -> None:
+    with pytest.raises(ValueError, match="no keyframe before it"):
+        apply_delta(None, MapDelta(tick=3, time_ms=60, lastupdatetime=1))
+    with pytest.raises(ValueError, match="removes 'Human/x'"):
+        apply_delta(WorldMap(), MapDelta(tick=3, time_ms=60, removed=("Human/x",)))
+
+
+def test_a_value_beyond_64_bits_is_recorded_and_rebuilt() -> None:
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    world.humans[0].appearanceon = 10**30  # a rule's arithmetic may go past int64
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert first is not None and delta is not None
+    assert apply_delta(apply_delta(None, first), delta) == world
+
+
+def test_a_value_of_the_wrong_type_is_recorded_as_it_is_not_a_crash() -> None:
+    """An extension's rule may write an int where the map holds strings: the loop goes on
+    and the delta holds what the map held (as format 1's snapshot did)."""
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    deltas.after(world, tick=0, time_ms=0)
+    world.humans[0].attributes["count"] = 3  # type: ignore[assignment]
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert delta is not None and b'"attributes":{"count":3}' in msgspec.json.encode(delta)
+    world.humans[0].attributes["count"] = 3  # type: ignore[assignment]
+    assert deltas.after(world, tick=2, time_ms=40) is None, "kept as it was: no change"
