@@ -120,12 +120,15 @@ def _xy(x_m: float, y_m: float) -> list[float]:
     return [x_m, -y_m]
 
 
+_RING_STEP: Final = 2 * math.pi / RING_POINTS
+_UNIT_RING: Final = tuple(
+    (math.cos(i * _RING_STEP), math.sin(i * _RING_STEP)) for i in range(RING_POINTS + 1)
+)
+"""The closed unit circle a ring is drawn from (computed once: rings are drawn each tick)."""
+
+
 def _ring(x_m: float, y_m: float, radius_m: float) -> list[list[float]]:
-    step = 2 * math.pi / RING_POINTS
-    return [
-        _xy(x_m + radius_m * math.cos(i * step), y_m + radius_m * math.sin(i * step))
-        for i in range(RING_POINTS + 1)
-    ]
+    return [[x_m + radius_m * c, -(y_m + radius_m * s)] for c, s in _UNIT_RING]
 
 
 def zone_rings(
