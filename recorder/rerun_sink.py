@@ -132,14 +132,15 @@ def _ring(x_m: float, y_m: float, radius_m: float) -> list[list[float]]:
 
 
 def zone_rings(
-    person: BodyState, zones: SafetyZones, acting: str | None
+    radius_m: float, zones: SafetyZones, acting: str | None
 ) -> tuple[list[list[list[float]]], list[RGB], list[float]]:
-    """The slow and stop rings around ``person`` (its radius plus each zone's distance):
-    line strips, colours, line radii. The ``acting`` zone (``slow``, ``stop`` or None)
-    is drawn bold; the others thin and dimmed."""
+    """The slow and stop rings of a person of ``radius_m`` (plus each zone's distance),
+    around the origin (a transform moves them with the person): line strips, colours,
+    line radii. The ``acting`` zone (``slow``, ``stop`` or None) is drawn bold; the
+    others thin and dimmed."""
     strips, colours, widths = [], [], []
     for name, distance in (("slow", zones.slow_m), ("stop", zones.stop_m)):
-        strips.append(_ring(person.x_m, person.y_m, person.radius_m + distance))
+        strips.append(_ring(0.0, 0.0, radius_m + distance))
         full = palette.colour(f"{name}-zone")
         bold = name == acting
         colours.append(full if bold else tuple(c * 3 // 5 for c in full))
@@ -207,6 +208,9 @@ class RerunSink:
         """The zone the supervisor acts in per person, from ``/safety`` (None: no such topic
         seen yet, so the zone is read off the geometry)."""
         self._trails: dict[str, deque[list[float]]] = {}
+        self._looks: dict[str, tuple[object, ...]] = {}
+        """What each ring entity last drew (ring radius, colour or zone): rings are drawn
+        around the origin when that changes and moved by a transform each sample."""
         self._tick: int | None = None
         self._seconds = 0.0
         self._time_set = False
@@ -435,12 +439,9 @@ class RerunSink:
         buffer = self._buffer
         buffer("world/robot", rr.Points2D, positions=_xy(robot.x_m, robot.y_m), radii=r)
         buffer("world/robot/name", rr.Points2D, positions=_under(robot))
-        buffer(
-            "world/robot/led",
-            rr.LineStrips2D,
-            strips=_ring(robot.x_m, robot.y_m, r * 0.72),
-            colors=led,
-        )
+        self._moved("world/robot/led", robot)
+        if self._changed_look("world/robot/led", r, led):
+            buffer("world/robot/led", rr.LineStrips2D, strips=_ring(0.0, 0.0, r * 0.72), colors=led)
         heading = _xy(1.2 * r * math.cos(robot.theta_rad), 1.2 * r * math.sin(robot.theta_rad))
         buffer(
             "world/robot/heading",
@@ -463,10 +464,12 @@ class RerunSink:
                 if self._acting is None
                 else _drawn_zone(self._acting.get(human.id))
             )
-            strips, colours, widths = zone_rings(human, self._zones, acting)
-            self._buffer(
-                f"{path}/zones", rr.LineStrips2D, 2, strips=strips, colors=colours, radii=widths
-            )
+            self._moved(f"{path}/zones", human)
+            if self._changed_look(f"{path}/zones", human.radius_m, acting):
+                strips, colours, widths = zone_rings(human.radius_m, self._zones, acting)
+                self._buffer(
+                    f"{path}/zones", rr.LineStrips2D, 2, strips=strips, colors=colours, radii=widths
+                )
             buffer(f"robot/distance/{human.id}", rr.Scalars, scalars=max(gap, 0.0))
             self._trail(f"{path}/trail", human)
         for obj in state.objects:
@@ -508,6 +511,17 @@ class RerunSink:
                 draw_order=_MARK,
             ),
         )
+
+    def _moved(self, path: str, body: BodyState) -> None:
+        """Place ``path``'s origin at ``body`` for this sample."""
+        self._buffer(path, rr.Transform3D, translation=[body.x_m, -body.y_m, 0.0])
+
+    def _changed_look(self, path: str, *look: object) -> bool:
+        """Whether ``path``'s drawing differs from what it last drew (and note it)."""
+        if self._looks.get(path) == look:
+            return False
+        self._looks[path] = look
+        return True
 
     def _buffer(self, path: str, archetype: type, count: int = 1, **fields: object) -> None:
         """Queue one row of a sampled entity (``count`` instances, each field a list of

@@ -8,7 +8,6 @@ from pathlib import Path
 import msgspec
 import pytest
 from oimi.pipeline.events import (
-    BodyState,
     MotionSource,
     SafetyIntervention,
     SafetyPhase,
@@ -83,7 +82,10 @@ def test_people_of_one_kind_get_the_kinds_shades_in_order_then_cycle() -> None:
 
 
 def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path) -> None:
-    ring = rows(rrd, "/world/robot/led", static=False)
+    ring = [
+        row for row in rows(rrd, "/world/robot/led", static=False) if "LineStrips2D:colors" in row
+    ]
+    assert ring
     colours = {c for row in ring for c in row["LineStrips2D:colors"]}
     assert colours <= {packed(palette.colour("led-off")), packed((0, 0, 255))}
     assert rows(rrd, "/world/robot", static=False)
@@ -120,14 +122,36 @@ def test_the_current_block_reads_as_a_line(block: InstructionBlock, line: str) -
     assert block_line(block) == line
 
 
+def test_rings_are_drawn_when_their_look_changes_and_moved_with_their_body(
+    tmp_path: Path,
+) -> None:
+    """A person's safety rings and the robot's LED ring: strips only when the radius,
+    zone or colour changes; a transform at every sample puts them on the body."""
+    path = tmp_path / "rings.rrd"
+    with RerunSink(path, recording_id="r", scene=SCENE) as sink:
+        for tick in range(30):
+            state = msgspec.structs.replace(world_state(tick), led=(0.0, 0.0, 1.0))
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, state)
+    for entity, body in [
+        ("/world/humans/child1/zones", "/world/humans/child1"),
+        ("/world/robot/led", "/world/robot"),
+    ]:
+        found = rows(path, entity, static=False)
+        strips = [row for row in found if "LineStrips2D:strips" in row]
+        moves = [row for row in found if "Transform3D:translation" in row]
+        placed = [row for row in rows(path, body, static=False) if "Points2D:positions" in row]
+        assert len(strips) == 1 and len(moves) == len(placed) == 6
+        moved = [xy for m in moves for xy in m["Transform3D:translation"][0][:2]]
+        assert moved == pytest.approx([xy for p in placed for xy in p["Points2D:positions"][0]])
+
+
 def test_zone_rings_surround_the_person_and_the_acting_one_is_bold() -> None:
-    person = BodyState(id="c", kind="child", x_m=2.0, y_m=1.0, radius_m=0.25)
     zones = SafetyZones(stop_m=0.15, slow_m=0.5)
-    strips, colours, widths = zone_rings(person, zones, None)
-    radii = [max(abs(x - 2.0) for x, _ in strip) for strip in strips]
+    strips, colours, widths = zone_rings(0.25, zones, None)
+    radii = [max(abs(x) for x, _ in strip) for strip in strips]
     assert radii == pytest.approx([0.75, 0.4])
     assert widths[0] == widths[1]
-    _, bold_colours, bold_widths = zone_rings(person, zones, "stop")
+    _, bold_colours, bold_widths = zone_rings(0.25, zones, "stop")
     assert bold_widths[1] > bold_widths[0] == widths[0]
     assert bold_colours[1] == palette.colour("stop-zone") != colours[1]
     assert zones.acting(0.1) == "stop" and zones.acting(0.3) == "slow"
@@ -174,9 +198,7 @@ def test_the_zone_the_supervisor_reports_on_safety_is_the_one_drawn_bold(tmp_pat
     (not one guessed from the geometry), and it goes thin again when the episode ends."""
     path = tmp_path / "z.rrd"
     far = SafetyZones(stop_m=0.01, slow_m=0.02)  # the geometry alone would light no ring
-    with RerunSink(
-        path, recording_id="z", scene=SCENE, zones=far, world_every_n_ticks=1
-    ) as sink:
+    with RerunSink(path, recording_id="z", scene=SCENE, zones=far, world_every_n_ticks=1) as sink:
         for tick in range(10):
             if tick in (2, 6):
                 phase = SafetyPhase.START if tick == 2 else SafetyPhase.END
@@ -196,9 +218,11 @@ def test_the_zone_the_supervisor_reports_on_safety_is_the_one_drawn_bold(tmp_pat
     widths = {
         row["tick"]: row["LineStrips2D:radii"]
         for row in rows(path, "/world/humans/child1/zones", static=False)
+        if "LineStrips2D:radii" in row
     }
     thin = pytest.approx([0.01, 0.01])
-    assert widths[0] == thin and widths[1] == thin
+    assert sorted(widths) == [0, 2, 6], "drawn again only when the lit zone changes"
+    assert widths[0] == thin
     assert widths[2][1] > widths[2][0]  # the stop ring, bold while the supervisor acts
     assert widths[6] == thin
 
