@@ -12,8 +12,8 @@ from typing import ClassVar, Final
 
 import msgspec
 from oimi.pipeline.messages import (
+    ActuatorCommand,
     Camera,
-    Channel,
     Human,
     InstructionBlock,
     MapUpdate,
@@ -25,6 +25,7 @@ from oimi.pipeline.messages import (
     ScriptInfo,
     Sonar,
 )
+from oimi.pipeline.messages import Source as Source  # re-exported with the commands
 from oimi.pipeline.operator.commands import OperatorCommand
 
 
@@ -276,33 +277,10 @@ class ReaderProgress(Event):
     items: tuple[ProgressItem, ...] = ()
 
 
-class Source(enum.StrEnum):
-    SCRIPT = "script"
-    JOYSTICK = "joystick"
-    SAFETY = "safety"
-
-
-class ActuatorCommand(Message):
-    """One command sent to the robot: ``channel`` is ``move``, ``led`` or ``audio``."""
-
-    channel: Channel
-    source: Source
-    v_x: float = 0.0
-    v_y: float = 0.0
-    v_theta: float = 0.0
-    r: float = 0.0
-    g: float = 0.0
-    b: float = 0.0
-    track_path: str = ""
-    stop: bool = False
-    """An explicit stop after an item (stop moving, lights off, stop the track)."""
-    clamped: bool = False
-    """The requested value exceeded the robot's limits and was clamped."""
-    requested: tuple[float, float, float] | None = None
-    """What the script asked for, when clamped."""
-
-
 class ActuatorCommands(Event):
+    """The commands the actuator issued this tick, in channel order, each tagged by its
+    ``channel`` with that channel's fields only."""
+
     commands: tuple[ActuatorCommand, ...]
     block: InstructionBlock | None = None
     """The block being executed, when it started this tick."""

@@ -125,6 +125,61 @@ class AudioOut(Message):
     """Milliseconds to play."""
 
 
+class Source(enum.StrEnum):
+    """Who issued an actuator command."""
+
+    SCRIPT = "script"
+    JOYSTICK = "joystick"
+    SAFETY = "safety"
+
+
+class ChannelCommand(Message, tag_field="channel"):
+    """Base of a command sent to one channel of the robot, tagged by its ``channel``."""
+
+    source: Source
+    stop: bool = False
+    """An explicit stop after an item (stop moving, lights off, stop the track)."""
+
+    @property
+    def channel(self) -> Channel:
+        """The command's tag: the channel it drives."""
+        return Channel(self.__struct_config__.tag)
+
+
+class MoveCommand(ChannelCommand, tag=Channel.MOVE.value):
+    """A body-frame velocity for the base (zero with ``stop``)."""
+
+    v_x: float = 0.0
+    v_y: float = 0.0
+    v_theta: float = 0.0
+    clamped: bool = False
+    """The script asked beyond the robot's limits: the speeds were clamped."""
+    requested: tuple[float, float, float] | None = None
+    """``(v_x, v_y, v_theta)`` the script asked for, when clamped."""
+
+
+class LedCommand(ChannelCommand, tag=Channel.LED.value):
+    """A colour for the LEDs (off with ``stop``)."""
+
+    r: float = 0.0
+    g: float = 0.0
+    b: float = 0.0
+    clamped: bool = False
+    """The script asked a colour outside [0, 1]: it was clamped."""
+    requested: tuple[float, float, float] | None = None
+    """``(r, g, b)`` the script asked for, when clamped."""
+
+
+class AudioCommand(ChannelCommand, tag=Channel.AUDIO.value):
+    """A track to play (or, with ``stop``, the track stopped)."""
+
+    track_path: str = ""
+
+
+ActuatorCommand = MoveCommand | LedCommand | AudioCommand
+"""One command sent to the robot: the :data:`CHANNELS` rows' commands, in their order."""
+
+
 class InstructionBlock(Message, tag="instruction", tag_field="type"):
     """What the actuators do: three channels run in parallel, each a sequence of items."""
 
@@ -152,6 +207,8 @@ class ChannelSpec(NamedTuple):
     item: type[Move] | type[Led] | type[AudioOut]
     dsl: str
     """The keyword of its item list in the script DSL (``MV(...)``)."""
+    command: type[MoveCommand] | type[LedCommand] | type[AudioCommand]
+    """The :data:`ActuatorCommand` the actuator issues on it (tagged by ``channel``)."""
 
     def item_fields(self) -> tuple[tuple[str, type], ...]:
         """The item Struct's fields and their types (``float``, ``int`` or ``str``), in
@@ -160,14 +217,14 @@ class ChannelSpec(NamedTuple):
 
 
 CHANNELS: Final = (
-    ChannelSpec(Channel.MOVE, "move", Move, "MV"),
-    ChannelSpec(Channel.LED, "led", Led, "LD"),
-    ChannelSpec(Channel.AUDIO, "audioout", AudioOut, "AO"),
+    ChannelSpec(Channel.MOVE, "move", Move, "MV", MoveCommand),
+    ChannelSpec(Channel.LED, "led", Led, "LD", LedCommand),
+    ChannelSpec(Channel.AUDIO, "audioout", AudioOut, "AO", AudioCommand),
 )
-"""The channel registry: each actuator channel, its block field, its item Struct and its
-DSL keyword, in the order their commands are issued within a tick. The actuator, the
-script validation, the JSON script format, the DSL (grammar and compiler) and its
-renderer read it."""
+"""The channel registry: each actuator channel, its block field, its item Struct, its
+DSL keyword and its command, in the order their commands are issued within a tick. The
+actuator, the script validation, the JSON script format, the DSL (grammar and compiler)
+and its renderer read it; :data:`ActuatorCommand` is the union of its commands."""
 
 
 class JumpBlock(Message, tag="jump", tag_field="type"):

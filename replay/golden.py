@@ -27,7 +27,6 @@ from typing import Final
 
 from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import (
-    ActuatorCommand,
     ActuatorCommands,
     Event,
     JoystickInput,
@@ -43,7 +42,7 @@ from oimi.pipeline.events import (
     WorldState,
     encode,
 )
-from oimi.pipeline.messages import Channel
+from oimi.pipeline.messages import ActuatorCommand, AudioCommand, LedCommand, MoveCommand
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder.reader import open_recording
 from oimi.scenarios.loader import load_scenario
@@ -90,16 +89,19 @@ def _time(time_ms: int) -> str:
 
 
 def _command(c: ActuatorCommand) -> str:
-    match c.channel:
-        case Channel.MOVE:
+    clamped, requested = False, None
+    match c:
+        case MoveCommand():
             text = f"v=({_num(c.v_x)},{_num(c.v_y)},{_num(c.v_theta)})"
-        case Channel.LED:
+            clamped, requested = c.clamped, c.requested
+        case LedCommand():
             text = f"rgb=({_num(c.r)},{_num(c.g)},{_num(c.b)})"
-        case _:
+            clamped, requested = c.clamped, c.requested
+        case AudioCommand():
             text = f"track={c.track_path or '-'}"
-    flags = (" stop" if c.stop else "") + (" clamped" if c.clamped else "")
-    if c.requested is not None:
-        flags += " requested=(" + ",".join(_num(v) for v in c.requested) + ")"
+    flags = (" stop" if c.stop else "") + (" clamped" if clamped else "")
+    if requested is not None:
+        flags += " requested=(" + ",".join(_num(v) for v in requested) + ")"
     return f"command {c.channel} {c.source} {text}{flags}"
 
 

@@ -282,19 +282,14 @@ class _Loop:
         self.out.write(COMMANDS, time_ns, command)
 
 
+_CHANNEL_FIELDS: Final[dict[str, dict[str, Any]]] = {
+    "move": {"v_x": 0.0, "v_y": 0.0, "v_theta": 0.0, "clamped": False, "requested": None},
+    "led": {"r": 0.0, "g": 0.0, "b": 0.0, "clamped": False, "requested": None},
+    "audio": {"track_path": ""},
+}
+
+
 def _command(channel: str, **fields: Any) -> dict[str, Any]:
-    """One actuator command with every field, as oimi records it."""
-    return {
-        "channel": channel,
-        "source": "script",
-        "v_x": 0.0,
-        "v_y": 0.0,
-        "v_theta": 0.0,
-        "r": 0.0,
-        "g": 0.0,
-        "b": 0.0,
-        "track_path": "",
-        "stop": False,
-        "clamped": False,
-        "requested": None,
-    } | fields
+    """One actuator command with every field of its channel, as oimi records it."""
+    common = {"channel": channel, "source": "script", "stop": False}
+    return common | _CHANNEL_FIELDS[channel] | fields

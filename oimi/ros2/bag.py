@@ -42,7 +42,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import Channel, ScriptInfo
+from oimi.pipeline.messages import MoveCommand, ScriptInfo
 from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
@@ -137,7 +137,7 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
                     yield t, topics.AUDIO, types.String(data=event.audio)
             case ActuatorCommands():
                 for command in event.commands:
-                    if command.channel == Channel.MOVE:
+                    if isinstance(command, MoveCommand):
                         yield (
                             t,
                             topics.CMD_VEL,

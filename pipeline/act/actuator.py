@@ -25,8 +25,20 @@ from oimi.pipeline.act.limits import (
     fmt,
     ramp_velocity,
 )
-from oimi.pipeline.events import ActuatorCommand, JoystickInput, MotionSource, Source
-from oimi.pipeline.messages import ActuatorOutputs, AudioOut, InstructionBlock, Led, Message, Move
+from oimi.pipeline.events import JoystickInput, MotionSource
+from oimi.pipeline.messages import (
+    ActuatorCommand,
+    ActuatorOutputs,
+    AudioCommand,
+    AudioOut,
+    InstructionBlock,
+    Led,
+    LedCommand,
+    Message,
+    Move,
+    MoveCommand,
+    Source,
+)
 
 LIGHTS_OFF: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
@@ -178,9 +190,7 @@ class Actuator:
                 self._driving = None
                 self._target = self._velocity = STILL  # at once, not ramped down
                 self._brake = True
-                self._commands.append(
-                    ActuatorCommand(channel=Channel.MOVE, source=Source.SAFETY, stop=True)
-                )
+                self._commands.append(MoveCommand(source=Source.SAFETY, stop=True))
                 why = f" ({pad.release})" if pad.release is not None else ""
                 self._notes.append(f"joystick: safety lock released{why}, robot stopped")
                 self._refreeze(now_ms)
@@ -210,13 +220,7 @@ class Actuator:
             self._target = state.velocity
             v_x, v_y, v_theta = state.velocity
             self._commands.append(
-                ActuatorCommand(
-                    channel=Channel.MOVE,
-                    source=Source.JOYSTICK,
-                    v_x=v_x,
-                    v_y=v_y,
-                    v_theta=v_theta,
-                )
+                MoveCommand(source=Source.JOYSTICK, v_x=v_x, v_y=v_y, v_theta=v_theta)
             )
 
     def step(self, *, now_ms: int) -> ActuatorStep:
@@ -280,23 +284,14 @@ class Actuator:
     def _stop_what_is_on(self) -> None:
         """Stop the channels the old block left on (the joystick keeps its move)."""
         if self._driving is None and self._target != STILL:
-            self._commands.append(
-                ActuatorCommand(channel=Channel.MOVE, source=Source.SCRIPT, stop=True)
-            )
+            self._commands.append(MoveCommand(source=Source.SCRIPT, stop=True))
             self._target = STILL
         if self._led != LIGHTS_OFF:
-            self._commands.append(
-                ActuatorCommand(channel=Channel.LED, source=Source.SCRIPT, stop=True)
-            )
+            self._commands.append(LedCommand(source=Source.SCRIPT, stop=True))
             self._led = LIGHTS_OFF
         if self._audio:
             self._commands.append(
-                ActuatorCommand(
-                    channel=Channel.AUDIO,
-                    source=Source.SCRIPT,
-                    track_path=self._audio,
-                    stop=True,
-                )
+                AudioCommand(source=Source.SCRIPT, track_path=self._audio, stop=True)
             )
             self._audio = ""
 
@@ -316,17 +311,14 @@ class Actuator:
             self._notes.append(f"{label}: script {what} overridden by the joystick")
             return
         if phase is Phase.STOP:
-            self._commands.append(
-                ActuatorCommand(channel=Channel.MOVE, source=Source.SCRIPT, stop=True)
-            )
+            self._commands.append(MoveCommand(source=Source.SCRIPT, stop=True))
             self._target = STILL
             return
         requested = Velocity(float(item.v_x), float(item.v_y), float(item.v_theta))
         velocity, reports = clamp_velocity(requested, self._limits, what=label)
         self._clamps.extend(reports)
         self._commands.append(
-            ActuatorCommand(
-                channel=Channel.MOVE,
+            MoveCommand(
                 source=Source.SCRIPT,
                 v_x=velocity.v_x,
                 v_y=velocity.v_y,
@@ -339,9 +331,7 @@ class Actuator:
 
     def _run_led(self, item: Led, phase: Phase, label: str) -> None:
         if phase is Phase.STOP:
-            self._commands.append(
-                ActuatorCommand(channel=Channel.LED, source=Source.SCRIPT, stop=True)
-            )
+            self._commands.append(LedCommand(source=Source.SCRIPT, stop=True))
             self._led = LIGHTS_OFF
             return
         colour: list[float] = []
@@ -355,8 +345,7 @@ class Actuator:
         self._clamps.extend(reports)
         r, g, b = colour if item.turnas != 0 else LIGHTS_OFF
         self._commands.append(
-            ActuatorCommand(
-                channel=Channel.LED,
+            LedCommand(
                 source=Source.SCRIPT,
                 r=r,
                 g=g,
@@ -370,11 +359,6 @@ class Actuator:
     def _run_audio(self, item: AudioOut, phase: Phase) -> None:
         stop = phase is Phase.STOP
         self._commands.append(
-            ActuatorCommand(
-                channel=Channel.AUDIO,
-                source=Source.SCRIPT,
-                track_path=item.track_path,
-                stop=stop,
-            )
+            AudioCommand(source=Source.SCRIPT, track_path=item.track_path, stop=stop)
         )
         self._audio = "" if stop else item.track_path

@@ -16,13 +16,14 @@ from oimi.analysis.load import (
     struct_schema,
 )
 from oimi.pipeline.events import (
-    ActuatorCommand,
+    ActuatorCommands,
     OperatorCommands,
     RuleDecision,
     RuleDecisions,
     Topic,
     encode,
 )
+from oimi.pipeline.messages import AudioCommand, LedCommand, MoveCommand, Source
 from oimi.pipeline.operator.commands import Reorder, Start
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
@@ -39,7 +40,7 @@ def test_schema_follows_the_struct_and_leaves_out_free_keyed_dicts() -> None:
 
 
 def test_optional_fixed_tuple_becomes_a_nullable_list() -> None:
-    info = msgspec.inspect.type_info(ActuatorCommand)
+    info = msgspec.inspect.type_info(MoveCommand)
     requested = next(f for f in info.fields if f.name == "requested")
     assert polars_dtype(requested.type) == pl.List(pl.Float64)
 
@@ -57,6 +58,28 @@ def test_operator_commands_are_one_row_each_with_the_tag_and_nulls_for_absent_fi
         (1, "reorder", "a", 2),
         (2, "start", None, None),
     ]
+
+
+def test_actuator_commands_are_one_row_each_with_the_channel_and_its_own_fields() -> None:
+    payload = encode(
+        ActuatorCommands(
+            tick=2,
+            time_ms=40,
+            commands=(
+                MoveCommand(source=Source.SCRIPT, v_x=0.4, clamped=True, requested=(9.0, 0, 0)),
+                LedCommand(source=Source.SCRIPT, r=1.0),
+                AudioCommand(source=Source.SCRIPT, track_path="a.wav", stop=True),
+            ),
+        )
+    )
+    table = payloads_to_tables(Topic.ACTUATOR_COMMANDS, [payload])["/actuator/commands"]
+    assert table.columns[3:6] == ["channel", "source", "stop"]
+    assert table.select("channel", "stop", "v_x", "r", "track_path", "clamped").rows() == [
+        ("move", False, 0.4, None, None, True),
+        ("led", False, None, 1.0, None, False),
+        ("audio", True, None, None, "a.wav", None),
+    ]
+    assert table["requested"].to_list() == [[9.0, 0.0, 0.0], None, None]
 
 
 def test_decisions_are_exploded_one_row_per_rule() -> None:

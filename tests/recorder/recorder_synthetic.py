@@ -5,7 +5,6 @@ from __future__ import annotations
 import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
-    ActuatorCommand,
     ActuatorCommands,
     BodyState,
     Event,
@@ -34,10 +33,12 @@ from oimi.pipeline.events import (
     WorldState,
 )
 from oimi.pipeline.messages import (
+    AudioCommand,
     Human,
     InstructionBlock,
     MapUpdate,
     Move,
+    MoveCommand,
     MutexCmd,
     Policy,
     RuleAction,
@@ -159,13 +160,10 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
         Topic.ACTUATOR_COMMANDS: ActuatorCommands(
             **t,
             commands=(
-                ActuatorCommand(
-                    channel="move",
-                    source=Source.SCRIPT,
-                    v_x=0.6,
-                    clamped=True,
-                    requested=(0.9, 0.0, 0.0),
+                MoveCommand(
+                    source=Source.SCRIPT, v_x=0.6, clamped=True, requested=(0.9, 0.0, 0.0)
                 ),
+                AudioCommand(source=Source.SCRIPT, track_path="hello.wav", stop=True),
             ),
             block=InstructionBlock(
                 move=(Move(v_x=0.6, v_y=0.0, v_theta=0.0, wait_t=0, duration=1000),)

@@ -17,6 +17,7 @@ import pytest
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic
+from oimi.pipeline.messages import MoveCommand
 from oimi.recorder.reader import open_recording
 
 from oimi.cli import main
@@ -76,7 +77,7 @@ def test_the_activity_drives_the_simulated_robot_over_cmd_vel(drive):
         c
         for m in bridge.iter_messages([Topic.ACTUATOR_COMMANDS])
         for c in m.decoded().commands
-        if c.channel == "move"
+        if isinstance(c, MoveCommand)
     ]
     assert moves[0].source is Source.SCRIPT and moves[0].v_x == pytest.approx(0.1)
     assert bridge.summary[Topic.SENSOR_UPDATES.value] > 0  # the sim's sensors, over DDS
@@ -100,7 +101,7 @@ def test_the_pad_takes_over_with_the_lock_and_stops_on_release(drive):
         for m in bridge.iter_messages([Topic.ACTUATOR_COMMANDS])
         if isinstance(e := m.decoded(), ActuatorCommands)
         for c in e.commands
-        if c.channel == "move"
+        if isinstance(c, MoveCommand)
     ]
     by_pad = [(t, c) for t, c in commands if c.source is Source.JOYSTICK]
     assert by_pad and by_pad[0][0] == pads[0].tick and by_pad[0][1].v_theta < 0

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from oimi.pipeline.events import ActuatorCommands, Topic
+from oimi.pipeline.messages import AudioCommand
 from oimi.pipeline.operator.generators import GreetingGenerator
 from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
 from oimi.pipeline.sink import MemorySink
@@ -146,7 +147,9 @@ def test_each_caress_plays_the_chime_once_and_the_push_none() -> None:
         for event in sink.on(Topic.ACTUATOR_COMMANDS)
         if isinstance(event, ActuatorCommands)
         for command in event.commands
-        if command.track_path == "reward_chime.wav" and not command.stop
+        if isinstance(command, AudioCommand)
+        and command.track_path == "reward_chime.wav"
+        and not command.stop
     ]
     assert len(chimes) == 2
     assert 6000 < chimes[0] < 8000 and 14000 < chimes[1] < 16000

@@ -7,7 +7,14 @@ from hypothesis import strategies as st
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
 from oimi.pipeline.act.limits import RobotLimits
 from oimi.pipeline.events import Source
-from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
+from oimi.pipeline.messages import (
+    AudioCommand,
+    AudioOut,
+    InstructionBlock,
+    Led,
+    LedCommand,
+    Move,
+)
 
 TICK_MS = 20
 LIMITS = RobotLimits()
@@ -193,10 +200,10 @@ def test_a_different_block_starts_from_its_beginning_and_stops_the_old_one():
     run(actuator, 0, 100)
     actuator.issue(new, changed=False, now_ms=120)
     steps = run(actuator, 120, 240)
-    assert [(c.channel, c.stop, c.track_path) for c in steps[120].commands] == [
-        ("led", True, ""),
-        ("audio", True, "old.wav"),
-    ]
+    assert steps[120].commands == (
+        LedCommand(source=Source.SCRIPT, stop=True),
+        AudioCommand(source=Source.SCRIPT, track_path="old.wav", stop=True),
+    )
     assert steps[120].block == new
     assert steps[140].block is None
     assert steps[120].outputs.led == (0.0, 0.0, 0.0)

@@ -26,6 +26,7 @@ from oimi.pipeline.messages import (
     Led,
     MapUpdate,
     Move,
+    MoveCommand,
     MutexCmd,
     Policy,
     RuleAction,
@@ -183,7 +184,7 @@ def test_the_joystick_overrides_the_script_while_the_lock_is_held_and_stops_on_r
         (e.tick, c)
         for e in sink.on(Topic.ACTUATOR_COMMANDS)
         for c in e.commands
-        if c.channel == "move"
+        if isinstance(c, MoveCommand)
     ]
     by_joystick = [t for t, c in commands if c.source == Source.JOYSTICK and c.v_x > 0]
     assert by_joystick and by_joystick[0] == 60, "the input acts in the tick it is read"
@@ -303,7 +304,7 @@ def test_a_block_changed_by_a_rule_restarts_in_the_actuator() -> None:
         for e in sink.on(Topic.ACTUATOR_COMMANDS)
         if e.tick == 5
         for c in e.commands
-        if c.channel == "move"
+        if isinstance(c, MoveCommand)
     ]
     assert moves and moves[0].v_x == 0.2 and not p.map.scriptinfo.changed
 
