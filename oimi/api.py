@@ -17,18 +17,20 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
+from oimi import console
 from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import Script, WorldMap
 from oimi.pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
+from oimi.scenarios.checks import check_scenario_file
 from oimi.scenarios.extensions import Extension as Extension  # re-exported: the registration API
 from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.loader import load_scenario as _load_scenario
 from oimi.scenarios.schema import Scenario as Scenario  # re-exported
-from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.recording import check_outputs, recorded
 from oimi.scenarios.session.runner import RunResult, Session, Summary
 
 if TYPE_CHECKING:
@@ -37,6 +39,15 @@ if TYPE_CHECKING:
 PathLike = str | os.PathLike[str]
 Progress = Callable[[int, int], None]
 """Called after each tick with (ticks done, ticks in all)."""
+
+
+class Watcher(Protocol):
+    """A progress display (``oimi run``'s bar): called after each tick like
+    :data:`Progress`, and closed when the run ends (Ctrl-C too)."""
+
+    def __call__(self, tick: int, total: int) -> None: ...
+
+    def close(self) -> None: ...
 
 
 def toolkit(extensions: Sequence[str] = ()) -> Toolkit:
@@ -55,11 +66,7 @@ def load_scenario(
 
 def check_scenario(path: PathLike, *, extensions: Sequence[str] = ()) -> list[LocatedError]:
     """The problems ``oimi run`` would refuse the scenario for (empty when it is fine)."""
-    try:
-        load_scenario(path, extensions=extensions)
-    except LocatedError as error:
-        return [error]
-    return []
+    return check_scenario_file(Path(path), extensions=extensions)
 
 
 @dataclass(frozen=True)
@@ -83,21 +90,43 @@ def run(
     scenario: LoadedScenario | PathLike,
     *,
     output: PathLike | None = None,
+    rrd: PathLike | None = None,
+    junit: PathLike | None = None,
     seed: int | None = None,
     overrides: Mapping[str, str] | None = None,
     extensions: Sequence[str] = (),
+    allow_outside: bool = False,
+    overwrite: bool = True,
+    realtime: bool = False,
     progress: Progress | None = None,
+    watch: Callable[[Scenario], Watcher] | None = None,
 ) -> RunOutcome:
-    """Run a scenario faster than real time, recording to ``output`` (MCAP) when given."""
+    """Run a scenario faster than real time (``realtime``: paced to the wall clock),
+    recording to ``output`` (MCAP) and ``rrd`` (Rerun) when given, and writing the
+    expectations as JUnit XML to ``junit``. Every output is checked before anything is
+    opened (an existing one is replaced only with ``overwrite``). ``watch`` makes a
+    progress display from the scenario as run (after ``overrides``), closed at the end.
+    Ctrl-C stops the run between two ticks (``KeyboardInterrupt``) with the recording
+    finished."""
     loaded = (
         scenario
         if isinstance(scenario, LoadedScenario)
-        else load_scenario(scenario, extensions=extensions)
+        else load_scenario(scenario, extensions=extensions, allow_outside=allow_outside)
     )
     session = Session(loaded, seed=seed, overrides=overrides)
-    mcap = Path(output) if output is not None else None
-    with recorded(session, mcap=mcap, rrd=None):
-        result = session.run(progress=progress)
+    mcap, rerun, xml = (None if p is None else Path(p) for p in (output, rrd, junit))
+    check_outputs((mcap, rerun, xml), overwrite=overwrite)
+    watcher = None if watch is None else watch(session.scenario)
+    pace = console.Pacer(session.tick_ms) if realtime else None
+    with recorded(session, mcap=mcap, rrd=rerun, overwrite=overwrite):
+        try:
+            result = session.run(progress=progress or watcher, pace=pace)
+        finally:
+            if watcher is not None:
+                watcher.close()
+    if xml is not None:
+        named = loaded.source if isinstance(scenario, LoadedScenario) else Path(scenario)
+        console.write_junit(xml, [(named.stem, result)])
     return RunOutcome(result=result, recording=mcap)
 
 

@@ -3,25 +3,18 @@
 Prints ``FILE: ok`` for each good file and ``FILE:LINE:COL: message`` (to stderr) for each
 problem; checks every file and exits 2 if any failed. A rule code that the rule library does
 not know is a warning (the chain will refuse that message at run time), not a failure.
+The checks are ``scenarios/checks.py``'s.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
-from pathlib import Path
 
 from oimi import jsonout
 from oimi.extension_args import extensions_of
 from oimi.pipeline.errors import LocatedError
-from oimi.pipeline.script import ParsedScript, ScriptError
-from oimi.pipeline.think.conditions import compile_condition
-from oimi.pipeline.think.functions import FunctionRegistry
-from oimi.pipeline.think.rules import RuleRegistry
-from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
-from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.session.activities import check_script_file
+from oimi.scenarios.checks import ConditionCheck, check
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
@@ -56,32 +49,37 @@ def run(args: argparse.Namespace) -> int:
         report("nothing to check: give FILEs or --condition TEXT")
         return EXIT_BAD_INPUT
     failed = False
-    extensions = extensions_of(args)
-    toolkit = build_toolkit(load_extensions(extensions))
     checked: list[dict[str, object]] = []
-    for name in args.files:
-        errors = check_file(
-            Path(name),
-            allow_outside=args.allow_outside_paths,
-            extensions=extensions,
-            toolkit=toolkit,
+    for item in check(
+        args.files,
+        args.condition,
+        allow_outside=args.allow_outside_paths,
+        extensions=extensions_of(args),
+    ):
+        if isinstance(item, ConditionCheck):
+            errors = [item.error] if item.error else []
+            checked.append({"condition": item.text, "ok": not item.error, "errors": errors})
+            if item.error:
+                failed = True
+                report(item.error)
+            else:
+                print(f"<condition {item.number}>: ok")
+            continue
+        for warning in item.warnings:
+            report(f"{warning} (warning)")
+        checked.append(
+            {
+                "file": item.file,
+                "ok": not item.errors,
+                "errors": [_error_json(e) for e in item.errors],
+            }
         )
-        checked.append({"file": name, "ok": not errors, "errors": [_error_json(e) for e in errors]})
-        if errors:
+        if item.errors:
             failed = True
-            for error in errors:
+            for error in item.errors:
                 report_error(error)
         else:
-            print(f"{name}: ok")
-    for number, text in enumerate(args.condition, start=1):
-        message = check_condition(text, number, toolkit.registries.functions)
-        errors = [message] if message else []
-        checked.append({"condition": text, "ok": not message, "errors": errors})
-        if message:
-            failed = True
-            report(message)
-        else:
-            print(f"<condition {number}>: ok")
+            print(f"{item.file}: ok")
     jsonout.emit(args, {"command": "check", "ok": not failed, "checked": checked})
     return EXIT_BAD_INPUT if failed else EXIT_OK
 
@@ -94,66 +92,6 @@ def _error_json(error: LocatedError) -> dict[str, object]:
         "message": error.message,
         "text": str(error),
     }
-
-
-def check_file(
-    path: Path,
-    *,
-    allow_outside: bool = False,
-    extensions: Sequence[str] = (),
-    toolkit: Toolkit | None = None,
-) -> list[LocatedError]:
-    """Every problem found in one file (empty when it is fine), with these extensions."""
-    if path.suffix.lower() == ".toml":
-        return check_scenario(path, allow_outside=allow_outside, extensions=extensions)
-    toolkit = toolkit or build_toolkit(load_extensions(extensions))
-    parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
-    if parsed is not None:
-        for warning in unknown_rule_codes(parsed, toolkit.registries.rules):
-            report(f"{warning} (warning)")
-    return errors
-
-
-def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[ScriptError]:
-    """Alfa/omega messages naming a rule code the rule library does not have."""
-    script = parsed.script
-    return [
-        parsed.sourcemap.place(
-            ScriptError(
-                f"rule code {message.rulecode} ({message.id}) is not in the rule library",
-                path=f"{kind}[{index}].rulecode",
-            )
-        )
-        for kind, messages in (
-            ("alfarulemessages", script.alfarulemessages),
-            ("omegarulemessages", script.omegarulemessages),
-        )
-        for index, message in enumerate(messages)
-        if message.rulecode not in rules
-    ]
-
-
-def check_scenario(
-    path: Path, *, allow_outside: bool = False, extensions: Sequence[str] = ()
-) -> list[LocatedError]:
-    """A scenario's problems: everything ``oimi run`` would refuse, ranges, the robot's
-    ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
-    try:
-        load_scenario(path, allow_outside=allow_outside, extensions=extensions)
-    except LocatedError as error:
-        return [error]
-    except OSError as error:
-        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
-    return []
-
-
-def check_condition(text: str, number: int, functions: FunctionRegistry | None = None) -> str:
-    """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
-    try:
-        compile_condition(text, registry=functions)
-    except LocatedError as error:
-        return f"<condition {number}>:{error.column}: {error.message}"
-    return ""
 
 
 def report(message: str) -> None:

@@ -4,7 +4,8 @@ Exit 0 when every message matches (with the count compared per topic), 1 at the
 first divergence (topic, tick, field, both values, the messages before it),
 2 when the recording cannot be read or rebuilt (another format version, damage).
 A rosbag2 folder is not compared: the --scenario's pipeline is driven over its map
-updates and joystick (docs/ros2.md) and recorded, and a summary printed.
+updates and joystick (docs/ros2.md) and recorded, and a summary printed. The work is
+``oimi/replaying.py``'s.
 """
 
 from __future__ import annotations
@@ -19,12 +20,8 @@ from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
 from oimi.live_options import add_foxglove_argument
-from oimi.replay.compare import format_report
-from oimi.replay.redrive import redrive
-from oimi.replay.rerun import rerun
+from oimi.replaying import MODES, drive_rosbag, replay
 from oimi.ros2.network import missing_extra
-
-MODES = {"redrive": redrive, "rerun": rerun}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,78 +49,58 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.foxglove is not None and args.recording.is_dir():
-        print("oimi replay: --foxglove streams an MCAP recording, not a rosbag2", file=sys.stderr)
-        return 2
-    if not args.speed >= 0:  # NaN too
-        print("oimi replay: --speed must be 0 or more", file=sys.stderr)
+    if problem := _argument_problem(args):
+        print(f"oimi replay: {problem}", file=sys.stderr)
         return 2
     if args.recording.is_dir():
         return _drive_rosbag(args)
-    if args.scenario is not None or args.output is not None or args.seed is not None:
-        print("oimi replay: --scenario, -o and --seed are for a rosbag2 folder", file=sys.stderr)
-        return 2
-    if extensions_of(args):
-        print(
-            "oimi replay: a recording replays with the extensions attached to it;"
-            " --extension is for a rosbag2 folder's --scenario",
-            file=sys.stderr,
-        )
-        return 2
-    comparison = MODES[args.mode](args.recording)
-    print(format_report(comparison))
-    if args.foxglove is not None:
-        _serve_to_foxglove(args.recording, args.foxglove, speed=args.speed)
+    comparison = replay(args.recording, mode=args.mode, foxglove=args.foxglove, speed=args.speed)
     jsonout.emit(
         args, {"command": "replay", "ok": comparison.ok, **msgspec.to_builtins(comparison)}
     )
     return 0 if comparison.ok else 1
 
 
-def _serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
-    """Stream the recording to a Foxglove client at its recorded pace, once one connects."""
-    from oimi.recorder.foxglove_live import FoxgloveServer, serve_recording
-
-    server = FoxgloveServer(port=port)
-    try:
-        print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
-        sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)
-        print(f"foxglove: {sent} messages streamed", flush=True)
-    finally:
-        server.close()
+def _argument_problem(args: argparse.Namespace) -> str:
+    """Why these arguments cannot replay (``""``: they can)."""
+    if args.foxglove is not None and args.recording.is_dir():
+        return "--foxglove streams an MCAP recording, not a rosbag2"
+    if not args.speed >= 0:  # NaN too
+        return "--speed must be 0 or more"
+    if args.recording.is_dir():
+        if why := missing_extra():
+            return why
+        if args.mode != "redrive":
+            return "a rosbag2 is driven, not re-run: --mode does not apply"
+        if args.scenario is None:
+            return (
+                f"{args.recording} is a rosbag2 folder, which carries no scenario:"
+                " give --scenario SCENARIO.toml"
+            )
+        return ""
+    if args.scenario is not None or args.output is not None or args.seed is not None:
+        return "--scenario, -o and --seed are for a rosbag2 folder"
+    if extensions_of(args):
+        return (
+            "a recording replays with the extensions attached to it;"
+            " --extension is for a rosbag2 folder's --scenario"
+        )
+    return ""
 
 
 def _drive_rosbag(args: argparse.Namespace) -> int:
-    if why := missing_extra():
-        print(f"oimi replay: {why}", file=sys.stderr)
-        return 2
-    if args.mode != "redrive":
-        print(
-            "oimi replay: a rosbag2 is driven, not re-run: --mode does not apply", file=sys.stderr
-        )
-        return 2
-    if args.scenario is None:
-        print(
-            f"oimi replay: {args.recording} is a rosbag2 folder, which carries no scenario:"
-            " give --scenario SCENARIO.toml",
-            file=sys.stderr,
-        )
-        return 2
-    from oimi.ros2.bag import replay_rosbag
-    from oimi.scenarios.loader import load_scenario
-
-    output = args.output or Path("out") / f"{args.recording.name}-replay.mcap"
-    result, ticks, notes = replay_rosbag(
+    driven = drive_rosbag(
         args.recording,
-        load_scenario(args.scenario, extensions=extensions_of(args)),
-        output=output,
+        args.scenario,
+        output=args.output,
         seed=args.seed,
+        extensions=tuple(extensions_of(args)),
     )
-    for note in notes:
+    for note in driven.notes:
         print(f"note: {note}", file=sys.stderr)
-    print(f"rosbag2 {args.recording}: {ticks} ticks driven")
-    print_result(result)
-    print(f"recording: {output}")
+    print(f"rosbag2 {args.recording}: {driven.ticks} ticks driven")
+    print_result(driven.result)
+    print(f"recording: {driven.output}")
     jsonout.emit(
         args,
         {
@@ -131,10 +108,10 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
             "ok": True,
             "mode": "rosbag2",
             "recording": str(args.recording),
-            "ticks": ticks,
-            "notes": list(notes),
-            **jsonout.result_summary(result),
-            "output": str(output),
+            "ticks": driven.ticks,
+            "notes": driven.notes,
+            **jsonout.result_summary(driven.result),
+            "output": str(driven.output),
         },
     )
     return 0

@@ -12,14 +12,12 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from oimi import console, jsonout
+from oimi import api, console, jsonout
 from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.session.recording import check_outputs, recorded
-from oimi.scenarios.session.runner import RunResult, Session
+from oimi.scenarios.session.runner import RunResult
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,27 +44,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    loaded = load_scenario(
-        args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
-    )
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
-    session = Session(loaded, seed=args.seed, overrides=parse_params(args.param))
-    check_outputs((output, args.rrd, args.junit), overwrite=args.overwrite)
-    progress = None if args.quiet else console.Progress(f"{session.scenario.name}", session.tick_ms)
-    pace = console.Pacer(session.tick_ms) if args.realtime else None
-    with recorded(session, mcap=output, rrd=args.rrd, overwrite=args.overwrite):
-        try:
-            result = session.run(progress=progress, pace=pace)
-        finally:
-            if progress is not None:
-                progress.close()
+    outcome = api.run(
+        args.scenario,
+        output=output,
+        rrd=args.rrd,
+        junit=args.junit,
+        seed=args.seed,
+        overrides=parse_params(args.param),
+        extensions=extensions_of(args),
+        allow_outside=args.allow_outside_paths,
+        overwrite=args.overwrite,
+        realtime=args.realtime,
+        watch=None if args.quiet else console.Progress.of,
+    )
+    result = outcome.result
     print_result(result)
     if output is not None:
         print(f"recording: {output}")
     if args.rrd is not None:
         print(f"rerun:     {args.rrd}")
-    if args.junit is not None:
-        console.write_junit(args.junit, [(args.scenario.stem, result)])
     jsonout.emit(
         args,
         {

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 from xml.etree import ElementTree
 
+from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.runner import RunResult
 
 if TYPE_CHECKING:
@@ -28,6 +29,11 @@ class Progress:
         self.live = self.stream.isatty()
         self.start = time.perf_counter()
         self.shown = -1
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> Progress:
+        """The bar of a run of ``scenario`` (its name and tick)."""
+        return cls(scenario.name, scenario.tick_ms)
 
     def __call__(self, tick: int, total: int) -> None:
         step = 200 if self.live else 4

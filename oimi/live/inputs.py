@@ -8,7 +8,8 @@ in since the last tick, so motion can never pile up behind the present. Button
 one tick is held for that tick. The lock is the exception: letting go of it,
 falling silent for :data:`HEARTBEAT_TIMEOUT_S` or disconnecting releases it in
 the next tick, drops every pending press, and the input says why
-(:class:`~pipeline.events.LockRelease`).
+(:class:`~pipeline.events.LockRelease`, worked out by
+:class:`~pipeline.act.safety_lock.SafetyLock`, as for a scripted pad).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Final
 
 import msgspec
 
+from oimi.pipeline.act.safety_lock import NEUTRAL, SafetyLock
 from oimi.pipeline.events import Button, LockRelease, Pad
 
 HEARTBEAT_TIMEOUT_S: Final = 0.5
@@ -32,10 +34,6 @@ RELEASE_TEXT: Final = {
     LockRelease.DISCONNECTED: "the joystick's client disconnected",
 }
 """Each release reason as the console and the log say it."""
-
-
-NEUTRAL: Final = Pad()
-"""Sticks centred, nothing held: the lock released, the robot stopped."""
 
 
 class Taken(msgspec.Struct, frozen=True, kw_only=True):
@@ -54,31 +52,27 @@ class JoystickGuard:
     """
 
     def __init__(self, *, timeout_s: float = HEARTBEAT_TIMEOUT_S) -> None:
-        self.timeout_s = timeout_s
         self.owner: object | None = None
-        self._latest = NEUTRAL
-        """The newest state received."""
+        self._lock = SafetyLock(timeout_s=timeout_s)
+        """The newest state received, and the lock's releases."""
         self._applied = NEUTRAL
         """The state the last taken input gave the pipeline."""
         self._presses: set[Button] = set()
         """Buttons (other than the lock) pressed since the last tick."""
         self._release: LockRelease | None = None
         """The lock was released since the last tick, and why."""
-        self._heard_s = 0.0
 
     @property
     def latest(self) -> Pad:
         """The newest state received."""
-        return self._latest
+        return self._lock.pad
 
     def receive(self, owner: object, pad: Pad, *, now_s: float) -> None:
         """A client sent the pad's state (a change, or the same as a heartbeat)."""
         self.owner = owner
-        self._heard_s = now_s
-        before = self._latest
-        self._latest = pad
-        if before.locked and not pad.locked:
-            self._let_go(LockRelease.OPERATOR)
+        before = self._lock.pad
+        if released := self._lock.receive(pad, now_s=now_s):
+            self._let_go(released)
         elif pad.locked:
             self._presses.update(b for b in pad.buttons if b != LOCK and b not in before.buttons)
 
@@ -86,15 +80,13 @@ class JoystickGuard:
         """``owner`` disconnected: if it held the lock, release it."""
         if owner is self.owner:
             self.owner = None
-            if self._latest.locked:
-                self._latest = NEUTRAL
-                self._let_go(LockRelease.DISCONNECTED)
+            if released := self._lock.lost():
+                self._let_go(released)
 
     def take(self, *, now_s: float) -> Taken | None:
         """This tick's input (after the heartbeat check); None when nothing changed."""
-        if self._latest.locked and now_s - self._heard_s > self.timeout_s:
-            self._latest = NEUTRAL
-            self._let_go(LockRelease.HEARTBEAT)
+        if released := self._lock.expire(now_s=now_s):
+            self._let_go(released)
         release, self._release = self._release, None
         if release is not None:
             self._presses.clear()
@@ -103,7 +95,7 @@ class JoystickGuard:
             else:
                 self._applied = NEUTRAL
                 return Taken(pad=NEUTRAL, release=release)
-        pad = self._latest
+        pad = self._lock.pad
         if self._presses:
             buttons = {*pad.buttons, *self._presses}
             pad = msgspec.structs.replace(pad, buttons=tuple(sorted(buttons)))

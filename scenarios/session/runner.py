@@ -12,9 +12,9 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import msgspec
+from oimi.pipeline.act.safety_lock import SafetyLock
 from oimi.pipeline.events import (
     JoystickInput,
-    LockRelease,
     SafetyZone,
     Topic,
     WorldState,
@@ -142,8 +142,8 @@ class Session:
         self.outputs = ActuatorOutputs()
         self.autostart = autostart
         self.schedule = self._schedule()
-        self._lock_held = False
-        """A scripted pad state held the safety lock (its release is the operator's)."""
+        self._lock = SafetyLock()
+        """The scripted pad's safety lock (no heartbeat: only the operator releases it)."""
         self._command_id = 0
 
     # ------------------------------------------------------------------- set-up
@@ -200,13 +200,8 @@ class Session:
                     scheduled.append(self.command(event.command))
                 case JoystickEvent():
                     pad = event.pad
-                    released = self._lock_held and not pad.locked
-                    self._lock_held = pad.locked
-                    joystick = pad.at(
-                        tick=tick,
-                        time_ms=time_ms,
-                        release=LockRelease.OPERATOR if released else None,
-                    )
+                    release = self._lock.receive(pad, now_s=time_ms / 1000)
+                    joystick = pad.at(tick=tick, time_ms=time_ms, release=release)
                 case TouchEvent():
                     self.sensors.touch(event, time_ms=time_ms)
                 case FaultEvent():

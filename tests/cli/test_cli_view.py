@@ -18,7 +18,7 @@ from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import Session
 from rerun.chunk import RrdReader
 
-from oimi import cmd_view
+from oimi import viewer as cmd_view
 from oimi.cli import main
 
 REPO = Path(__file__).resolve().parents[2]

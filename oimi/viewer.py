@@ -1,0 +1,181 @@
+"""The Rerun viewer on a recording (``oimi view``): an MCAP is converted to Rerun first.
+
+``save`` only writes the Rerun recording (no screen needed). Otherwise the viewer
+starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics off;
+``web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
+:mod:`oimi.web_viewer` so the page asks nothing of another machine. A damaged MCAP
+(a killed run) is converted up to its damage, and how much was recovered is printed.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Final
+
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.outputs import check_output
+from oimi.recorder.rerun_sink import mcap_to_rrd
+from oimi.recorder.rrd import check_rrd
+from oimi.web_viewer import PrivateViewer
+
+EXIT_OK, EXIT_FAILED = 0, 1
+BIND_ADDRESS: Final = "127.0.0.1"
+"""Every server the viewer opens listens here only (Rerun's own default is 0.0.0.0)."""
+DEFAULT_WEB_PORT: Final = 9090
+DEFAULT_GRPC_PORT: Final = 9876
+ANALYTICS_OFF_VARIABLE: Final = "CI"
+"""Rerun 0.41's viewer records no analytics when ``CI`` is set (any value); it has no
+other switch but ``rerun analytics disable``, which is persistent and left to the user."""
+ANALYTICS_FORCE_VARIABLE: Final = "FORCE_RERUN_ANALYTICS"
+"""Overrides the above in Rerun; removed from the viewer's environment."""
+DEAD_PROXY: Final = "http://127.0.0.1:9"
+"""Where the viewer's own HTTP requests (its update check) are sent: a loopback port
+nothing serves, so they fail on this machine. Rerun's HTTP client honours the usual
+proxy variables; loopback (its gRPC server, the recording) is exempt."""
+PROXY_VARIABLES: Final = ("HTTPS_PROXY", "https_proxy", "HTTP_PROXY", "http_proxy", "ALL_PROXY")
+NO_PROXY: Final = "127.0.0.1,localhost,::1"
+SUFFIXES: Final = (".mcap", ".rrd")
+
+
+def view(
+    source: Path, *, save: Path | None = None, port: int | None, web: bool, web_port: int
+) -> int:
+    """Write ``source`` as Rerun's recording to ``save``, or show it in the viewer until it
+    is closed: ``EXIT_OK``, or ``EXIT_FAILED`` when the viewer cannot run; a missing or
+    unreadable recording raises ``RecordingError``."""
+    _check_readable(source)
+    if source.suffix.lower() == ".rrd":
+        check_rrd(source)
+    if save is not None:
+        check_output(save)
+        write_rrd(source, save)
+        print(f"rerun: {save}")
+        return EXIT_OK
+    problem = display_problem(web=web, environ=os.environ, platform=sys.platform)
+    if problem is not None:
+        print(f"oimi view: {problem}", file=sys.stderr)
+        return EXIT_FAILED
+    with tempfile.TemporaryDirectory(prefix="oimi-view-") as folder:
+        rrd = source
+        if source.suffix.lower() == ".mcap":
+            rrd = Path(folder) / f"{source.stem}.rrd"
+            write_rrd(source, rrd)
+        return start_viewer(rrd, port=port, web=web, web_port=web_port)
+
+
+def _check_readable(source: Path) -> None:
+    """A clear ``RecordingError`` (exit 2) for a wrong suffix or a file that cannot be read."""
+    if source.suffix.lower() not in SUFFIXES:
+        raise RecordingError(
+            f"expected an oimi recording (.mcap) or a Rerun recording (.rrd), not {source.name!r}",
+            source=str(source),
+        )
+    try:
+        with open(source, "rb"):
+            pass
+    except OSError as error:
+        raise RecordingError(f"cannot read: {error.strerror}", source=str(source)) from None
+
+
+def write_rrd(source: Path, target: Path) -> None:
+    """``source`` as a Rerun recording at ``target``; a damaged MCAP's recovery is printed."""
+    if source.suffix.lower() == ".rrd":
+        if source.resolve() != target.resolve():
+            shutil.copyfile(source, target)
+        return
+    recording = mcap_to_rrd(source, target)
+    if recording.recovery is not None:
+        print(f"{source}: {recording.recovery}; converted up to it", file=sys.stderr)
+
+
+def display_problem(*, web: bool, environ: Mapping[str, str], platform: str) -> str | None:
+    """Why a native viewer window cannot open here, or None."""
+    if web or not platform.startswith("linux"):
+        return None
+    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+        return None
+    return (
+        "no display ($DISPLAY and $WAYLAND_DISPLAY are not set): write the Rerun recording"
+        f" with --save OUT.rrd, or serve the web viewer on {BIND_ADDRESS} with --web"
+    )
+
+
+def viewer_command(rrd: Path, *, port: int | None, web: bool, web_port: int) -> list[str]:
+    """The command line that starts Rerun's viewer on ``rrd``, bound to 127.0.0.1.
+
+    With ``web``, Rerun only serves (``--serve-web``: its viewer's files on ``web_port``
+    and the recording over gRPC) and opens no browser on its own page."""
+    command = [sys.executable, "-m", "rerun_cli", "--bind", BIND_ADDRESS]
+    if port is not None:
+        command += ["--port", str(port)]
+    if web:
+        command += ["--serve-web", "--web-viewer-port", str(web_port)]
+    else:
+        command += ["--hide-welcome-screen"]
+    return [*command, str(rrd)]
+
+
+def viewer_environment(environ: Mapping[str, str], *, web: bool = False) -> dict[str, str]:
+    """The viewer's environment: ours, with Rerun's analytics off and its HTTP requests
+    sent to :data:`DEAD_PROXY` (this process only). With ``web``, Rerun logs warnings only:
+    its address of the unguarded page is not printed."""
+    env = {k: v for k, v in environ.items() if k != ANALYTICS_FORCE_VARIABLE}
+    env.setdefault(ANALYTICS_OFF_VARIABLE, "1")
+    env.update(dict.fromkeys(PROXY_VARIABLES, DEAD_PROXY))
+    env["NO_PROXY"] = env["no_proxy"] = NO_PROXY
+    if web:
+        env.setdefault("RUST_LOG", "warn")
+    return env
+
+
+def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> int:
+    """Run the viewer on ``rrd`` until it is closed (or Ctrl-C)."""
+    page = None
+    if web:
+        grpc = port or DEFAULT_GRPC_PORT
+        assets = _free_port()
+        try:
+            page = PrivateViewer(web_port, assets_port=assets, grpc_port=grpc)
+        except OSError as error:
+            print(
+                f"oimi view: cannot listen on {BIND_ADDRESS}:{web_port}: {error.strerror}",
+                file=sys.stderr,
+            )
+            return EXIT_FAILED
+        command = viewer_command(rrd, port=grpc, web=True, web_port=assets)
+        page.start()
+        print(f"web viewer: {page.url} (Ctrl-C to stop)")
+    else:
+        command = viewer_command(rrd, port=port, web=False, web_port=web_port)
+        print(f"Rerun viewer on {rrd.name} (gRPC on {BIND_ADDRESS}:{port or DEFAULT_GRPC_PORT})")
+    sys.stdout.flush()
+    try:
+        environment = viewer_environment(os.environ, web=web)
+        status = subprocess.run(command, env=environment, check=False)
+    except OSError as error:
+        print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    finally:
+        if page is not None:
+            page.shutdown()
+            page.server_close()
+    if status.returncode != 0:
+        print(
+            f"oimi view: the Rerun viewer exited with status {status.returncode}", file=sys.stderr
+        )
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _free_port() -> int:
+    """A loopback port nobody listens on now (for Rerun's internal file server)."""
+    with socket.socket() as probe:
+        probe.bind((BIND_ADDRESS, 0))
+        return probe.getsockname()[1]

@@ -1,0 +1,118 @@
+"""Checking scripts (.txt DSL, .json), scenarios (.toml) and rule conditions without running
+them (``oimi check``): every problem, located, and warnings that are not failures.
+
+A rule code the rule library does not know is a warning (the chain will refuse that
+message at run time), not a failure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import NamedTuple
+
+from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.script import ParsedScript, ScriptError
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.rules import RuleRegistry
+from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session.activities import check_script_file
+
+
+class FileCheck(NamedTuple):
+    """One file's problems (none: it is fine) and warnings (rule codes the library lacks)."""
+
+    file: str
+    errors: list[LocatedError]
+    warnings: list[ScriptError]
+
+
+class ConditionCheck(NamedTuple):
+    """The ``number``-th condition given: ``error`` is ``""`` when it compiles, else
+    ``<condition N>:COL: message``."""
+
+    number: int
+    text: str
+    error: str
+
+
+def check(
+    files: Sequence[str],
+    conditions: Sequence[str] = (),
+    *,
+    allow_outside: bool = False,
+    extensions: Sequence[str] = (),
+) -> Iterator[FileCheck | ConditionCheck]:
+    """Each file's check, then each condition's, one at a time (with the built-ins plus
+    ``extensions``; a bad extension raises before the first)."""
+    toolkit = build_toolkit(load_extensions(extensions))
+    for name in files:
+        checked = check_file(
+            Path(name), allow_outside=allow_outside, extensions=extensions, toolkit=toolkit
+        )
+        yield checked._replace(file=name)  # as given
+    for number, text in enumerate(conditions, start=1):
+        yield ConditionCheck(number, text, check_condition(text, number, toolkit))
+
+
+def check_file(
+    path: Path,
+    *,
+    allow_outside: bool = False,
+    extensions: Sequence[str] = (),
+    toolkit: Toolkit | None = None,
+) -> FileCheck:
+    """Every problem found in one file, with these extensions (``toolkit``: already built
+    from them)."""
+    if path.suffix.lower() == ".toml":
+        errors = check_scenario_file(path, allow_outside=allow_outside, extensions=extensions)
+        return FileCheck(str(path), errors, [])
+    toolkit = toolkit or build_toolkit(load_extensions(extensions))
+    parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
+    warnings = [] if parsed is None else unknown_rule_codes(parsed, toolkit.registries.rules)
+    return FileCheck(str(path), errors, warnings)
+
+
+def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[ScriptError]:
+    """Alfa/omega messages naming a rule code the rule library does not have."""
+    script = parsed.script
+    return [
+        parsed.sourcemap.place(
+            ScriptError(
+                f"rule code {message.rulecode} ({message.id}) is not in the rule library",
+                path=f"{kind}[{index}].rulecode",
+            )
+        )
+        for kind, messages in (
+            ("alfarulemessages", script.alfarulemessages),
+            ("omegarulemessages", script.omegarulemessages),
+        )
+        for index, message in enumerate(messages)
+        if message.rulecode not in rules
+    ]
+
+
+def check_scenario_file(
+    path: Path, *, allow_outside: bool = False, extensions: Sequence[str] = ()
+) -> list[LocatedError]:
+    """A scenario's problems: everything ``oimi run`` would refuse, ranges, the robot's
+    ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
+    try:
+        load_scenario(path, allow_outside=allow_outside, extensions=extensions)
+    except LocatedError as error:
+        return [error]
+    except OSError as error:
+        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
+    return []
+
+
+def check_condition(text: str, number: int, toolkit: Toolkit | None = None) -> str:
+    """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
+    functions: FunctionRegistry | None = None if toolkit is None else toolkit.registries.functions
+    try:
+        compile_condition(text, registry=functions)
+    except LocatedError as error:
+        return f"<condition {number}>:{error.column}: {error.message}"
+    return ""
