@@ -6,6 +6,7 @@ import contextlib
 import re
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -87,6 +88,16 @@ def test_a_truncated_mcap_converts_its_prefix_and_says_how_much_was_recovered(
     assert "/world/robot" in entities(tmp_path / "d.rrd")
 
 
+def _message_header_near(data: bytes, target: int) -> int:
+    """The offset of the first message header at or after ``target`` in an ``.rrd``: a
+    12-byte file header, then messages of a 16-byte header (kind, length: u64 LE) and
+    ``length`` bytes. (A flip inside a message's Arrow data is not detectable: no checksum.)"""
+    offset = 12
+    while offset < target:
+        offset += 16 + struct.unpack_from("<QQ", data, offset)[1]
+    return offset
+
+
 @pytest.mark.parametrize("cut", ["garbage", "truncated", "flipped"])
 def test_a_bad_rrd_is_refused_with_exit_2_and_nothing_is_copied(
     mcap: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], cut: str
@@ -98,8 +109,9 @@ def test_a_bad_rrd_is_refused_with_exit_2_and_nothing_is_copied(
         data = bytearray(b"not a Rerun recording at all" * 10)
     elif cut == "truncated":
         data = data[: len(data) // 2]
-    else:
-        data[len(data) // 3 : len(data) // 3 + 8] = b"\xff" * 8
+    else:  # a message's length, a third of the way in, flipped to all ones
+        offset = _message_header_near(bytes(data), len(data) // 3)
+        data[offset + 8 : offset + 16] = b"\xff" * 8
     bad = tmp_path / "bad.rrd"
     bad.write_bytes(bytes(data))
     capsys.readouterr()
