@@ -422,17 +422,7 @@ class World:
         return WorldState(
             tick=tick,
             time_ms=time_ms,
-            robot=BodyState(
-                id="robot",
-                kind="robot",
-                x_m=round(motion.x_m, STATE_DECIMALS),
-                y_m=round(motion.y_m, STATE_DECIMALS),
-                theta_rad=round(wrap_angle(motion.angle_rad), STATE_DECIMALS),
-                vx_mps=_toward_zero(motion.vx_mps),
-                vy_mps=_toward_zero(motion.vy_mps),
-                omega_radps=_toward_zero(motion.omega_radps),
-                radius_m=self.scenario.robot.radius_m,
-            ),
+            robot=_rigid_state("robot", "robot", motion, self.scenario.robot.radius_m),
             humans=tuple(self._human_state(human) for human in self.humans if human.present),
             objects=tuple(self._thing_state(thing) for thing in self.things),
             led=self.led,
@@ -456,18 +446,23 @@ class World:
 
     @staticmethod
     def _thing_state(thing: _Thing) -> BodyState:
-        motion = thing.motion
-        return BodyState(
-            id=thing.spec.id,
-            kind=thing.spec.category,
-            x_m=round(motion.x_m, STATE_DECIMALS),
-            y_m=round(motion.y_m, STATE_DECIMALS),
-            theta_rad=round(wrap_angle(motion.angle_rad), STATE_DECIMALS),
-            vx_mps=_toward_zero(motion.vx_mps),
-            vy_mps=_toward_zero(motion.vy_mps),
-            omega_radps=_toward_zero(motion.omega_radps),
-            radius_m=thing.spec.radius_m,
-        )
+        return _rigid_state(thing.spec.id, thing.spec.category, thing.motion, thing.spec.radius_m)
+
+
+def _rigid_state(ident: str, kind: str, motion: _Motion, radius_m: float) -> BodyState:
+    """A body that turns with its physics (the robot, an object) at ``/world/state``'s
+    resolution."""
+    return BodyState(
+        id=ident,
+        kind=kind,
+        x_m=round(motion.x_m, STATE_DECIMALS),
+        y_m=round(motion.y_m, STATE_DECIMALS),
+        theta_rad=round(wrap_angle(motion.angle_rad), STATE_DECIMALS),
+        vx_mps=_toward_zero(motion.vx_mps),
+        vy_mps=_toward_zero(motion.vy_mps),
+        omega_radps=_toward_zero(motion.omega_radps),
+        radius_m=radius_m,
+    )
 
 
 def _toward_zero(value: float) -> float:
