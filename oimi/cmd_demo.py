@@ -13,12 +13,11 @@ import argparse
 from pathlib import Path
 from typing import Final
 
-from oimi import console
+from oimi import api, console
 from oimi.cmd_run import print_result
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.session.recording import check_outputs, recorded
-from oimi.scenarios.session.runner import Session, library_scenarios
+from oimi.scenarios.session.runner import library_scenarios
 
 DEFAULT_SCENARIO: Final = "three_activity_session"
 """A lively session: a greeting, the test dance and the blink, one after the other."""
@@ -49,20 +48,14 @@ def scenario_path(name: str) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     path = scenario_path(args.scenario)
-    session = Session(load_scenario(path))
+    loaded = load_scenario(path)
     out: Path = args.out
     mcap, rrd = out / f"{path.stem}.mcap", out / f"{path.stem}.rrd"
-    check_outputs((mcap, rrd), overwrite=True)
-    progress = None if args.quiet else console.Progress(session.scenario.name, session.tick_ms)
-    with recorded(session, mcap=mcap, rrd=rrd, overwrite=True):
-        try:
-            result = session.run(progress=progress)
-        finally:
-            if progress is not None:
-                progress.close()
-    print(f"{path.name}: {session.scenario.description.strip()}")
-    print_result(result)
+    watch = None if args.quiet else console.Progress.of
+    outcome = api.run(loaded, output=mcap, rrd=rrd, overwrite=True, watch=watch)
+    print(f"{path.name}: {loaded.scenario.description.strip()}")
+    print_result(outcome.result)
     print(f"recording: {mcap}")
     print(f"rerun:     {rrd}")
     print(f"watch it:  oimi view {rrd}   (or open {mcap} in Foxglove)")
-    return 0 if result.ok else 1
+    return 0 if outcome.ok else 1
