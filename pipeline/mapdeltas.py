@@ -97,7 +97,12 @@ class MapDeltas:
             tick=tick,
             time_ms=time_ms,
             keyframe=True,
-            **{name: msgspec.Raw(_encode(getattr(world_map, name))) for name in SECTIONS},
+            **{
+                name: changed[name]
+                if name in changed
+                else msgspec.Raw(_encode(getattr(world_map, name)))
+                for name in SECTIONS
+            },  # the changed sections were encoded above
             **{t: tuple(msgspec.Raw(_encode(r)) for r in getattr(world_map, t)) for t in TABLES},
         )
 
