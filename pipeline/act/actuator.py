@@ -87,6 +87,8 @@ class Actuator:
         self._audio = ""
         self._brake = False
         """The body must take this tick's velocity at once (a protective stop)."""
+        self._outputs: ActuatorOutputs | None = None
+        """The last tick's outputs (reused while nothing in them changed)."""
         # the pad
         self._lock = False
         self._blocking = False
@@ -229,29 +231,52 @@ class Actuator:
         if self._block is not None and not self.frozen:
             block_ms = self._block_ms(now_ms)
             for channel in CHANNEL_ORDER:
-                for due in self._cursors[channel].take_due(block_ms):
-                    self._run(channel, due)
+                cursor = self._cursors[channel]
+                if cursor.due(block_ms):
+                    for due in cursor.take_due(block_ms):
+                        self._run(channel, due)
         elapsed_ms = self._tick_ms if self._last_step_ms is None else now_ms - self._last_step_ms
         self._last_step_ms = now_ms
-        self._velocity = ramp_velocity(self._velocity, self._target, self._limits, dt_ms=elapsed_ms)
-        result = ActuatorStep(
-            commands=tuple(sorted(self._commands, key=lambda c: _CHANNEL_RANK[c.channel])),
-            outputs=ActuatorOutputs(
-                v_x=self._velocity.v_x,
-                v_y=self._velocity.v_y,
-                v_theta=self._velocity.v_theta,
+        if self._velocity is not self._target:  # the ramp returns the target itself on reaching it
+            self._velocity = ramp_velocity(
+                self._velocity, self._target, self._limits, dt_ms=elapsed_ms
+            )
+        outputs = self._outputs
+        v_x, v_y, v_theta = self._velocity
+        if (
+            outputs is None
+            or outputs.v_x is not v_x
+            or outputs.v_y is not v_y
+            or outputs.v_theta is not v_theta
+            or outputs.led is not self._led
+            or outputs.audio is not self._audio
+            or outputs.brake is not self._brake
+        ):  # a frozen struct holding the same objects: a quiet tick hands on the last one
+            outputs = self._outputs = ActuatorOutputs(
+                v_x=v_x,
+                v_y=v_y,
+                v_theta=v_theta,
                 led=self._led,
                 audio=self._audio,
                 brake=self._brake,
-            ),
-            clamps=tuple(self._clamps),
-            notes=tuple(self._notes),
+            )
+        commands, clamps, notes = self._commands, self._clamps, self._notes
+        result = ActuatorStep(
+            commands=tuple(sorted(commands, key=lambda c: _CHANNEL_RANK[c.channel]))
+            if commands
+            else (),
+            outputs=outputs,
+            clamps=tuple(clamps) if clamps else (),
+            notes=tuple(notes) if notes else (),
             done=self.done,
             block=self._started,
         )
-        self._commands.clear()
-        self._clamps.clear()
-        self._notes.clear()
+        if commands:
+            commands.clear()
+        if clamps:
+            clamps.clear()
+        if notes:
+            notes.clear()
         self._started = None
         self._brake = False
         return result

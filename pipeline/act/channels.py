@@ -70,6 +70,11 @@ class ChannelCursor:
         self._count = len(items)
         self._next = 0
 
+    def due(self, block_ms: int) -> bool:
+        """An event not taken yet is due at or before ``block_ms``."""
+        events = self._events
+        return self._next < len(events) and events[self._next].at_ms <= block_ms
+
     def take_due(self, block_ms: int) -> list[Due]:
         """The events due at or before ``block_ms`` not taken yet, in order."""
         taken: list[Due] = []

@@ -107,7 +107,7 @@ def ramp_velocity(
     """One step of ``dt_ms`` from ``current`` towards ``target`` at the largest accelerations:
     the linear velocity vector changes by at most ``max_accel_mps2 * dt`` (keeping the
     direction of the change), v_theta by at most ``max_angular_accel_radps2 * dt``.
-    Reaches the target exactly when it is within one step.
+    Reaches the target exactly when it is within one step (and returns ``target`` itself).
     """
     dt_s = dt_ms / 1000.0
     d_x, d_y = target.v_x - current.v_x, target.v_y - current.v_y
@@ -121,6 +121,8 @@ def ramp_velocity(
     d_theta = target.v_theta - current.v_theta
     step_theta = limits.max_angular_accel_radps2 * dt_s
     if abs(d_theta) <= step_theta:
+        if change <= step:
+            return target
         v_theta = target.v_theta
     else:
         v_theta = current.v_theta + math.copysign(step_theta, d_theta)
