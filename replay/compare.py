@@ -183,7 +183,8 @@ class Comparator:
 
     def inputs_at(self, topic: Topic, tick: int) -> list[Event]:
         """The recorded messages of ``topic`` at ``tick``, decoded (left for comparison)."""
-        return [m.decoded() for _, m in self._buffers[topic] if m.tick == tick]
+        buffer = self._buffers[topic]
+        return [m.decoded() for _, m in buffer if m.tick == tick] if buffer else []
 
     # -------------------------------------------------------------------- the sink
 
