@@ -330,7 +330,8 @@ class SafetyIntervention(Event):
     zone: SafetyZone
     """The episode's zone (at ``end``: the zone it ended in)."""
     human: str = ""
-    """The human whose separation bound the velocity (empty for ``blind``/``stale`` caps)."""
+    """The human whose separation bound the velocity (``Obstacle/<id>`` for a sonar echo of a
+    body that is not fixed; empty for ``blind``/``stale`` caps)."""
     surface_distance_m: float | None = None
     """That human's surface-to-surface distance as the supervisor estimated it: the map's
     centre distance, dead-reckoned, less both radii and the uncertainty margin, m."""

@@ -217,7 +217,8 @@ class RobotSpec(Spec, kw_only=True):
 
 
 class SensorSpec(Spec, kw_only=True):
-    """The simulated sensors: a front camera (humans, objects) and a sonar ring (obstacles)."""
+    """The simulated sensors: a front camera (humans, objects) and a sonar ring (every body:
+    the room's obstacles, and people as anonymous echoes)."""
 
     range_m: Positive = 5.0
     """Camera range, m."""

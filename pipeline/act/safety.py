@@ -20,8 +20,19 @@ centre distance, less both radii, less an *uncertainty margin*
 human may have walked since the reading (age capped at ``max_data_age_ms``).
 Between readings the robot's own motion since the reading is dead-reckoned from
 the velocities the supervisor let through, so a 10 Hz camera does not let it
-close in. With the camera offline (or none reported) or a human's data older
-than ``max_data_age_ms``, all linear motion is capped at ``slow_speed_mps``.
+close in. With the camera offline (or none reported), every sonar reported
+offline, or a human's data older than ``max_data_age_ms``, all linear motion is
+capped at ``slow_speed_mps``.
+
+The front camera does not see behind the robot: a person it never saw is not among
+the map's humans. Bodies a sensor reports as obstacles that are not fixed
+(``isfixed`` false: the sonar ring's echoes of anything that moves, all around) are
+therefore kept at the same distances, as anonymous humans, while their reading is
+fresh (an echo older than ``max_data_age_ms`` is a body that left the sonar's range,
+since the ring scans all the time), unless the echo is a human the map tracks: placed
+within both readings' errors and the walk between them, and never farther than
+``human_radius_m``, of that human's fresh reading. Fixed obstacles (furniture) are
+not limited.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
@@ -43,7 +54,7 @@ from typing import Final, NamedTuple
 import msgspec
 from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
-from oimi.pipeline.messages import Human, Message, WorldMap
+from oimi.pipeline.messages import Entity, Message, WorldMap
 
 DEFAULT_ROBOT_RADIUS_M: Final = 0.3
 """The robot's radius when the configuration gives none (a pipeline without a scenario)."""
@@ -154,7 +165,8 @@ class SafetySupervisor:
             maxlen=config.max_data_age_ms // tick_ms + 3
         )
         self._anchors: dict[str, tuple[int, float, float]] = {}
-        """Human id -> (positionchangetime, x, y) of its last reading in the odometry frame."""
+        """Human id (``Obstacle/<id>`` for an echo) -> (positionchangetime, x, y) of its last
+        reading in the odometry frame."""
         self._held: dict[str, None] = {}
         """Humans under a protective stop: it holds until they are halfway out of the slow
         zone, so that the margin's saw-tooth between camera frames does not let the robot
@@ -179,7 +191,9 @@ class SafetySupervisor:
             self._history.append((now_ms, self._pose))
         for human in world_map.humans:
             if human.poses:
-                self._anchor(human)
+                self._anchor(human.id, human)
+        for key, echo in _echoes(world_map):
+            self._anchor(key, echo)
         verdict = self._limit(requested, world_map, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
@@ -232,7 +246,10 @@ class SafetySupervisor:
         if requested.v_x == 0.0 and requested.v_y == 0.0:
             return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
-        blind = not any(camera.isonline for camera in world_map.cameras)
+        sonars = world_map.sonars
+        blind = not any(camera.isonline for camera in world_map.cameras) or (
+            bool(sonars) and not any(sonar.isonline for sonar in sonars)
+        )
         stale = False
         constraints: list[_Constraint] = []
         for human in world_map.humans:
@@ -240,7 +257,16 @@ class SafetySupervisor:
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
-                constraints.append(self._constraint(human, age_ms))
+                constraints.append(self._constraint(human.id, human, age_ms))
+        seen = [
+            self._anchors[human.id]
+            for human in world_map.humans
+            if human.poses and now_ms - human.positionchangetime <= config.max_data_age_ms
+        ]
+        for key, echo in _echoes(world_map):
+            age_ms = now_ms - echo.positionchangetime
+            if age_ms <= config.max_data_age_ms and not self._explained(self._anchors[key], seen):
+                constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None
         if blind or stale:
@@ -266,9 +292,10 @@ class SafetySupervisor:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
         return Verdict(allowed, zone)
 
-    def _constraint(self, human: Human, age_ms: int) -> _Constraint:
+    def _constraint(self, key: str, human: Entity, age_ms: int) -> _Constraint:
+        """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it."""
         config = self.config
-        x, y = self._estimate(human)
+        x, y = self._estimate(key)
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
@@ -279,36 +306,52 @@ class SafetySupervisor:
             u_x, u_y = 1.0, 0.0
         release = (config.stop_distance_m + config.slow_distance_m) / 2
         if surface <= config.stop_distance_m:
-            self._held[human.id] = None
-        elif human.id in self._held and surface >= release:
-            del self._held[human.id]
-        if human.id in self._held:
+            self._held[key] = None
+        elif key in self._held and surface >= release:
+            del self._held[key]
+        if key in self._held:
             sin_cone = 1.0 if margin >= distance else margin / distance
-            return _Constraint(human.id, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
+            return _Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
         gap = surface - config.stop_distance_m
         a = self._limits.max_accel_mps2
         cap = -a * self._dt_s + math.sqrt((a * self._dt_s) ** 2 + 2 * a * gap)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        return _Constraint(human.id, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
+        return _Constraint(key, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
 
-    def _anchor(self, human: Human) -> None:
+    def _explained(
+        self, echo: tuple[int, float, float], seen: list[tuple[int, float, float]]
+    ) -> bool:
+        """Whether an echo is a human the map tracks: their readings place them closer
+        than both readings' errors and the walk between their times allow. The distance
+        accepted is at most ``human_radius_m``, so an echo is never taken for another
+        body (two bodies' centres are at least two radii apart)."""
+        config = self.config
+        at_ms, x, y = echo
+        for human_ms, hx, hy in seen:
+            walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
+            gate = min(2 * config.sensing_error_m + walked, config.human_radius_m)
+            if math.hypot(x - hx, y - hy) <= gate:
+                return True
+        return False
+
+    def _anchor(self, key: str, human: Entity) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it
         was taken (every tick, so that a reading is placed while that pose is kept)."""
         at_ms = human.positionchangetime
-        anchor = self._anchors.get(human.id)
+        anchor = self._anchors.get(key)
         if anchor is None or anchor[0] != at_ms:
             px, py, ptheta = self._pose_at(at_ms)
             bearing = ptheta + human.positiontheta
-            self._anchors[human.id] = (
+            self._anchors[key] = (
                 at_ms,
                 px + human.positionrho * math.cos(bearing),
                 py + human.positionrho * math.sin(bearing),
             )
 
-    def _estimate(self, human: Human) -> tuple[float, float]:
-        """The human's last reported position in the robot's current body frame."""
-        anchor = self._anchors[human.id]
+    def _estimate(self, key: str) -> tuple[float, float]:
+        """The last reported position of ``key`` in the robot's current body frame."""
+        anchor = self._anchors[key]
         x, y, theta = self._pose
         dx, dy = anchor[1] - x, anchor[2] - y
         cos, sin = math.cos(theta), math.sin(theta)
@@ -332,6 +375,14 @@ class SafetySupervisor:
             y + dt * (sin * velocity.v_x + cos * velocity.v_y),
             theta + dt * velocity.v_theta,
         )
+
+
+def _echoes(world_map: WorldMap) -> Iterator[tuple[str, Entity]]:
+    """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
+    (their anchors and holds are kept apart from the humans')."""
+    for obstacle in world_map.obstacles:
+        if not obstacle.isfixed and obstacle.poses:
+            yield f"Obstacle/{obstacle.id}", obstacle
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:

@@ -1,7 +1,11 @@
 """Simulated sensors: the world turned into the thesis's MapUpdates (tables 4.1 and 4.2).
 
 A front camera sees humans and objects within ``range_m`` and ``fov_rad``; a
-sonar ring sees obstacles within ``sonar_range_m`` all around. Each entity's pose
+sonar ring sees every body within ``sonar_range_m`` all around: the room's
+obstacles (``isfixed``) and, as anonymous obstacles that are not fixed, the people
+(``Obstacle/echo-N``, N the person's place in the scenario; a real ring cannot tell a
+child from a chair, and the safety supervisor keeps its distance from such echoes,
+behind the robot too). Each entity's pose
 is reported relative to the robot (``positionrho`` m from its centre,
 ``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
 seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
@@ -106,6 +110,15 @@ class Sensors:
         """The track playing and since when (ms)."""
         self._seen: set[str] = set()
         """objectids whose once-only attributes were sent (membership only, never iterated)."""
+        furniture = {o.id for o in scenario.world.obstacles}
+        self._echoes: dict[str, str] = {}
+        """Person id -> the id of the sonar's echo of them (``echo-N``, unlike any obstacle's)."""
+        for n, human in enumerate(scenario.humans):
+            ident = f"echo-{n}"
+            while ident in furniture:
+                ident += "_"
+            self._echoes[human.id] = ident
+        self._echo_ids = frozenset(self._echoes.values())
 
     # --------------------------------------------------------------- inputs
 
@@ -150,11 +163,10 @@ class Sensors:
                 )
             )
         if self.sonar.due(time_ms):
-            furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in self.scenario.world.obstacles]
+            bodies = [("Obstacle", o.id, o.x_m, o.y_m) for o in self.scenario.world.obstacles]
+            bodies += [("Obstacle", self._echoes[h], x, y) for h, x, y in world.human_positions()]
             updates.extend(
-                self._read(
-                    self.sonar, furniture, pose, time_ms, self.config.sonar_range_m, math.tau
-                )
+                self._read(self.sonar, bodies, pose, time_ms, self.config.sonar_range_m, math.tau)
             )
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
@@ -231,7 +243,8 @@ class Sensors:
 
     def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
         if cls == "Obstacle":
-            return [_Update(objectid, "isfixed", Policy.R, TRUE)]
+            fixed = ident not in self._echo_ids
+            return [_Update(objectid, "isfixed", Policy.R, TRUE if fixed else FALSE)]
         if cls == "Object":
             spec = next(o for o in self.scenario.world.objects if o.id == ident)
             return [

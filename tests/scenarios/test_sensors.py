@@ -311,3 +311,24 @@ def test_a_tiny_period_is_due_once_a_tick_and_never_hangs():
 def test_a_schedule_keeps_its_phase():
     schedule = Schedule(30.0)  # due at 0, 30, 60, 90 ... sampled every 20 ms
     assert [t for t in range(0, 200, 20) if schedule.due(t)] == [0, 40, 60, 100, 120, 160, 180]
+
+
+def test_sonar_reports_a_person_behind_the_robot_as_an_echo_that_is_not_fixed():
+    world, sensors = setup(kid=(2.0, 2.5))  # 1 m behind: out of the front camera's view
+    updates = ticks(world, sensors, 25)
+    assert not [u for u in updates if u.objectid.startswith("Human/")]
+    assert [u.jsonmsg for u in of(updates, "Obstacle/echo-0", "isfixed")] == ["s_false"]
+    rho = msgspec.json.decode(of(updates, "Obstacle/echo-0", "poses")[-1].jsonmsg)["positionrho"]
+    assert rho == pytest.approx(1.0)
+    assert [u.jsonmsg for u in of(updates, "Obstacle/shelf", "isfixed")] == ["s_true"]
+
+
+def test_an_echo_id_is_never_an_obstacle_id():
+    text = 'name = "echoes"\n' + ROOM.format(theta=0.0, sensors="", kid_x=2.0, kid_y=2.5)
+    text = text.replace('id = "shelf"', 'id = "echo-0"')
+    scenario = parse_scenario(text.encode()).scenario
+    world = World(scenario, stream_rng(1, "world"))
+    sensors = Sensors(scenario.sensors, scenario, stream_rng(1, "sensors"))
+    updates = ticks(world, sensors, 25)
+    assert [u.jsonmsg for u in of(updates, "Obstacle/echo-0", "isfixed")] == ["s_true"]
+    assert [u.jsonmsg for u in of(updates, "Obstacle/echo-0_", "isfixed")] == ["s_false"]

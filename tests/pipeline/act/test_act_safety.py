@@ -15,7 +15,16 @@ from oimi.pipeline.events import (
     SafetyPhase,
     SafetyZone,
 )
-from oimi.pipeline.messages import Camera, Human, InstructionBlock, Move, Pose, WorldMap
+from oimi.pipeline.messages import (
+    Camera,
+    Human,
+    InstructionBlock,
+    Move,
+    Obstacle,
+    Pose,
+    Sonar,
+    WorldMap,
+)
 
 TICK_MS = 20
 LIMITS = RobotLimits()
@@ -279,3 +288,62 @@ def test_a_protective_stop_holds_while_fresh_frames_shrink_the_margin() -> None:
         x += verdict.velocity.v_x * TICK_MS / 1000
     assert stopped_at is not None
     assert 1.2 - x - RADII_M >= 0.1
+
+
+def echo(rho: float, theta: float = math.pi, *, at_ms: int = 0, fixed: bool = False) -> Obstacle:
+    """A sonar echo (an obstacle) at ``rho`` m, behind the robot unless told."""
+    pose = Pose(positionrho=rho, positiontheta=theta, positionchangetime=at_ms)
+    return Obstacle(
+        id="echo-0",
+        creationtime=0,
+        positionrho=rho,
+        positiontheta=theta,
+        positionchangetime=at_ms,
+        poses=[pose],
+        isfixed=fixed,
+    )
+
+
+def test_an_echo_behind_the_robot_is_kept_at_a_humans_distance() -> None:
+    """The front camera never saw the child behind: the sonar's echo of them stops the robot."""
+    close = WorldMap(cameras=[Camera(id="front", isonline=True)], obstacles=[echo(0.6)])
+    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), close)
+    assert verdict.velocity[:2] == (0.0, 0.0)
+    assert verdict.zone is SafetyZone.STOP
+    assert event is not None and event.human == "Obstacle/echo-0"
+    away, _ = supervise(Velocity(0.5, 0.0, 0.0), close)
+    assert away.velocity == (0.5, 0.0, 0.0)
+
+
+def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
+    shelf = WorldMap(cameras=[Camera(id="front")], obstacles=[echo(0.6, fixed=True)])
+    shelf.cameras[0].isonline = True
+    assert supervise(Velocity(-0.5, 0.0, 0.0), shelf)[0].velocity == (-0.5, 0.0, 0.0)
+    gone = room(seen(4.0, at_ms=600))
+    gone.obstacles.append(echo(0.6, at_ms=0))  # 600 ms old: the ring scans all the time
+    assert supervise(Velocity(-0.5, 0.0, 0.0), gone, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
+
+
+def test_a_sonar_offline_caps_motion_at_the_slow_speed() -> None:
+    world_map = room(seen(4.0))
+    world_map.sonars.append(Sonar(id="ring", isonline=False))
+    verdict, event = supervise(Velocity(0.0, 0.5, 0.0), world_map)
+    assert verdict.velocity == pytest.approx((0.0, 0.2, 0.0))
+    assert event is not None and event.zone is SafetyZone.BLIND
+    world_map.sonars[0].isonline = True
+    assert supervise(Velocity(0.0, 0.5, 0.0), world_map)[0].velocity == (0.0, 0.5, 0.0)
+
+
+def test_the_echo_of_a_tracked_human_is_that_human_and_no_other() -> None:
+    """An echo where a fresh reading places a human is that human (its own limit binds,
+    though the echo reads 3 cm closer); one farther than a human radius from them is
+    another body, kept at its own distance."""
+    child = seen(centre_at(0.3), math.pi / 2)
+    same = room(child)
+    same.obstacles.append(echo(centre_at(0.3) - 0.03, math.pi / 2))
+    assert supervise(Velocity(0.0, 0.5, 0.0), same)[0].human == "child"
+    other = room(child)
+    other.obstacles.append(echo(centre_at(0.05), math.pi / 2 + 0.3))  # 0.34 m from the child
+    verdict, _ = supervise(Velocity(0.0, 0.5, 0.0), other)
+    assert verdict.human == "Obstacle/echo-0"
+    assert verdict.zone is SafetyZone.STOP  # 5 cm from the robot, surface to surface

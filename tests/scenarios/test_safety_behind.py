@@ -1,0 +1,49 @@
+"""A child behind the robot, where the front camera never looks: the sonar ring's echo of
+them is enough for the safety supervisor to stop the robot before it touches them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+from oimi.pipeline.events import SafetyIntervention, SafetyZone, Topic
+from oimi.pipeline.sink import MemorySink
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.schema import SensorSpec
+from oimi.scenarios.session.runner import Session
+
+COLLISION = Path(__file__).parents[1] / "analysis/scenarios/scripted_collision.toml"
+"""The operator reverses at 0.4 m/s into a child standing 0.95 m behind the robot."""
+
+
+def reverse_into_the_child(sensors: SensorSpec) -> tuple[Session, MemorySink]:
+    loaded = load_scenario(COLLISION)
+    scenario = msgspec.structs.replace(loaded.scenario, sensors=sensors, expect=[])
+    session = Session(msgspec.structs.replace(loaded, scenario=scenario))
+    memory = MemorySink()
+    session.sink.add(memory)
+    session.run()
+    return session, memory
+
+
+def test_the_sonar_echo_of_an_unseen_child_stops_the_robot_before_contact() -> None:
+    session, memory = reverse_into_the_child(SensorSpec())
+    summary = session.result().summary
+    assert summary.contacts == 0
+    assert summary.contact_episodes == 0
+    assert summary.min_surface_distance_m["child"] > 0.05
+    stops = [
+        e
+        for e in memory.on(Topic.SAFETY)
+        if isinstance(e, SafetyIntervention) and e.zone is SafetyZone.STOP
+    ]
+    assert stops and {e.human for e in stops} == {"Obstacle/echo-0"}
+    assert session.pipeline.map.humans == []  # the camera never saw the child
+
+
+def test_a_ring_too_short_to_reach_the_child_leaves_the_contact_to_the_analysis() -> None:
+    """The recorded scenario's faulty 0.4 m ring: the contact the analysis must catch."""
+    session, _ = reverse_into_the_child(SensorSpec(sonar_range_m=0.4))
+    summary = session.result().summary
+    assert summary.robot_initiated_contacts == 1
+    assert summary.max_closing_speed_mps > 0.3
