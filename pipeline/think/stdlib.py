@@ -231,11 +231,12 @@ def attention_low(
     since_ms = ctx.now_ms - window_ms
     if entity.creationtime > since_ms:
         return False
-    observations = [(entity.positionchangetime, entity.positiontheta)]
-    observations += [(p.positionchangetime, p.positiontheta) for p in entity.poses]
-    return not any(
-        time_ms >= since_ms and _in_front(theta, FRONT_ANGLE_RAD) for time_ms, theta in observations
-    )
+    if entity.positionchangetime >= since_ms and _in_front(entity.positiontheta, FRONT_ANGLE_RAD):
+        return False
+    for pose in entity.poses:  # a plain loop: it runs on every pass of attention_lost
+        if pose.positionchangetime >= since_ms and _in_front(pose.positiontheta, FRONT_ANGLE_RAD):
+            return False
+    return True
 
 
 @evaluation("touched", reads=("robotstatus.touch", TIME))
