@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import random
+import struct
 from collections.abc import Mapping
 from typing import Final, NamedTuple
 
@@ -28,6 +29,7 @@ from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
 from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver
+from pymunk._chipmunk import ffi as _ffi
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1
@@ -73,8 +75,10 @@ class _Motion(NamedTuple):
     """A body's position, angle, velocity and spin, read once a step.
 
     Each pymunk property read is a C call (and a new ``Vec2d``); the world reads
-    every body at once after ``space.step`` (``pymunk.batch``, whose per-body
-    order of values this follows) and everything else uses this copy.
+    every body at once after ``space.step`` (``pymunk.batch``'s C iterator, whose
+    per-body order of values this follows) and everything else uses this copy. A
+    body whose bits did not change keeps the same ``_Motion`` object, so
+    ``motion is last`` means "unchanged to the bit".
     """
 
     x_m: float
@@ -98,42 +102,57 @@ _MOTION_FIELDS: Final = (
     | pymunk.batch.BodyFields.VELOCITY
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
 )
-_MOTION_SIZE: Final = len(_Motion._fields)
+_MOTION: Final = struct.Struct(f"{len(_Motion._fields)}d")
+"""One body's values in the batch's float array (``cpFloat`` is a C double)."""
+assert _ffi.sizeof("cpFloat") == 8
+_READ_BODY: Final = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
 
 
-class _Robot:
-    """The robot's body and its motion as last read (like ``_Human`` and ``_Thing``)."""
+class _Mover:
+    """A body that moves, its motion as last read and its ``/world/state`` entry.
+
+    ``raw`` is the motion's bytes as chipmunk wrote them; ``state`` is built from
+    ``state_of`` (the inputs it was made from, compared by identity) and reused
+    while they are the same objects, so a body at rest costs no rounding.
+    """
 
     def __init__(self, body: pymunk.Body):
         self.body = body
         self.cp_body = body._body
+        """Chipmunk's body, to set its velocity without pymunk's property glue."""
         self.motion = _Motion.of(body)
+        self.xy: tuple[float, float] = (self.motion.x_m, self.motion.y_m)
+        self.raw = b""
+        self.state: BodyState | None = None
+        self.state_of: object = None
 
 
-class _Human:
+class _Robot(_Mover):
+    """The robot's body and its motion as last read (like ``_Human`` and ``_Thing``)."""
+
+
+class _Human(_Mover):
     def __init__(
         self, spec: HumanSpec, driver: HumanDriver, body: pymunk.Body, shape: pymunk.Shape
     ):
+        super().__init__(body)
         self.spec = spec
+        self.kind = str(spec.role)
         self.driver = driver
-        self.body = body
-        self.cp_body = body._body
-        """Chipmunk's body, to set its velocity without pymunk's property glue."""
         self.velocity = STILL
         """The velocity last set (nothing else changes a kinematic body's)."""
         self.shape = shape
         self.present = True
-        self.motion = _Motion.of(body)
+        self.heading_of: float | None = None
+        """The driver's heading ``state`` was built from (with ``state_of``, the motion)."""
 
 
-class _Thing:
+class _Thing(_Mover):
     def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
+        super().__init__(body)
         self.spec = spec
-        self.body = body
-        self.cp_body = body._body
         self.keep = spec.damping_per_s**step_s
         """Fraction of speed kept per step."""
-        self.motion = _Motion.of(body)
 
 
 class World:
@@ -178,10 +197,15 @@ class World:
             mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
         }
         self._batch = pymunk.batch.Buffer()
-        self._ids: list[int] = []
-        """The body ids of the last batch read, in the space's order."""
-        self._layout: list[tuple[int, _Robot | _Human | _Thing]] = []
-        """Each mover's first value in the last batch read."""
+        self._floats, self._ints = self._batch._float_arr, self._batch._int_arr
+        self._read = _ffi.new("pmBatchedData *")
+        """``pymunk.batch.get_space_bodies``'s request, made once (it builds one per call)."""
+        self._read.fields = _MOTION_FIELDS.value
+        self._read.floatArray, self._read.intArray = self._floats, self._ints
+        self._ids = b""
+        """The body ids of the last batch read, in the space's order (their bytes)."""
+        self._layout: list[tuple[int, int, _Robot | _Human | _Thing]] = []
+        """Where each mover's values are in the last batch read (byte offsets)."""
 
     @property
     def robot_motion(self) -> _Motion:
@@ -248,11 +272,10 @@ class World:
     def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
-        robot_xy = (self.robot_motion.x_m, self.robot_motion.y_m)
+        robot_xy = self._robot.xy
         step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
         for human in self.humans:
-            motion = human.motion
-            velocity = human.driver.velocity((motion.x_m, motion.y_m), robot_xy, time_ms, step_s)
+            velocity = human.driver.velocity(human.xy, robot_xy, time_ms, step_s)
             if not human.present:
                 if human.driver.left:
                     velocity = STILL
@@ -267,43 +290,43 @@ class World:
                 human.velocity = velocity
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
-        self.space.step(self.step_s)
+        self.space.step(step_s)
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
         self._observe()
-        left = []
-        for human in self.humans:
-            if human.driver.left and human.present:  # reached the exit during this step
-                self.space.remove(human.body, human.shape)
-                human.present = False
-                left.append(human.spec.id)
-        contacts, ended = self._contacts(time_ms)
+        contacts, ended, left = self._contacts(time_ms)
         self.last_report = StepReport(
-            tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=tuple(left)
+            tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
         )
         return self.last_report
 
     def _observe(self) -> None:
         """Read every body's motion after a step (nothing else moves them between steps).
 
-        One batch read for the whole space (furniture too, skipped); a human out of
-        the room is not in the space and keeps the motion it left with.
+        One call of ``pymunk.batch``'s C iterator for the whole space (furniture too,
+        skipped); a mover whose bytes did not change keeps its ``_Motion`` object. A
+        human out of the room is not in the space and keeps the motion it left with.
         """
-        self._batch.clear()
-        pymunk.batch.get_space_bodies(self.space, _MOTION_FIELDS, self._batch)
-        ids = memoryview(self._batch.int_buf()).cast("P").tolist()
-        values = memoryview(self._batch.float_buf()).cast("d").tolist()
+        self._floats.num = self._ints.num = 0
+        _chipmunk.cpSpaceEachBody(self.space._space, _READ_BODY, self._read)
+        ids = self._batch.int_buf()[:]
         if ids != self._ids:  # a human left or came back: where each mover's values are
             self._ids = ids
+            size = _MOTION.size
             self._layout = [
-                (index * _MOTION_SIZE, mover)
-                for index, ident in enumerate(ids)
+                (index * size, (index + 1) * size, mover)
+                for index, ident in enumerate(memoryview(ids).cast("P").tolist())
                 if (mover := self._movers.get(ident)) is not None
             ]
-        make = tuple.__new__  # _Motion's own constructor, without its Python-level __new__
-        for start, mover in self._layout:
-            mover.motion = make(_Motion, values[start : start + _MOTION_SIZE])
+        raw, unpack, make = self._batch.float_buf()[:], _MOTION.unpack, tuple.__new__
+        for start, end, mover in self._layout:
+            chunk = raw[start:end]
+            if chunk != mover.raw:
+                mover.raw = chunk
+                values = unpack(chunk)
+                mover.motion = make(_Motion, values)  # without _Motion's Python-level __new__
+                mover.xy = values[:2]
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
@@ -352,21 +375,34 @@ class World:
         spin = _chipmunk.cpBodyGetAngularVelocity(body) * thing.keep
         _chipmunk.cpBodySetAngularVelocity(body, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
 
-    def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
+    def _contacts(
+        self, time_ms: int
+    ) -> tuple[tuple[str, ...], tuple[ContactSpan, ...], tuple[str, ...]]:
+        """Who touches the robot after the step, whose contact ended and who left the room
+        (taken out of the space: reached the exit during this step)."""
         robot = self.robot_motion
+        robot_x, robot_y = robot.x_m, robot.y_m
         radius = self.scenario.robot.radius_m
+        starts = self._contact_start_ms
         touching = []
         ended = []
+        left = []
         for human in self.humans:
+            if human.present and human.driver.left:
+                self.space.remove(human.body, human.shape)
+                human.present = False
+                left.append(human.spec.id)
             ident = human.spec.id
             # pymunk's (a - b).length, written out on the cached floats
-            dx, dy = human.motion.x_m - robot.x_m, human.motion.y_m - robot.y_m
+            motion = human.motion
+            dx, dy = motion.x_m - robot_x, motion.y_m - robot_y
             gap = math.sqrt(dx**2 + dy**2) - radius - human.spec.radius_m
             if human.present and gap <= CONTACT_TOLERANCE_M:
                 touching.append(ident)
-                self._contact_start_ms.setdefault(ident, time_ms)
-            elif ident in self._contact_start_ms:
-                start = self._contact_start_ms.pop(ident)
+                if ident not in starts:
+                    starts[ident] = time_ms
+            elif ident in starts:
+                start = starts.pop(ident)
                 ended.append(
                     ContactSpan(
                         human=ident,
@@ -375,7 +411,7 @@ class World:
                         duration_ms=time_ms - start,
                     )
                 )
-        return tuple(touching), tuple(ended)
+        return tuple(touching), tuple(ended), tuple(left)
 
     # ------------------------------------------------------------- events
 
@@ -417,36 +453,63 @@ class World:
         return [(thing.spec.id, thing.motion.x_m, thing.motion.y_m) for thing in self.things]
 
     def state(self, *, tick: int, time_ms: int) -> WorldState:
-        """Everything that moves, for ``/world/state``."""
-        motion = self.robot_motion
+        """Everything that moves, for ``/world/state``.
+
+        Each body's entry is rebuilt only when its inputs changed (a new ``_Motion``,
+        a human's new heading): a body at rest reuses the one it had, bit for bit."""
+        robot = self._robot
+        if robot.motion is not robot.state_of:
+            robot.state = _rigid_state("robot", "robot", robot.motion, self.scenario.robot.radius_m)
+            robot.state_of = robot.motion
         return WorldState(
             tick=tick,
             time_ms=time_ms,
-            robot=_rigid_state("robot", "robot", motion, self.scenario.robot.radius_m),
-            humans=tuple(self._human_state(human) for human in self.humans if human.present),
-            objects=tuple(self._thing_state(thing) for thing in self.things),
+            robot=robot.state,
+            humans=tuple(
+                [
+                    human.state
+                    if human.motion is human.state_of
+                    and human.driver.heading_rad is human.heading_of
+                    else _human_state(human)
+                    for human in self.humans
+                    if human.present
+                ]
+            ),
+            objects=tuple(
+                [
+                    thing.state if thing.motion is thing.state_of else _thing_state(thing)
+                    for thing in self.things
+                ]
+            ),
             led=self.led,
             audio=self.audio,
             contacts=self.last_report.contacts,
         )
 
-    @staticmethod
-    def _human_state(human: _Human) -> BodyState:
-        motion = human.motion
-        return BodyState(
-            id=human.spec.id,
-            kind=str(human.spec.role),
-            x_m=round(motion.x_m, STATE_DECIMALS),
-            y_m=round(motion.y_m, STATE_DECIMALS),
-            theta_rad=round(human.driver.heading_rad, STATE_DECIMALS),
-            vx_mps=_toward_zero(motion.vx_mps),
-            vy_mps=_toward_zero(motion.vy_mps),
-            radius_m=human.spec.radius_m,
-        )
 
-    @staticmethod
-    def _thing_state(thing: _Thing) -> BodyState:
-        return _rigid_state(thing.spec.id, thing.spec.category, thing.motion, thing.spec.radius_m)
+def _human_state(human: _Human) -> BodyState:
+    """A human's ``/world/state`` entry (facing where its driver heads), kept in ``human``."""
+    motion, heading = human.motion, human.driver.heading_rad
+    human.state = BodyState(
+        id=human.spec.id,
+        kind=human.kind,
+        x_m=_round(motion.x_m),
+        y_m=_round(motion.y_m),
+        theta_rad=_round(heading),
+        vx_mps=int(motion.vx_mps * _SCALE) / _SCALE,
+        vy_mps=int(motion.vy_mps * _SCALE) / _SCALE,
+        radius_m=human.spec.radius_m,
+    )
+    human.state_of, human.heading_of = motion, heading
+    return human.state
+
+
+def _thing_state(thing: _Thing) -> BodyState:
+    """An object's ``/world/state`` entry, kept in ``thing``."""
+    spec, motion = thing.spec, thing.motion
+    thing.state = _rigid_state(spec.id, spec.category, motion, spec.radius_m)
+    thing.state_of = motion
+    return thing.state
 
 
 def _rigid_state(ident: str, kind: str, motion: _Motion, radius_m: float) -> BodyState:
@@ -455,20 +518,38 @@ def _rigid_state(ident: str, kind: str, motion: _Motion, radius_m: float) -> Bod
     return BodyState(
         id=ident,
         kind=kind,
-        x_m=round(motion.x_m, STATE_DECIMALS),
-        y_m=round(motion.y_m, STATE_DECIMALS),
-        theta_rad=round(wrap_angle(motion.angle_rad), STATE_DECIMALS),
-        vx_mps=_toward_zero(motion.vx_mps),
-        vy_mps=_toward_zero(motion.vy_mps),
-        omega_radps=_toward_zero(motion.omega_radps),
+        x_m=_round(motion.x_m),
+        y_m=_round(motion.y_m),
+        theta_rad=_round(wrap_angle(motion.angle_rad)),
+        vx_mps=int(motion.vx_mps * _SCALE) / _SCALE,
+        vy_mps=int(motion.vy_mps * _SCALE) / _SCALE,
+        omega_radps=int(motion.omega_radps * _SCALE) / _SCALE,
         radius_m=radius_m,
     )
 
 
-def _toward_zero(value: float) -> float:
-    """``value`` cut to ``STATE_DECIMALS`` decimals towards zero (never larger in size)."""
-    scale = 10**STATE_DECIMALS
-    return math.trunc(value * scale) / scale
+_SCALE: Final = float(10**STATE_DECIMALS)
+"""Speeds are cut towards zero as ``int(speed * _SCALE) / _SCALE``."""
+_EXACT: Final = 1e11
+"""Below this, ``value * _SCALE`` is within 1e-4 of the exact product (its error is at
+most half an ulp, under 2**-53 of it), which ``_round`` needs."""
+
+
+def _round(value: float) -> float:
+    """``round(value, STATE_DECIMALS)``, bit for bit, in a third of its time.
+
+    ``round`` finds the integer ``k`` nearest the exact ``value * 10**6`` (ties to
+    even) and returns the float nearest ``k / 10**6``. When the computed product is
+    more than 1e-4 from a half, ``round(product)`` is that ``k``, and ``k / _SCALE``
+    (both exact doubles) is correctly rounded: the same float. Near a half, at zero
+    (its sign), for a huge or non-finite value, it asks ``round`` itself.
+    """
+    scaled = value * _SCALE
+    if -_EXACT < scaled < _EXACT:
+        nearest = round(scaled)
+        if nearest and abs(scaled - nearest) < 0.4999:
+            return nearest / _SCALE
+    return round(value, STATE_DECIMALS)
 
 
 def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
