@@ -104,7 +104,9 @@ _MOTION_FIELDS: Final = (
 )
 _MOTION: Final = struct.Struct(f"{len(_Motion._fields)}d")
 """One body's values in the batch's float array (``cpFloat`` is a C double)."""
-assert _ffi.sizeof("cpFloat") == 8
+_FLOAT_SIZE: Final = _ffi.sizeof("cpFloat")
+_ID_SIZE: Final = _ffi.sizeof("uintptr_t")
+assert _FLOAT_SIZE == 8 and memoryview(b"").cast("P").itemsize == _ID_SIZE
 _READ_BODY: Final = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
 
 
@@ -153,6 +155,8 @@ class _Thing(_Mover):
         self.spec = spec
         self.keep = spec.damping_per_s**step_s
         """Fraction of speed kept per step."""
+        self.slowing = spec.rolling_decel_mps2 * step_s
+        """Speed lost per step to rolling resistance."""
 
 
 class World:
@@ -193,6 +197,14 @@ class World:
         self.humans = [self._add_human(human) for human in scenario.humans]
         self.robot = self._add_robot()
         self._robot = _Robot(self.robot)
+        robot = scenario.robot
+        self._limits = (
+            robot.max_speed_mps,
+            robot.max_angular_speed_radps,
+            robot.max_accel_mps2 * self.step_s,
+            robot.max_angular_accel_radps2 * self.step_s,
+        )
+        """The drive's top speed and spin, and their changes per step."""
         self._movers: dict[int, _Robot | _Human | _Thing] = {
             mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
         }
@@ -290,7 +302,11 @@ class World:
                 human.velocity = velocity
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
-        self.space.step(step_s)
+        space = self.space
+        if space._bodies_to_check or space._removed_shapes:  # after a human came or left
+            space.step(step_s)  # pymunk's own: checks new bodies, forgets removed shapes
+        else:  # the same call without its Python bookkeeping (no callbacks are registered)
+            _chipmunk.cpSpaceStep(space._space, step_s)
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
@@ -308,9 +324,10 @@ class World:
         skipped); a mover whose bytes did not change keeps its ``_Motion`` object. A
         human out of the room is not in the space and keeps the motion it left with.
         """
-        self._floats.num = self._ints.num = 0
+        floats, ints = self._floats, self._ints
+        floats.num = ints.num = 0
         _chipmunk.cpSpaceEachBody(self.space._space, _READ_BODY, self._read)
-        ids = self._batch.int_buf()[:]
+        ids = _ffi.buffer(ints.arr, ints.num * _ID_SIZE)[:]  # Buffer.int_buf()'s, inlined
         if ids != self._ids:  # a human left or came back: where each mover's values are
             self._ids = ids
             size = _MOTION.size
@@ -319,7 +336,8 @@ class World:
                 for index, ident in enumerate(memoryview(ids).cast("P").tolist())
                 if (mover := self._movers.get(ident)) is not None
             ]
-        raw, unpack, make = self._batch.float_buf()[:], _MOTION.unpack, tuple.__new__
+        raw = _ffi.buffer(floats.arr, floats.num * _FLOAT_SIZE)[:]
+        unpack, make = _MOTION.unpack, tuple.__new__
         for start, end, mover in self._layout:
             chunk = raw[start:end]
             if chunk != mover.raw:
@@ -329,11 +347,10 @@ class World:
                 mover.xy = values[:2]
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
-        spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
-        vx, vy = _within(outputs.v_x, outputs.v_y, spec.max_speed_mps)
-        omega = min(
-            max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
-        )
+        top, top_spin, limit, turn_limit = self._limits
+        body, motion = self._robot.cp_body, self._robot.motion
+        vx, vy = _within(outputs.v_x, outputs.v_y, top)
+        omega = min(max(outputs.v_theta, -top_spin), top_spin)
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
         if outputs.brake:
@@ -341,20 +358,16 @@ class World:
         else:
             dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
             change = math.hypot(dx, dy)
-            limit = spec.max_accel_mps2 * self.step_s
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            _chipmunk.cpBodySetVelocity(
-                body, _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
-            )
-        turn_limit = spec.max_angular_accel_radps2 * self.step_s
+            _chipmunk.cpBodySetVelocity(body, _within(motion.vx_mps + dx, motion.vy_mps + dy, top))
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
         _chipmunk.cpBodySetAngularVelocity(body, motion.omega_radps + turn)
 
     def _reclamp_robot(self) -> None:
         """A push during the step (a human walking into the robot) leaves it at most at its
         speed limits: the drive brakes it back at once."""
-        top, body = self.scenario.robot.max_speed_mps, self._robot.cp_body
+        top, body = self._limits[0], self._robot.cp_body
         velocity = _chipmunk.cpBodyGetVelocity(body)
         vx, vy = velocity.x, velocity.y
         if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
@@ -366,7 +379,7 @@ class World:
         velocity = _chipmunk.cpBodyGetVelocity(body)
         vx, vy = velocity.x, velocity.y
         speed = math.sqrt(vx**2 + vy**2)
-        slower = speed * thing.keep - thing.spec.rolling_decel_mps2 * self.step_s
+        slower = speed * thing.keep - thing.slowing
         if slower <= STOP_SPEED_MPS:
             _chipmunk.cpBodySetVelocity(body, (0.0, 0.0))
         else:
