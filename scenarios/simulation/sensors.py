@@ -32,7 +32,7 @@ from oimi.scenarios.schema import (
     SensorSpec,
     TouchEvent,
 )
-from oimi.scenarios.simulation.world import World, wrap_angle
+from oimi.scenarios.simulation.world import World, rounded, wrap_angle
 
 DECIMALS: Final = 4
 TRUE: Final = "s_true"
@@ -106,6 +106,8 @@ class Sensors:
         """The track playing and since when (ms)."""
         self._seen: set[str] = set()
         """objectids whose once-only attributes were sent (membership only, never iterated)."""
+        self._furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in scenario.world.obstacles]
+        """What the sonar can see (furniture does not move)."""
 
     # --------------------------------------------------------------- inputs
 
@@ -140,35 +142,36 @@ class Sensors:
             for span in world.last_report.ended:
                 updates.append(_touch(span.touchtype, span.duration_ms, span.startingtime_ms))
         updates.extend(self._actions(world, time_ms))
-        pose = world.robot_pose()
-        if self.camera.due(time_ms):
-            seen = [("Human", *h) for h in world.human_positions()]
-            seen += [("Object", *o) for o in world.object_positions()]
-            updates.extend(
-                self._read(
-                    self.camera, seen, pose, time_ms, self.config.range_m, self.config.fov_rad
+        camera, sonar = self.camera.due(time_ms), self.sonar.due(time_ms)
+        if camera or sonar:
+            pose = world.robot_pose()
+            if camera:
+                seen = [("Human", *h) for h in world.human_positions()]
+                seen += [("Object", *o) for o in world.object_positions()]
+                config = self.config
+                updates.extend(
+                    self._read(self.camera, seen, pose, time_ms, config.range_m, config.fov_rad)
                 )
-            )
-        if self.sonar.due(time_ms):
-            furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in self.scenario.world.obstacles]
-            updates.extend(
-                self._read(
-                    self.sonar, furniture, pose, time_ms, self.config.sonar_range_m, math.tau
-                )
-            )
+            if sonar:
+                furniture = self._furniture
+                range_m = self.config.sonar_range_m
+                updates.extend(self._read(self.sonar, furniture, pose, time_ms, range_m, math.tau))
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
-        return [self._number(update) for update in updates]
-
-    def _number(self, update: _Update) -> MapUpdate:
-        self._seq += 1
-        return MapUpdate(
-            objectid=update.objectid,
-            attributename=update.attributename,
-            policy=update.policy,
-            jsonmsg=update.jsonmsg,
-            seq=self._seq,
-        )
+        if not updates:
+            return []
+        first = self._seq + 1
+        self._seq += len(updates)
+        return [
+            MapUpdate(
+                objectid=update.objectid,
+                attributename=update.attributename,
+                policy=update.policy,
+                jsonmsg=update.jsonmsg,
+                seq=seq,
+            )
+            for seq, update in enumerate(updates, first)
+        ]
 
     def _startup(self, time_ms: int) -> list[_Update]:
         config = self.config
@@ -243,8 +246,10 @@ class Sensors:
     def _actions(self, world: World, time_ms: int) -> list[_Update]:
         """The robot's history of performed actions (thesis 4.1): an LED colour or a track,
         reported (policy A) when it ends, with when it started and how long it lasted."""
-        updates = []
         colour, since = self._led
+        if world.led == colour and world.audio == self._audio[0]:  # most ticks
+            return []
+        updates = []
         if world.led != colour:
             if any(colour):
                 r, g, b = (round(c, DECIMALS) + 0.0 for c in colour)
@@ -290,8 +295,8 @@ def _period_ms(rate_hz: float) -> float:
 
 def _pose(objectid: str, rho: float, theta: float, time_ms: int) -> _Update:
     content = {
-        "positionrho": round(rho, DECIMALS) + 0.0,
-        "positiontheta": round(theta, DECIMALS) + 0.0,
+        "positionrho": rounded(rho, DECIMALS) + 0.0,
+        "positiontheta": rounded(theta, DECIMALS) + 0.0,
         "positionchangetime": time_ms,
     }
     return _Update(objectid, "poses", Policy.A, _json(content))
@@ -302,5 +307,8 @@ def _touch(touchtype: str, duration_ms: int, startingtime_ms: int) -> _Update:
     return _Update("RobotStatus", "touch", Policy.A, _json(content))
 
 
+_ENCODER: Final = msgspec.json.Encoder()
+
+
 def _json(content: dict[str, object]) -> str:
-    return msgspec.json.encode(content).decode()
+    return _ENCODER.encode(content).decode()

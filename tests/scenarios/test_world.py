@@ -19,7 +19,7 @@ from oimi.scenarios.simulation.humans import PACE
 from oimi.scenarios.simulation.world import (
     STATE_DECIMALS,
     World,
-    _round,
+    rounded,
     stream_rng,
     wrap_angle,
 )
@@ -361,16 +361,21 @@ def test_the_state_of_bodies_at_rest_is_reused_and_equals_a_fresh_reading_to_the
 
 
 @settings(derandomize=True, max_examples=2000, deadline=None)
-@given(st.floats(allow_nan=True, allow_infinity=True) | st.floats(-20.0, 20.0))
-@example(0.0000005)  # ties (as far as a double is one), both signs of zero, tiny negatives
-@example(-0.0000025)
-@example(2.5e-6)
-@example(-0.0)
-@example(-1e-9)
-@example(1e-9)
-@example(1e11 / 1e6)
-@example(123456.0000005)
-def test_fast_rounding_is_round_to_the_bit(value: float):
-    expected = round(value, STATE_DECIMALS)
-    got = _round(value)
+@given(
+    st.floats(allow_nan=True, allow_infinity=True) | st.floats(-20.0, 20.0),
+    st.sampled_from([STATE_DECIMALS, 4, 0, 15]),
+)
+@example(0.0000005, 6)  # ties (as far as a double is one), both signs of zero, tiny negatives
+@example(-0.0000025, 6)
+@example(2.5e-6, 6)
+@example(0.00015, 4)
+@example(-0.0, 6)
+@example(-1e-9, 6)
+@example(1e-9, 4)
+@example(1e11 / 1e6, 6)
+@example(123456.0000005, 6)
+@example(2.5, 0)
+def test_fast_rounding_is_round_to_the_bit(value: float, decimals: int):
+    expected = round(value, decimals)
+    got = rounded(value, decimals)
     assert struct.pack("<d", got) == struct.pack("<d", expected)
