@@ -108,6 +108,9 @@ _FLOAT_SIZE: Final = _ffi.sizeof("cpFloat")
 _ID_SIZE: Final = _ffi.sizeof("uintptr_t")
 assert _FLOAT_SIZE == 8 and memoryview(b"").cast("P").itemsize == _ID_SIZE
 _READ_BODY: Final = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
+_VELOCITY: Final = slice(3 * _FLOAT_SIZE, 5 * _FLOAT_SIZE)
+_SPIN: Final = slice(5 * _FLOAT_SIZE, 6 * _FLOAT_SIZE)
+"""Where a body's velocity and spin are in its bytes (``_Motion``'s order)."""
 
 
 class _Mover:
@@ -127,6 +130,19 @@ class _Mover:
         self.raw = b""
         self.state: BodyState | None = None
         self.state_of: object = None
+
+    def drive(self, vx_mps: float, vy_mps: float, omega_radps: float) -> None:
+        """Give the body this velocity and spin, and keep ``motion`` and ``raw`` what chipmunk
+        holds: only a value whose bits change is set (each set is a C call)."""
+        motion = self.motion
+        values = (motion.x_m, motion.y_m, motion.angle_rad, vx_mps, vy_mps, omega_radps)
+        raw, last = _MOTION.pack(*values), self.raw
+        if raw != last:
+            if raw[_VELOCITY] != last[_VELOCITY]:
+                _chipmunk.cpBodySetVelocity(self.cp_body, (vx_mps, vy_mps))
+            if raw[_SPIN] != last[_SPIN]:
+                _chipmunk.cpBodySetAngularVelocity(self.cp_body, omega_radps)
+            self.raw, self.motion = raw, tuple.__new__(_Motion, values)
 
 
 class _Robot(_Mover):
@@ -307,10 +323,10 @@ class World:
             space.step(step_s)  # pymunk's own: checks new bodies, forgets removed shapes
         else:  # the same call without its Python bookkeeping (no callbacks are registered)
             _chipmunk.cpSpaceStep(space._space, step_s)
+        self._observe()
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
-        self._observe()
         contacts, ended, left = self._contacts(time_ms)
         self.last_report = StepReport(
             tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
@@ -348,45 +364,41 @@ class World:
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         top, top_spin, limit, turn_limit = self._limits
-        body, motion = self._robot.cp_body, self._robot.motion
+        motion = self._robot.motion
         vx, vy = _within(outputs.v_x, outputs.v_y, top)
         omega = min(max(outputs.v_theta, -top_spin), top_spin)
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
-        if outputs.brake:
-            _chipmunk.cpBodySetVelocity(body, (want_x, want_y))
-        else:
+        if not outputs.brake:
             dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
             change = math.hypot(dx, dy)
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            _chipmunk.cpBodySetVelocity(body, _within(motion.vx_mps + dx, motion.vy_mps + dy, top))
+            want_x, want_y = _within(motion.vx_mps + dx, motion.vy_mps + dy, top)
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
-        _chipmunk.cpBodySetAngularVelocity(body, motion.omega_radps + turn)
+        self._robot.drive(want_x, want_y, motion.omega_radps + turn)
 
     def _reclamp_robot(self) -> None:
         """A push during the step (a human walking into the robot) leaves it at most at its
         speed limits: the drive brakes it back at once."""
-        top, body = self._limits[0], self._robot.cp_body
-        velocity = _chipmunk.cpBodyGetVelocity(body)
-        vx, vy = velocity.x, velocity.y
+        top, motion = self._limits[0], self._robot.motion
+        vx, vy = motion.vx_mps, motion.vy_mps
         if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
-            _chipmunk.cpBodySetVelocity(body, _within(vx, vy, top))
+            self._robot.drive(*_within(vx, vy, top), motion.omega_radps)
 
     def _roll(self, thing: _Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
-        body = thing.cp_body
-        velocity = _chipmunk.cpBodyGetVelocity(body)
-        vx, vy = velocity.x, velocity.y
+        motion = thing.motion
+        vx, vy = motion.vx_mps, motion.vy_mps
         speed = math.sqrt(vx**2 + vy**2)
         slower = speed * thing.keep - thing.slowing
         if slower <= STOP_SPEED_MPS:
-            _chipmunk.cpBodySetVelocity(body, (0.0, 0.0))
+            vx, vy = 0.0, 0.0
         else:
             factor = slower / speed
-            _chipmunk.cpBodySetVelocity(body, (vx * factor, vy * factor))
-        spin = _chipmunk.cpBodyGetAngularVelocity(body) * thing.keep
-        _chipmunk.cpBodySetAngularVelocity(body, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
+            vx, vy = vx * factor, vy * factor
+        spin = motion.omega_radps * thing.keep
+        thing.drive(vx, vy, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
 
     def _contacts(
         self, time_ms: int
