@@ -155,7 +155,7 @@ class _Human(_Mover):
     ):
         super().__init__(body)
         self.spec = spec
-        self.kind = str(spec.role)
+        self.ident, self.kind, self.radius_m = spec.id, str(spec.role), spec.radius_m
         self.driver = driver
         self.velocity = STILL
         """The velocity last set (nothing else changes a kinematic body's)."""
@@ -230,6 +230,10 @@ class World:
         """``pymunk.batch.get_space_bodies``'s request, made once (it builds one per call)."""
         self._read.fields = _MOTION_FIELDS.value
         self._read.floatArray, self._read.intArray = self._floats, self._ints
+        self._direct_step = all(
+            hasattr(self.space, name) for name in ("_bodies_to_check", "_removed_shapes")
+        )
+        """Whether this pymunk keeps what ``Space.step`` tidies where the world can see it."""
         self._ids = b""
         """The body ids of the last batch read, in the space's order (their bytes)."""
         self._layout: list[tuple[int, int, _Robot | _Human | _Thing]] = []
@@ -319,10 +323,11 @@ class World:
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
         space = self.space
-        if space._bodies_to_check or space._removed_shapes:  # after a human came or left
-            space.step(step_s)  # pymunk's own: checks new bodies, forgets removed shapes
-        else:  # the same call without its Python bookkeeping (no callbacks are registered)
+        if self._direct_step and not (space._bodies_to_check or space._removed_shapes):
+            # pymunk's step without its Python bookkeeping (no callbacks are registered)
             _chipmunk.cpSpaceStep(space._space, step_s)
+        else:  # after a human came or left: pymunk checks new bodies, forgets removed shapes
+            space.step(step_s)
         self._observe()
         self._reclamp_robot()
         for thing in self.things:
@@ -514,16 +519,21 @@ class World:
 
 def _human_state(human: _Human) -> BodyState:
     """A human's ``/world/state`` entry (facing where its driver heads), kept in ``human``."""
-    motion, heading = human.motion, human.driver.heading_rad
+    motion, heading, last = human.motion, human.driver.heading_rad, human.state
+    x, y, _, vx, vy, _ = motion
+    if last is not None and heading == human.heading_of and heading:  # the same bits
+        theta = last.theta_rad  # (a walk straight on keeps its heading)
+    else:
+        theta = rounded(heading, STATE_DECIMALS)
     human.state = BodyState(
-        id=human.spec.id,
+        id=human.ident,
         kind=human.kind,
-        x_m=rounded(motion.x_m, STATE_DECIMALS),
-        y_m=rounded(motion.y_m, STATE_DECIMALS),
-        theta_rad=rounded(heading, STATE_DECIMALS),
-        vx_mps=int(motion.vx_mps * _SCALE) / _SCALE,
-        vy_mps=int(motion.vy_mps * _SCALE) / _SCALE,
-        radius_m=human.spec.radius_m,
+        x_m=rounded(x, STATE_DECIMALS),
+        y_m=rounded(y, STATE_DECIMALS),
+        theta_rad=theta,
+        vx_mps=int(vx * _SCALE) / _SCALE,
+        vy_mps=int(vy * _SCALE) / _SCALE,
+        radius_m=human.radius_m,
     )
     human.state_of, human.heading_of = motion, heading
     return human.state
