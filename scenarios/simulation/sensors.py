@@ -201,34 +201,38 @@ class Sensors:
         if sensor.mode is FaultMode.FROZEN:
             return list(sensor.last)
         x, y, theta = pose
+        half_fov, tracks, rng, config = fov_rad / 2, sensor.tracks, self.rng, self.config
+        dropout, noise_rho, noise_theta = (
+            config.dropout_probability,
+            config.noise_rho_m,
+            config.noise_theta_rad,
+        )
         reading: list[_Update] = []
         in_view: list[str] = []
         for cls, ident, ex, ey in entities:
-            rho = math.hypot(ex - x, ey - y)
-            bearing = wrap_angle(math.atan2(ey - y, ex - x) - theta)
-            if rho > range_m or abs(bearing) > fov_rad / 2:
+            dx, dy = ex - x, ey - y
+            rho = math.hypot(dx, dy)
+            bearing = wrap_angle(math.atan2(dy, dx) - theta)
+            if rho > range_m or abs(bearing) > half_fov:
                 continue
             objectid = f"{cls}/{ident}"
             in_view.append(objectid)
-            appeared = sensor.tracks.setdefault(objectid, time_ms)
-            if (
-                self.config.dropout_probability
-                and self.rng.random() < self.config.dropout_probability
-            ):
+            appeared = tracks.setdefault(objectid, time_ms)
+            if dropout and rng.random() < dropout:
                 continue
-            if self.config.noise_rho_m:
-                rho = max(0.0, rho + self.rng.gauss(0.0, self.config.noise_rho_m))
-            if self.config.noise_theta_rad:
-                bearing = wrap_angle(bearing + self.rng.gauss(0.0, self.config.noise_theta_rad))
+            if noise_rho:
+                rho = max(0.0, rho + rng.gauss(0.0, noise_rho))
+            if noise_theta:
+                bearing = wrap_angle(bearing + rng.gauss(0.0, noise_theta))
             if objectid not in self._seen:
                 self._seen.add(objectid)
                 reading.extend(self._first_sight(cls, ident, objectid))
             reading.append(_pose(objectid, rho, bearing, time_ms))
             tracking = {"permanencetime": time_ms - appeared, "appearanceon": appeared}
             reading.append(_Update(objectid, "tracking", Policy.R, _json(tracking)))
-        for objectid in list(sensor.tracks):
+        for objectid in list(tracks):
             if objectid not in in_view:
-                del sensor.tracks[objectid]
+                del tracks[objectid]
         sensor.last = reading
         return reading
 
