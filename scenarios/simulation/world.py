@@ -96,8 +96,7 @@ class _Motion(NamedTuple):
 
 
 _MOTION_FIELDS: Final = (
-    pymunk.batch.BodyFields.BODY_ID
-    | pymunk.batch.BodyFields.POSITION
+    pymunk.batch.BodyFields.POSITION
     | pymunk.batch.BodyFields.ANGLE
     | pymunk.batch.BodyFields.VELOCITY
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
@@ -225,17 +224,18 @@ class World:
             mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
         }
         self._batch = pymunk.batch.Buffer()
-        self._floats, self._ints = self._batch._float_arr, self._batch._int_arr
+        self._floats = self._batch._float_arr
         self._read = _ffi.new("pmBatchedData *")
         """``pymunk.batch.get_space_bodies``'s request, made once (it builds one per call)."""
         self._read.fields = _MOTION_FIELDS.value
-        self._read.floatArray, self._read.intArray = self._floats, self._ints
+        self._read.floatArray, self._read.intArray = self._floats, self._batch._int_arr
         self._direct_step = all(
             hasattr(self.space, name) for name in ("_bodies_to_check", "_removed_shapes")
         )
         """Whether this pymunk keeps what ``Space.step`` tidies where the world can see it."""
-        self._ids = b""
-        """The body ids of the last batch read, in the space's order (their bytes)."""
+        self._bodies = -1
+        """How many bodies the space had when the layout was worked out (-1: work it out
+        again; the world adds and removes bodies only where it says so)."""
         self._layout: list[tuple[int, int, _Robot | _Human | _Thing]] = []
         """Where each mover's values are in the last batch read (byte offsets)."""
 
@@ -314,6 +314,7 @@ class World:
                 else:  # back in the room
                     self.space.add(human.body, human.shape)
                     human.present = True
+                    self._bodies = -1  # the space's order of bodies changed
             # set only when changed (a standing human's stays set); equal floats are the
             # same bits but for a zero's sign, so equal zeros count only as the same object
             last = human.velocity
@@ -344,19 +345,15 @@ class World:
         One call of ``pymunk.batch``'s C iterator for the whole space (furniture too,
         skipped); a mover whose bytes did not change keeps its ``_Motion`` object. A
         human out of the room is not in the space and keeps the motion it left with.
+        Where each body's values are is worked out again only after the world added or
+        removed one.
         """
-        floats, ints = self._floats, self._ints
-        floats.num = ints.num = 0
-        _chipmunk.cpSpaceEachBody(self.space._space, _READ_BODY, self._read)
-        ids = _ffi.buffer(ints.arr, ints.num * _ID_SIZE)[:]  # Buffer.int_buf()'s, inlined
-        if ids != self._ids:  # a human left or came back: where each mover's values are
-            self._ids = ids
-            size = _MOTION.size
-            self._layout = [
-                (index * size, (index + 1) * size, mover)
-                for index, ident in enumerate(memoryview(ids).cast("P").tolist())
-                if (mover := self._movers.get(ident)) is not None
-            ]
+        space = self.space
+        if len(space.bodies) != self._bodies:  # a human left or came back
+            self._relayout()
+        floats = self._floats
+        floats.num = 0
+        _chipmunk.cpSpaceEachBody(space._space, _READ_BODY, self._read)
         raw = _ffi.buffer(floats.arr, floats.num * _FLOAT_SIZE)[:]
         unpack, make = _MOTION.unpack, tuple.__new__
         for start, end, mover in self._layout:
@@ -366,6 +363,19 @@ class World:
                 values = unpack(chunk)
                 mover.motion = make(_Motion, values)  # without _Motion's Python-level __new__
                 mover.xy = values[:2]
+
+    def _relayout(self) -> None:
+        """Where each mover's values are in the space's order of bodies."""
+        self._bodies = len(self.space.bodies)
+        buffer = pymunk.batch.Buffer()
+        pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, buffer)
+        ids = memoryview(buffer.int_buf()).cast("P").tolist()
+        size = _MOTION.size
+        self._layout = [
+            (index * size, (index + 1) * size, mover)
+            for index, ident in enumerate(ids)
+            if (mover := self._movers.get(ident)) is not None
+        ]
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         top, top_spin, limit, turn_limit = self._limits
@@ -421,6 +431,7 @@ class World:
             if human.present and human.driver.left:
                 self.space.remove(human.body, human.shape)
                 human.present = False
+                self._bodies = -1  # the space's order of bodies changed
                 left.append(human.spec.id)
             ident = human.spec.id
             # pymunk's (a - b).length, written out on the cached floats

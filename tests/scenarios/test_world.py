@@ -360,6 +360,21 @@ def test_the_state_of_bodies_at_rest_is_reused_and_equals_a_fresh_reading_to_the
     assert reused > 100  # the fast path was taken (a standing human, a still therapist)
 
 
+def test_one_human_leaving_as_another_comes_back_keeps_each_body_its_own_motion():
+    # the space's order of bodies changes without its count changing between two reads
+    two = APPROACHING_CHILD.replace('"approach", distance_m = 0.5', '"leave"')
+    two += '[[humans]]\nid = "sib"\nx_m = 0.5\ny_m = 2.5\nbehaviour = [{ kind = "leave" }]\n'
+    w = world(two)
+    for tick in range(70):
+        if tick == 50:
+            w.apply_event(BehaviourEvent(at_s=1.0, human="sib", segment=Stand()))
+        report = w.step(ActuatorOutputs(v_x=0.2, v_theta=0.3), tick=tick)
+        assert encode(w.state(tick=tick, time_ms=tick * 20)) == encode(_reference_state(w, tick))
+        if tick == 49:
+            assert report.left == ("kid",)
+    assert [h[0] for h in w.human_positions()] == ["sib"]
+
+
 @settings(derandomize=True, max_examples=2000, deadline=None)
 @given(
     st.floats(allow_nan=True, allow_infinity=True) | st.floats(-20.0, 20.0),
