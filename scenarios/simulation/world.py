@@ -132,7 +132,8 @@ class _Mover:
 
     def drive(self, vx_mps: float, vy_mps: float, omega_radps: float) -> None:
         """Give the body this velocity and spin, and keep ``motion`` and ``raw`` what chipmunk
-        holds: only a value whose bits change is set (each set is a C call)."""
+        holds: only a value whose bits change is set (each set is a C call). Called only
+        while they hold it (after a read, or a drive, with no other change since)."""
         motion = self.motion
         values = (motion.x_m, motion.y_m, motion.angle_rad, vx_mps, vy_mps, omega_radps)
         raw, last = _MOTION.pack(*values), self.raw
@@ -579,11 +580,12 @@ _SCALE: Final = float(10**STATE_DECIMALS)
 _EXACT: Final = 1e11
 """Below this, a computed ``value * 10**decimals`` is within 1e-4 of the exact product
 (its error is at most half an ulp, under 2**-53 of it), which ``rounded`` needs."""
-_SCALES: Final = tuple(float(10**decimals) for decimals in range(16))
+_SCALES: Final = {decimals: float(10**decimals) for decimals in range(16)}
 
 
 def rounded(value: float, decimals: int) -> float:
-    """``round(value, decimals)`` (0 to 15 decimals), bit for bit, in under half its time.
+    """``round(value, decimals)`` (0 to 15 decimals, else ``KeyError``), bit for bit, in
+    under half its time.
 
     ``round`` finds the integer ``k`` nearest the exact ``value * 10**decimals`` (ties to
     even) and returns the float nearest ``k / 10**decimals``. When the computed product
