@@ -32,7 +32,8 @@ from oimi.scenarios.schema import (
     SensorSpec,
     TouchEvent,
 )
-from oimi.scenarios.simulation.world import World, rounded, wrap_angle
+from oimi.scenarios.simulation.bodies import rounded, wrap_angle
+from oimi.scenarios.simulation.world import World
 
 DECIMALS: Final = 4
 TRUE: Final = "s_true"

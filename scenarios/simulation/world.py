@@ -18,18 +18,26 @@ from __future__ import annotations
 
 import math
 import random
-import struct
 from collections.abc import Mapping
-from typing import Final, NamedTuple
+from typing import Final
 
 import msgspec
 import pymunk
-import pymunk.batch
-from oimi.pipeline.events import BodyState, WorldState
+from oimi.pipeline.events import WorldState
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+from oimi.scenarios.simulation.bodies import (
+    BodyReader,
+    Human,
+    Motion,
+    Robot,
+    Thing,
+    human_state,
+    rigid_state,
+    thing_state,
+    wrap_angle,
+)
 from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver
-from pymunk._chipmunk import ffi as _ffi
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1
@@ -37,11 +45,6 @@ CONTACT_TOLERANCE_M: Final = 0.02
 """Centre distance beyond the sum of radii still counted as a contact (solver slop)."""
 STOP_SPEED_MPS: Final = 1e-3
 """A rolling object slower than this stops."""
-STATE_DECIMALS: Final = 6
-"""``/world/state``'s resolution: micrometres and microradians (per second for speeds).
-The physics runs at full precision; the bits below this are numerical noise that
-compresses badly (a fifth of a recording's bytes). Speeds are cut towards zero, so the
-record never shows a speed the robot did not reach."""
 
 
 def stream_rng(seed: int, stream: str) -> random.Random:
@@ -69,110 +72,6 @@ class StepReport(msgspec.Struct, frozen=True, kw_only=True):
     """Contacts that ended during the step."""
     left: tuple[str, ...] = ()
     """Humans who left the room during the step."""
-
-
-class _Motion(NamedTuple):
-    """A body's position, angle, velocity and spin, read once a step.
-
-    Each pymunk property read is a C call (and a new ``Vec2d``); the world reads
-    every body at once after ``space.step`` (``pymunk.batch``'s C iterator, whose
-    per-body order of values this follows) and everything else uses this copy. A
-    body whose bits did not change keeps the same ``_Motion`` object, so
-    ``motion is last`` means "unchanged to the bit".
-    """
-
-    x_m: float
-    y_m: float
-    angle_rad: float
-    vx_mps: float
-    vy_mps: float
-    omega_radps: float
-
-    @classmethod
-    def of(cls, body: pymunk.Body) -> _Motion:
-        """Read one body (when the world is built)."""
-        (x, y), (vx, vy) = body.position, body.velocity
-        return cls(x, y, body.angle, vx, vy, body.angular_velocity)
-
-
-_MOTION_FIELDS: Final = (
-    pymunk.batch.BodyFields.POSITION
-    | pymunk.batch.BodyFields.ANGLE
-    | pymunk.batch.BodyFields.VELOCITY
-    | pymunk.batch.BodyFields.ANGULAR_VELOCITY
-)
-_MOTION: Final = struct.Struct(f"{len(_Motion._fields)}d")
-"""One body's values in the batch's float array (``cpFloat`` is a C double)."""
-_FLOAT_SIZE: Final = _ffi.sizeof("cpFloat")
-_ID_SIZE: Final = _ffi.sizeof("uintptr_t")
-assert _FLOAT_SIZE == 8 and memoryview(b"").cast("P").itemsize == _ID_SIZE
-_READ_BODY: Final = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
-_VELOCITY: Final = slice(3 * _FLOAT_SIZE, 5 * _FLOAT_SIZE)
-_SPIN: Final = slice(5 * _FLOAT_SIZE, 6 * _FLOAT_SIZE)
-"""Where a body's velocity and spin are in its bytes (``_Motion``'s order)."""
-
-
-class _Mover:
-    """A body that moves, its motion as last read and its ``/world/state`` entry.
-
-    ``raw`` is the motion's bytes as chipmunk wrote them; ``state`` is built from
-    ``state_of`` (the inputs it was made from, compared by identity) and reused
-    while they are the same objects, so a body at rest costs no rounding.
-    """
-
-    def __init__(self, body: pymunk.Body):
-        self.body = body
-        self.cp_body = body._body
-        """Chipmunk's body, to set its velocity without pymunk's property glue."""
-        self.motion = _Motion.of(body)
-        self.xy: tuple[float, float] = (self.motion.x_m, self.motion.y_m)
-        self.raw = b""
-        self.state: BodyState | None = None
-        self.state_of: object = None
-
-    def drive(self, vx_mps: float, vy_mps: float, omega_radps: float) -> None:
-        """Give the body this velocity and spin, and keep ``motion`` and ``raw`` what chipmunk
-        holds: only a value whose bits change is set (each set is a C call). Called only
-        while they hold it (after a read, or a drive, with no other change since)."""
-        motion = self.motion
-        values = (motion.x_m, motion.y_m, motion.angle_rad, vx_mps, vy_mps, omega_radps)
-        raw, last = _MOTION.pack(*values), self.raw
-        if raw != last:
-            if raw[_VELOCITY] != last[_VELOCITY]:
-                _chipmunk.cpBodySetVelocity(self.cp_body, (vx_mps, vy_mps))
-            if raw[_SPIN] != last[_SPIN]:
-                _chipmunk.cpBodySetAngularVelocity(self.cp_body, omega_radps)
-            self.raw, self.motion = raw, tuple.__new__(_Motion, values)
-
-
-class _Robot(_Mover):
-    """The robot's body and its motion as last read (like ``_Human`` and ``_Thing``)."""
-
-
-class _Human(_Mover):
-    def __init__(
-        self, spec: HumanSpec, driver: HumanDriver, body: pymunk.Body, shape: pymunk.Shape
-    ):
-        super().__init__(body)
-        self.spec = spec
-        self.ident, self.kind, self.radius_m = spec.id, str(spec.role), spec.radius_m
-        self.driver = driver
-        self.velocity = STILL
-        """The velocity last set (nothing else changes a kinematic body's)."""
-        self.shape = shape
-        self.present = True
-        self.heading_of: float | None = None
-        """The driver's heading ``state`` was built from (with ``state_of``, the motion)."""
-
-
-class _Thing(_Mover):
-    def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
-        super().__init__(body)
-        self.spec = spec
-        self.keep = spec.damping_per_s**step_s
-        """Fraction of speed kept per step."""
-        self.slowing = spec.rolling_decel_mps2 * step_s
-        """Speed lost per step to rolling resistance."""
 
 
 class World:
@@ -212,7 +111,7 @@ class World:
         self.things = [self._add_thing(thing) for thing in spec.objects]
         self.humans = [self._add_human(human) for human in scenario.humans]
         self.robot = self._add_robot()
-        self._robot = _Robot(self.robot)
+        self._robot = Robot(self.robot)
         robot = scenario.robot
         self._limits = (
             robot.max_speed_mps,
@@ -221,27 +120,14 @@ class World:
             robot.max_angular_accel_radps2 * self.step_s,
         )
         """The drive's top speed and spin, and their changes per step."""
-        self._movers: dict[int, _Robot | _Human | _Thing] = {
-            mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
-        }
-        self._batch = pymunk.batch.Buffer()
-        self._floats = self._batch._float_arr
-        self._read = _ffi.new("pmBatchedData *")
-        """``pymunk.batch.get_space_bodies``'s request, made once (it builds one per call)."""
-        self._read.fields = _MOTION_FIELDS.value
-        self._read.floatArray, self._read.intArray = self._floats, self._batch._int_arr
+        self._reader = BodyReader(self.space, (self._robot, *self.humans, *self.things))
         self._direct_step = all(
             hasattr(self.space, name) for name in ("_bodies_to_check", "_removed_shapes")
         )
         """Whether this pymunk keeps what ``Space.step`` tidies where the world can see it."""
-        self._bodies = -1
-        """How many bodies the space had when the layout was worked out (-1: work it out
-        again; the world adds and removes bodies only where it says so)."""
-        self._layout: list[tuple[int, int, _Robot | _Human | _Thing]] = []
-        """Where each mover's values are in the last batch read (byte offsets)."""
 
     @property
-    def robot_motion(self) -> _Motion:
+    def robot_motion(self) -> Motion:
         """The robot's position, angle, velocity and spin after the last step."""
         return self._robot.motion
 
@@ -269,23 +155,23 @@ class World:
             shape.friction, shape.elasticity = 0.5, 0.4
             self.space.add(body, shape)
 
-    def _add_thing(self, spec: ObjectSpec) -> _Thing:
+    def _add_thing(self, spec: ObjectSpec) -> Thing:
         moment = pymunk.moment_for_circle(spec.mass_kg, 0, spec.radius_m)
         body = pymunk.Body(spec.mass_kg, moment)
         body.position = (spec.x_m, spec.y_m)
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.3, 0.7
         self.space.add(body, shape)
-        return _Thing(spec, body, self.step_s)
+        return Thing(spec, body, self.step_s)
 
-    def _add_human(self, spec: HumanSpec) -> _Human:
+    def _add_human(self, spec: HumanSpec) -> Human:
         body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         body.position = (spec.x_m, spec.y_m)
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.5, 0.3
         self.space.add(body, shape)
         driver = HumanDriver(spec, arena=self.arena, rng=self.rng, behaviours=self.behaviours)
-        return _Human(spec, driver, body, shape)
+        return Human(spec, driver, body, shape)
 
     def _add_robot(self) -> pymunk.Body:
         spec = self.scenario.robot
@@ -315,7 +201,7 @@ class World:
                 else:  # back in the room
                     self.space.add(human.body, human.shape)
                     human.present = True
-                    self._bodies = -1  # the space's order of bodies changed
+                    self._reader.moved_bodies()
             # set only when changed (a standing human's stays set); equal floats are the
             # same bits but for a zero's sign, so equal zeros count only as the same object
             last = human.velocity
@@ -330,7 +216,7 @@ class World:
             _chipmunk.cpSpaceStep(space._space, step_s)
         else:  # after a human came or left: pymunk checks new bodies, forgets removed shapes
             space.step(step_s)
-        self._observe()
+        self._reader.read()
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
@@ -339,44 +225,6 @@ class World:
             tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
         )
         return self.last_report
-
-    def _observe(self) -> None:
-        """Read every body's motion after a step (nothing else moves them between steps).
-
-        One call of ``pymunk.batch``'s C iterator for the whole space (furniture too,
-        skipped); a mover whose bytes did not change keeps its ``_Motion`` object. A
-        human out of the room is not in the space and keeps the motion it left with.
-        Where each body's values are is worked out again only after the world added or
-        removed one.
-        """
-        space = self.space
-        if len(space.bodies) != self._bodies:  # a human left or came back
-            self._relayout()
-        floats = self._floats
-        floats.num = 0
-        _chipmunk.cpSpaceEachBody(space._space, _READ_BODY, self._read)
-        raw = _ffi.buffer(floats.arr, floats.num * _FLOAT_SIZE)[:]
-        unpack, make = _MOTION.unpack, tuple.__new__
-        for start, end, mover in self._layout:
-            chunk = raw[start:end]
-            if chunk != mover.raw:
-                mover.raw = chunk
-                values = unpack(chunk)
-                mover.motion = make(_Motion, values)  # without _Motion's Python-level __new__
-                mover.xy = values[:2]
-
-    def _relayout(self) -> None:
-        """Where each mover's values are in the space's order of bodies."""
-        self._bodies = len(self.space.bodies)
-        buffer = pymunk.batch.Buffer()
-        pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, buffer)
-        ids = memoryview(buffer.int_buf()).cast("P").tolist()
-        size = _MOTION.size
-        self._layout = [
-            (index * size, (index + 1) * size, mover)
-            for index, ident in enumerate(ids)
-            if (mover := self._movers.get(ident)) is not None
-        ]
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         top, top_spin, limit, turn_limit = self._limits
@@ -402,7 +250,7 @@ class World:
         if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
             self._robot.drive(*_within(vx, vy, top), motion.omega_radps)
 
-    def _roll(self, thing: _Thing) -> None:
+    def _roll(self, thing: Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
         motion = thing.motion
         vx, vy = motion.vx_mps, motion.vy_mps
@@ -432,7 +280,7 @@ class World:
             if human.present and human.driver.left:
                 self.space.remove(human.body, human.shape)
                 human.present = False
-                self._bodies = -1  # the space's order of bodies changed
+                self._reader.moved_bodies()
                 left.append(human.spec.id)
             ident = human.spec.id
             # pymunk's (a - b).length, written out on the cached floats
@@ -497,11 +345,11 @@ class World:
     def state(self, *, tick: int, time_ms: int) -> WorldState:
         """Everything that moves, for ``/world/state``.
 
-        Each body's entry is rebuilt only when its inputs changed (a new ``_Motion``,
+        Each body's entry is rebuilt only when its inputs changed (a new ``Motion``,
         a human's new heading): a body at rest reuses the one it had, bit for bit."""
         robot = self._robot
         if robot.motion is not robot.state_of:
-            robot.state = _rigid_state("robot", "robot", robot.motion, self.scenario.robot.radius_m)
+            robot.state = rigid_state("robot", "robot", robot.motion, self.scenario.robot.radius_m)
             robot.state_of = robot.motion
         return WorldState(
             tick=tick,
@@ -512,14 +360,14 @@ class World:
                     human.state
                     if human.motion is human.state_of
                     and human.driver.heading_rad is human.heading_of
-                    else _human_state(human)
+                    else human_state(human)
                     for human in self.humans
                     if human.present
                 ]
             ),
             objects=tuple(
                 [
-                    thing.state if thing.motion is thing.state_of else _thing_state(thing)
+                    thing.state if thing.motion is thing.state_of else thing_state(thing)
                     for thing in self.things
                 ]
             ),
@@ -529,88 +377,9 @@ class World:
         )
 
 
-def _human_state(human: _Human) -> BodyState:
-    """A human's ``/world/state`` entry (facing where its driver heads), kept in ``human``."""
-    motion, heading, last = human.motion, human.driver.heading_rad, human.state
-    x, y, _, vx, vy, _ = motion
-    if last is not None and heading == human.heading_of and heading:  # the same bits
-        theta = last.theta_rad  # (a walk straight on keeps its heading)
-    else:
-        theta = rounded(heading, STATE_DECIMALS)
-    human.state = BodyState(
-        id=human.ident,
-        kind=human.kind,
-        x_m=rounded(x, STATE_DECIMALS),
-        y_m=rounded(y, STATE_DECIMALS),
-        theta_rad=theta,
-        vx_mps=int(vx * _SCALE) / _SCALE,
-        vy_mps=int(vy * _SCALE) / _SCALE,
-        radius_m=human.radius_m,
-    )
-    human.state_of, human.heading_of = motion, heading
-    return human.state
-
-
-def _thing_state(thing: _Thing) -> BodyState:
-    """An object's ``/world/state`` entry, kept in ``thing``."""
-    spec, motion = thing.spec, thing.motion
-    thing.state = _rigid_state(spec.id, spec.category, motion, spec.radius_m)
-    thing.state_of = motion
-    return thing.state
-
-
-def _rigid_state(ident: str, kind: str, motion: _Motion, radius_m: float) -> BodyState:
-    """A body that turns with its physics (the robot, an object) at ``/world/state``'s
-    resolution."""
-    return BodyState(
-        id=ident,
-        kind=kind,
-        x_m=rounded(motion.x_m, STATE_DECIMALS),
-        y_m=rounded(motion.y_m, STATE_DECIMALS),
-        theta_rad=rounded(wrap_angle(motion.angle_rad), STATE_DECIMALS),
-        vx_mps=int(motion.vx_mps * _SCALE) / _SCALE,
-        vy_mps=int(motion.vy_mps * _SCALE) / _SCALE,
-        omega_radps=int(motion.omega_radps * _SCALE) / _SCALE,
-        radius_m=radius_m,
-    )
-
-
-_SCALE: Final = float(10**STATE_DECIMALS)
-"""Speeds are cut towards zero as ``int(speed * _SCALE) / _SCALE``."""
-_EXACT: Final = 1e11
-"""Below this, a computed ``value * 10**decimals`` is within 1e-4 of the exact product
-(its error is at most half an ulp, under 2**-53 of it), which ``rounded`` needs."""
-_SCALES: Final = {decimals: float(10**decimals) for decimals in range(16)}
-
-
-def rounded(value: float, decimals: int) -> float:
-    """``round(value, decimals)`` (0 to 15 decimals, else ``KeyError``), bit for bit, in
-    under half its time.
-
-    ``round`` finds the integer ``k`` nearest the exact ``value * 10**decimals`` (ties to
-    even) and returns the float nearest ``k / 10**decimals``. When the computed product
-    is more than 1e-4 from a half, ``round(product)`` is that ``k``, and dividing it by
-    the (exact) scale is correctly rounded: the same float. Near a half, at zero (its
-    sign), for a huge or non-finite value, it asks ``round`` itself.
-    """
-    scale = _SCALES[decimals]
-    scaled = value * scale
-    if -_EXACT < scaled < _EXACT:
-        nearest = round(scaled)
-        if nearest and abs(scaled - nearest) < 0.4999:
-            return nearest / scale
-    return round(value, decimals)
-
-
 def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
     """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
     speed = math.hypot(vx, vy)
     if speed <= top_mps:
         return (vx, vy)
     return (vx * top_mps / speed, vy * top_mps / speed)
-
-
-def wrap_angle(angle_rad: float) -> float:
-    """The angle in (-pi, pi]."""
-    wrapped = math.remainder(angle_rad, math.tau)
-    return math.pi if wrapped == -math.pi else wrapped

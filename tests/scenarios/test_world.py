@@ -15,14 +15,9 @@ from oimi.pipeline.events import BodyState, WorldState, encode
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
+from oimi.scenarios.simulation.bodies import STATE_DECIMALS, rounded, wrap_angle
 from oimi.scenarios.simulation.humans import PACE
-from oimi.scenarios.simulation.world import (
-    STATE_DECIMALS,
-    World,
-    rounded,
-    stream_rng,
-    wrap_angle,
-)
+from oimi.scenarios.simulation.world import World, stream_rng
 
 STOP = ActuatorOutputs()
 
