@@ -116,12 +116,15 @@ class HumanDriver:
         self._starts_ms = [round(segment.at_s * 1000) for segment in self._timeline]
         """When each timeline segment starts, ms (worked out once, checked every tick)."""
         self._next = 0
+        self._due_ms: float = self._starts_ms[0] if self._starts_ms else math.inf
+        """When the next timeline segment starts (``inf``: none left)."""
         self._target: Point | None = None
         self._waypoint = 0
         self._pause_until_ms = 0
         self._done = False
         self._standing = True
         self._wandering = False
+        self._leaving = False
         radius = spec.radius_m
         self._inner = (radius, arena.width_m - radius, arena.height_m - radius)
         """Where the disc's centre may go freely: ``(low, high_x, high_y)``."""
@@ -132,6 +135,7 @@ class HumanDriver:
         while self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
             self.switch(self._timeline[self._next])
             self._next += 1
+        self._due_ms = self._starts_ms[self._next] if self._next < len(self._timeline) else math.inf
 
     def switch(self, segment: BehaviourSegment) -> None:
         """Start ``segment`` now (a behaviour event); the human comes back if it had left."""
@@ -145,6 +149,7 @@ class HumanDriver:
         self._custom = None
         self._standing = isinstance(segment, Stand)
         self._wandering = isinstance(segment, Wander)
+        self._leaving = isinstance(segment, Leave)
         self._speed = self._speed_of(segment)
         if isinstance(segment, Custom):
             self._custom = self.behaviours[segment.name](dict(segment.options))
@@ -153,7 +158,7 @@ class HumanDriver:
         self, position: Point, robot: Point, time_ms: int, dt_s: float
     ) -> tuple[float, float]:
         """World-frame velocity (m/s) for the tick starting at ``time_ms``."""
-        if self._next < len(self._timeline) and self._starts_ms[self._next] <= time_ms:
+        if time_ms >= self._due_ms:
             self._start_due(time_ms)
         if self.left:
             return STILL
@@ -170,7 +175,7 @@ class HumanDriver:
             vx, vy = self._wander(position, time_ms, speed, dt_s, segment)
         else:
             vx, vy = self._walk(segment, position, robot, time_ms, speed, dt_s)
-        if (vx or vy) and not isinstance(segment, Leave):  # standing still stays inside
+        if (vx or vy) and not self._leaving:  # standing still stays inside
             vx, vy = self._inside(position, vx, vy, dt_s)
         if vx or vy:
             self.heading_rad = math.atan2(vy, vx)

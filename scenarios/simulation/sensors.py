@@ -36,7 +36,8 @@ from oimi.scenarios.schema import (
     SensorSpec,
     TouchEvent,
 )
-from oimi.scenarios.simulation.world import World, wrap_angle
+from oimi.scenarios.simulation.bodies import rounded, wrap_angle
+from oimi.scenarios.simulation.world import World
 
 DECIMALS: Final = 4
 TRUE: Final = "s_true"
@@ -110,6 +111,8 @@ class Sensors:
         """The track playing and since when (ms)."""
         self._seen: set[str] = set()
         """objectids whose once-only attributes were sent (membership only, never iterated)."""
+        self._furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in scenario.world.obstacles]
+        """The bodies the sonar sees besides people (furniture does not move)."""
         furniture = {o.id for o in scenario.world.obstacles}
         self._echoes: dict[str, str] = {}
         """Person id -> the id of the sonar's echo of them (``echo-N``, unlike any obstacle's)."""
@@ -153,34 +156,38 @@ class Sensors:
             for span in world.last_report.ended:
                 updates.append(_touch(span.touchtype, span.duration_ms, span.startingtime_ms))
         updates.extend(self._actions(world, time_ms))
-        pose = world.robot_pose()
-        if self.camera.due(time_ms):
-            seen = [("Human", *h) for h in world.human_positions()]
-            seen += [("Object", *o) for o in world.object_positions()]
-            updates.extend(
-                self._read(
-                    self.camera, seen, pose, time_ms, self.config.range_m, self.config.fov_rad
+        camera, sonar = self.camera.due(time_ms), self.sonar.due(time_ms)
+        if camera or sonar:
+            pose = world.robot_pose()
+            if camera:
+                seen = [("Human", *h) for h in world.human_positions()]
+                seen += [("Object", *o) for o in world.object_positions()]
+                config = self.config
+                updates.extend(
+                    self._read(self.camera, seen, pose, time_ms, config.range_m, config.fov_rad)
                 )
-            )
-        if self.sonar.due(time_ms):
-            bodies = [("Obstacle", o.id, o.x_m, o.y_m) for o in self.scenario.world.obstacles]
-            bodies += [("Obstacle", self._echoes[h], x, y) for h, x, y in world.human_positions()]
-            updates.extend(
-                self._read(self.sonar, bodies, pose, time_ms, self.config.sonar_range_m, math.tau)
-            )
+            if sonar:
+                echoes = self._echoes
+                bodies = [*self._furniture]
+                bodies += [("Obstacle", echoes[h], x, y) for h, x, y in world.human_positions()]
+                range_m = self.config.sonar_range_m
+                updates.extend(self._read(self.sonar, bodies, pose, time_ms, range_m, math.tau))
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
-        return [self._number(update) for update in updates]
-
-    def _number(self, update: _Update) -> MapUpdate:
-        self._seq += 1
-        return MapUpdate(
-            objectid=update.objectid,
-            attributename=update.attributename,
-            policy=update.policy,
-            jsonmsg=update.jsonmsg,
-            seq=self._seq,
-        )
+        if not updates:
+            return []
+        first = self._seq + 1
+        self._seq += len(updates)
+        return [
+            MapUpdate(
+                objectid=update.objectid,
+                attributename=update.attributename,
+                policy=update.policy,
+                jsonmsg=update.jsonmsg,
+                seq=seq,
+            )
+            for seq, update in enumerate(updates, first)
+        ]
 
     def _startup(self, time_ms: int) -> list[_Update]:
         config = self.config
@@ -210,34 +217,38 @@ class Sensors:
         if sensor.mode is FaultMode.FROZEN:
             return list(sensor.last)
         x, y, theta = pose
+        half_fov, tracks, rng, config = fov_rad / 2, sensor.tracks, self.rng, self.config
+        dropout, noise_rho, noise_theta = (
+            config.dropout_probability,
+            config.noise_rho_m,
+            config.noise_theta_rad,
+        )
         reading: list[_Update] = []
         in_view: list[str] = []
         for cls, ident, ex, ey in entities:
-            rho = math.hypot(ex - x, ey - y)
-            bearing = wrap_angle(math.atan2(ey - y, ex - x) - theta)
-            if rho > range_m or abs(bearing) > fov_rad / 2:
+            dx, dy = ex - x, ey - y
+            rho = math.hypot(dx, dy)
+            bearing = wrap_angle(math.atan2(dy, dx) - theta)
+            if rho > range_m or abs(bearing) > half_fov:
                 continue
             objectid = f"{cls}/{ident}"
             in_view.append(objectid)
-            appeared = sensor.tracks.setdefault(objectid, time_ms)
-            if (
-                self.config.dropout_probability
-                and self.rng.random() < self.config.dropout_probability
-            ):
+            appeared = tracks.setdefault(objectid, time_ms)
+            if dropout and rng.random() < dropout:
                 continue
-            if self.config.noise_rho_m:
-                rho = max(0.0, rho + self.rng.gauss(0.0, self.config.noise_rho_m))
-            if self.config.noise_theta_rad:
-                bearing = wrap_angle(bearing + self.rng.gauss(0.0, self.config.noise_theta_rad))
+            if noise_rho:
+                rho = max(0.0, rho + rng.gauss(0.0, noise_rho))
+            if noise_theta:
+                bearing = wrap_angle(bearing + rng.gauss(0.0, noise_theta))
             if objectid not in self._seen:
                 self._seen.add(objectid)
                 reading.extend(self._first_sight(cls, ident, objectid))
             reading.append(_pose(objectid, rho, bearing, time_ms))
             tracking = {"permanencetime": time_ms - appeared, "appearanceon": appeared}
             reading.append(_Update(objectid, "tracking", Policy.R, _json(tracking)))
-        for objectid in list(sensor.tracks):
+        for objectid in list(tracks):
             if objectid not in in_view:
-                del sensor.tracks[objectid]
+                del tracks[objectid]
         sensor.last = reading
         return reading
 
@@ -256,8 +267,10 @@ class Sensors:
     def _actions(self, world: World, time_ms: int) -> list[_Update]:
         """The robot's history of performed actions (thesis 4.1): an LED colour or a track,
         reported (policy A) when it ends, with when it started and how long it lasted."""
-        updates = []
         colour, since = self._led
+        if world.led == colour and world.audio == self._audio[0]:  # most ticks
+            return []
+        updates = []
         if world.led != colour:
             if any(colour):
                 r, g, b = (round(c, DECIMALS) + 0.0 for c in colour)
@@ -303,8 +316,8 @@ def _period_ms(rate_hz: float) -> float:
 
 def _pose(objectid: str, rho: float, theta: float, time_ms: int) -> _Update:
     content = {
-        "positionrho": round(rho, DECIMALS) + 0.0,
-        "positiontheta": round(theta, DECIMALS) + 0.0,
+        "positionrho": rounded(rho, DECIMALS) + 0.0,
+        "positiontheta": rounded(theta, DECIMALS) + 0.0,
         "positionchangetime": time_ms,
     }
     return _Update(objectid, "poses", Policy.A, _json(content))
@@ -315,5 +328,8 @@ def _touch(touchtype: str, duration_ms: int, startingtime_ms: int) -> _Update:
     return _Update("RobotStatus", "touch", Policy.A, _json(content))
 
 
+_ENCODER: Final = msgspec.json.Encoder()
+
+
 def _json(content: dict[str, object]) -> str:
-    return msgspec.json.encode(content).decode()
+    return _ENCODER.encode(content).decode()

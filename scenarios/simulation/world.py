@@ -19,14 +19,24 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Mapping
-from typing import Final, NamedTuple
+from typing import Final
 
 import msgspec
 import pymunk
-import pymunk.batch
-from oimi.pipeline.events import BodyState, WorldState
+from oimi.pipeline.events import WorldState
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
+from oimi.scenarios.simulation.bodies import (
+    BodyReader,
+    Human,
+    Motion,
+    Robot,
+    Thing,
+    human_state,
+    rigid_state,
+    thing_state,
+    wrap_angle,
+)
 from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver
 from pymunk._chipmunk import lib as _chipmunk
 
@@ -35,11 +45,6 @@ CONTACT_TOLERANCE_M: Final = 0.02
 """Centre distance beyond the sum of radii still counted as a contact (solver slop)."""
 STOP_SPEED_MPS: Final = 1e-3
 """A rolling object slower than this stops."""
-STATE_DECIMALS: Final = 6
-"""``/world/state``'s resolution: micrometres and microradians (per second for speeds).
-The physics runs at full precision; the bits below this are numerical noise that
-compresses badly (a fifth of a recording's bytes). Speeds are cut towards zero, so the
-record never shows a speed the robot did not reach."""
 
 
 def stream_rng(seed: int, stream: str) -> random.Random:
@@ -67,73 +72,6 @@ class StepReport(msgspec.Struct, frozen=True, kw_only=True):
     """Contacts that ended during the step."""
     left: tuple[str, ...] = ()
     """Humans who left the room during the step."""
-
-
-class _Motion(NamedTuple):
-    """A body's position, angle, velocity and spin, read once a step.
-
-    Each pymunk property read is a C call (and a new ``Vec2d``); the world reads
-    every body at once after ``space.step`` (``pymunk.batch``, whose per-body
-    order of values this follows) and everything else uses this copy.
-    """
-
-    x_m: float
-    y_m: float
-    angle_rad: float
-    vx_mps: float
-    vy_mps: float
-    omega_radps: float
-
-    @classmethod
-    def of(cls, body: pymunk.Body) -> _Motion:
-        """Read one body (when the world is built)."""
-        (x, y), (vx, vy) = body.position, body.velocity
-        return cls(x, y, body.angle, vx, vy, body.angular_velocity)
-
-
-_MOTION_FIELDS: Final = (
-    pymunk.batch.BodyFields.BODY_ID
-    | pymunk.batch.BodyFields.POSITION
-    | pymunk.batch.BodyFields.ANGLE
-    | pymunk.batch.BodyFields.VELOCITY
-    | pymunk.batch.BodyFields.ANGULAR_VELOCITY
-)
-_MOTION_SIZE: Final = len(_Motion._fields)
-
-
-class _Robot:
-    """The robot's body and its motion as last read (like ``_Human`` and ``_Thing``)."""
-
-    def __init__(self, body: pymunk.Body):
-        self.body = body
-        self.cp_body = body._body
-        self.motion = _Motion.of(body)
-
-
-class _Human:
-    def __init__(
-        self, spec: HumanSpec, driver: HumanDriver, body: pymunk.Body, shape: pymunk.Shape
-    ):
-        self.spec = spec
-        self.driver = driver
-        self.body = body
-        self.cp_body = body._body
-        """Chipmunk's body, to set its velocity without pymunk's property glue."""
-        self.velocity = STILL
-        """The velocity last set (nothing else changes a kinematic body's)."""
-        self.shape = shape
-        self.present = True
-        self.motion = _Motion.of(body)
-
-
-class _Thing:
-    def __init__(self, spec: ObjectSpec, body: pymunk.Body, step_s: float):
-        self.spec = spec
-        self.body = body
-        self.cp_body = body._body
-        self.keep = spec.damping_per_s**step_s
-        """Fraction of speed kept per step."""
-        self.motion = _Motion.of(body)
 
 
 class World:
@@ -173,18 +111,23 @@ class World:
         self.things = [self._add_thing(thing) for thing in spec.objects]
         self.humans = [self._add_human(human) for human in scenario.humans]
         self.robot = self._add_robot()
-        self._robot = _Robot(self.robot)
-        self._movers: dict[int, _Robot | _Human | _Thing] = {
-            mover.body.id: mover for mover in (self._robot, *self.humans, *self.things)
-        }
-        self._batch = pymunk.batch.Buffer()
-        self._ids: list[int] = []
-        """The body ids of the last batch read, in the space's order."""
-        self._layout: list[tuple[int, _Robot | _Human | _Thing]] = []
-        """Each mover's first value in the last batch read."""
+        self._robot = Robot(self.robot)
+        robot = scenario.robot
+        self._limits = (
+            robot.max_speed_mps,
+            robot.max_angular_speed_radps,
+            robot.max_accel_mps2 * self.step_s,
+            robot.max_angular_accel_radps2 * self.step_s,
+        )
+        """The drive's top speed and spin, and their changes per step."""
+        self._reader = BodyReader(self.space, (self._robot, *self.humans, *self.things))
+        self._direct_step = all(
+            hasattr(self.space, name) for name in ("_bodies_to_check", "_removed_shapes")
+        )
+        """Whether this pymunk keeps what ``Space.step`` tidies where the world can see it."""
 
     @property
-    def robot_motion(self) -> _Motion:
+    def robot_motion(self) -> Motion:
         """The robot's position, angle, velocity and spin after the last step."""
         return self._robot.motion
 
@@ -212,23 +155,23 @@ class World:
             shape.friction, shape.elasticity = 0.5, 0.4
             self.space.add(body, shape)
 
-    def _add_thing(self, spec: ObjectSpec) -> _Thing:
+    def _add_thing(self, spec: ObjectSpec) -> Thing:
         moment = pymunk.moment_for_circle(spec.mass_kg, 0, spec.radius_m)
         body = pymunk.Body(spec.mass_kg, moment)
         body.position = (spec.x_m, spec.y_m)
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.3, 0.7
         self.space.add(body, shape)
-        return _Thing(spec, body, self.step_s)
+        return Thing(spec, body, self.step_s)
 
-    def _add_human(self, spec: HumanSpec) -> _Human:
+    def _add_human(self, spec: HumanSpec) -> Human:
         body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         body.position = (spec.x_m, spec.y_m)
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.5, 0.3
         self.space.add(body, shape)
         driver = HumanDriver(spec, arena=self.arena, rng=self.rng, behaviours=self.behaviours)
-        return _Human(spec, driver, body, shape)
+        return Human(spec, driver, body, shape)
 
     def _add_robot(self) -> pymunk.Body:
         spec = self.scenario.robot
@@ -248,17 +191,17 @@ class World:
     def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
-        robot_xy = (self.robot_motion.x_m, self.robot_motion.y_m)
+        robot_xy = self._robot.xy
         step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
         for human in self.humans:
-            motion = human.motion
-            velocity = human.driver.velocity((motion.x_m, motion.y_m), robot_xy, time_ms, step_s)
+            velocity = human.driver.velocity(human.xy, robot_xy, time_ms, step_s)
             if not human.present:
                 if human.driver.left:
                     velocity = STILL
                 else:  # back in the room
                     self.space.add(human.body, human.shape)
                     human.present = True
+                    self._reader.moved_bodies()
             # set only when changed (a standing human's stays set); equal floats are the
             # same bits but for a zero's sign, so equal zeros count only as the same object
             last = human.velocity
@@ -267,106 +210,89 @@ class World:
                 human.velocity = velocity
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
-        self.space.step(self.step_s)
+        space = self.space
+        if self._direct_step and not (space._bodies_to_check or space._removed_shapes):
+            # pymunk's step without its Python bookkeeping (no callbacks are registered)
+            _chipmunk.cpSpaceStep(space._space, step_s)
+        else:  # after a human came or left: pymunk checks new bodies, forgets removed shapes
+            space.step(step_s)
+        self._reader.read()
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
-        self._observe()
-        left = []
-        for human in self.humans:
-            if human.driver.left and human.present:  # reached the exit during this step
-                self.space.remove(human.body, human.shape)
-                human.present = False
-                left.append(human.spec.id)
-        contacts, ended = self._contacts(time_ms)
+        contacts, ended, left = self._contacts(time_ms)
         self.last_report = StepReport(
-            tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=tuple(left)
+            tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
         )
         return self.last_report
 
-    def _observe(self) -> None:
-        """Read every body's motion after a step (nothing else moves them between steps).
-
-        One batch read for the whole space (furniture too, skipped); a human out of
-        the room is not in the space and keeps the motion it left with.
-        """
-        self._batch.clear()
-        pymunk.batch.get_space_bodies(self.space, _MOTION_FIELDS, self._batch)
-        ids = memoryview(self._batch.int_buf()).cast("P").tolist()
-        values = memoryview(self._batch.float_buf()).cast("d").tolist()
-        if ids != self._ids:  # a human left or came back: where each mover's values are
-            self._ids = ids
-            self._layout = [
-                (index * _MOTION_SIZE, mover)
-                for index, ident in enumerate(ids)
-                if (mover := self._movers.get(ident)) is not None
-            ]
-        make = tuple.__new__  # _Motion's own constructor, without its Python-level __new__
-        for start, mover in self._layout:
-            mover.motion = make(_Motion, values[start : start + _MOTION_SIZE])
-
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
-        spec, body, motion = self.scenario.robot, self._robot.cp_body, self.robot_motion
-        vx, vy = _within(outputs.v_x, outputs.v_y, spec.max_speed_mps)
-        omega = min(
-            max(outputs.v_theta, -spec.max_angular_speed_radps), spec.max_angular_speed_radps
-        )
+        top, top_spin, limit, turn_limit = self._limits
+        motion = self._robot.motion
+        vx, vy = _within(outputs.v_x, outputs.v_y, top)
+        omega = min(max(outputs.v_theta, -top_spin), top_spin)
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
-        if outputs.brake:
-            _chipmunk.cpBodySetVelocity(body, (want_x, want_y))
-        else:
+        if not outputs.brake:
             dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
             change = math.hypot(dx, dy)
-            limit = spec.max_accel_mps2 * self.step_s
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            _chipmunk.cpBodySetVelocity(
-                body, _within(motion.vx_mps + dx, motion.vy_mps + dy, spec.max_speed_mps)
-            )
-        turn_limit = spec.max_angular_accel_radps2 * self.step_s
+            want_x, want_y = _within(motion.vx_mps + dx, motion.vy_mps + dy, top)
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
-        _chipmunk.cpBodySetAngularVelocity(body, motion.omega_radps + turn)
+        self._robot.drive(want_x, want_y, motion.omega_radps + turn)
 
     def _reclamp_robot(self) -> None:
         """A push during the step (a human walking into the robot) leaves it at most at its
         speed limits: the drive brakes it back at once."""
-        top, body = self.scenario.robot.max_speed_mps, self._robot.cp_body
-        velocity = _chipmunk.cpBodyGetVelocity(body)
-        vx, vy = velocity.x, velocity.y
+        top, motion = self._limits[0], self._robot.motion
+        vx, vy = motion.vx_mps, motion.vy_mps
         if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
-            _chipmunk.cpBodySetVelocity(body, _within(vx, vy, top))
+            self._robot.drive(*_within(vx, vy, top), motion.omega_radps)
 
-    def _roll(self, thing: _Thing) -> None:
+    def _roll(self, thing: Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
-        body = thing.cp_body
-        velocity = _chipmunk.cpBodyGetVelocity(body)
-        vx, vy = velocity.x, velocity.y
+        motion = thing.motion
+        vx, vy = motion.vx_mps, motion.vy_mps
         speed = math.sqrt(vx**2 + vy**2)
-        slower = speed * thing.keep - thing.spec.rolling_decel_mps2 * self.step_s
+        slower = speed * thing.keep - thing.slowing
         if slower <= STOP_SPEED_MPS:
-            _chipmunk.cpBodySetVelocity(body, (0.0, 0.0))
+            vx, vy = 0.0, 0.0
         else:
             factor = slower / speed
-            _chipmunk.cpBodySetVelocity(body, (vx * factor, vy * factor))
-        spin = _chipmunk.cpBodyGetAngularVelocity(body) * thing.keep
-        _chipmunk.cpBodySetAngularVelocity(body, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
+            vx, vy = vx * factor, vy * factor
+        spin = motion.omega_radps * thing.keep
+        thing.drive(vx, vy, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
 
-    def _contacts(self, time_ms: int) -> tuple[tuple[str, ...], tuple[ContactSpan, ...]]:
+    def _contacts(
+        self, time_ms: int
+    ) -> tuple[tuple[str, ...], tuple[ContactSpan, ...], tuple[str, ...]]:
+        """Who touches the robot after the step, whose contact ended and who left the room
+        (taken out of the space: reached the exit during this step)."""
         robot = self.robot_motion
+        robot_x, robot_y = robot.x_m, robot.y_m
         radius = self.scenario.robot.radius_m
+        starts = self._contact_start_ms
         touching = []
         ended = []
+        left = []
         for human in self.humans:
+            if human.present and human.driver.left:
+                self.space.remove(human.body, human.shape)
+                human.present = False
+                self._reader.moved_bodies()
+                left.append(human.spec.id)
             ident = human.spec.id
             # pymunk's (a - b).length, written out on the cached floats
-            dx, dy = human.motion.x_m - robot.x_m, human.motion.y_m - robot.y_m
+            motion = human.motion
+            dx, dy = motion.x_m - robot_x, motion.y_m - robot_y
             gap = math.sqrt(dx**2 + dy**2) - radius - human.spec.radius_m
             if human.present and gap <= CONTACT_TOLERANCE_M:
                 touching.append(ident)
-                self._contact_start_ms.setdefault(ident, time_ms)
-            elif ident in self._contact_start_ms:
-                start = self._contact_start_ms.pop(ident)
+                if ident not in starts:
+                    starts[ident] = time_ms
+            elif ident in starts:
+                start = starts.pop(ident)
                 ended.append(
                     ContactSpan(
                         human=ident,
@@ -375,7 +301,7 @@ class World:
                         duration_ms=time_ms - start,
                     )
                 )
-        return tuple(touching), tuple(ended)
+        return tuple(touching), tuple(ended), tuple(left)
 
     # ------------------------------------------------------------- events
 
@@ -417,58 +343,38 @@ class World:
         return [(thing.spec.id, thing.motion.x_m, thing.motion.y_m) for thing in self.things]
 
     def state(self, *, tick: int, time_ms: int) -> WorldState:
-        """Everything that moves, for ``/world/state``."""
-        motion = self.robot_motion
+        """Everything that moves, for ``/world/state``.
+
+        Each body's entry is rebuilt only when its inputs changed (a new ``Motion``,
+        a human's new heading): a body at rest reuses the one it had, bit for bit."""
+        robot = self._robot
+        if robot.motion is not robot.state_of:
+            robot.state = rigid_state("robot", "robot", robot.motion, self.scenario.robot.radius_m)
+            robot.state_of = robot.motion
         return WorldState(
             tick=tick,
             time_ms=time_ms,
-            robot=_rigid_state("robot", "robot", motion, self.scenario.robot.radius_m),
-            humans=tuple(self._human_state(human) for human in self.humans if human.present),
-            objects=tuple(self._thing_state(thing) for thing in self.things),
+            robot=robot.state,
+            humans=tuple(
+                [
+                    human.state
+                    if human.motion is human.state_of
+                    and human.driver.heading_rad is human.heading_of
+                    else human_state(human)
+                    for human in self.humans
+                    if human.present
+                ]
+            ),
+            objects=tuple(
+                [
+                    thing.state if thing.motion is thing.state_of else thing_state(thing)
+                    for thing in self.things
+                ]
+            ),
             led=self.led,
             audio=self.audio,
             contacts=self.last_report.contacts,
         )
-
-    @staticmethod
-    def _human_state(human: _Human) -> BodyState:
-        motion = human.motion
-        return BodyState(
-            id=human.spec.id,
-            kind=str(human.spec.role),
-            x_m=round(motion.x_m, STATE_DECIMALS),
-            y_m=round(motion.y_m, STATE_DECIMALS),
-            theta_rad=round(human.driver.heading_rad, STATE_DECIMALS),
-            vx_mps=_toward_zero(motion.vx_mps),
-            vy_mps=_toward_zero(motion.vy_mps),
-            radius_m=human.spec.radius_m,
-        )
-
-    @staticmethod
-    def _thing_state(thing: _Thing) -> BodyState:
-        return _rigid_state(thing.spec.id, thing.spec.category, thing.motion, thing.spec.radius_m)
-
-
-def _rigid_state(ident: str, kind: str, motion: _Motion, radius_m: float) -> BodyState:
-    """A body that turns with its physics (the robot, an object) at ``/world/state``'s
-    resolution."""
-    return BodyState(
-        id=ident,
-        kind=kind,
-        x_m=round(motion.x_m, STATE_DECIMALS),
-        y_m=round(motion.y_m, STATE_DECIMALS),
-        theta_rad=round(wrap_angle(motion.angle_rad), STATE_DECIMALS),
-        vx_mps=_toward_zero(motion.vx_mps),
-        vy_mps=_toward_zero(motion.vy_mps),
-        omega_radps=_toward_zero(motion.omega_radps),
-        radius_m=radius_m,
-    )
-
-
-def _toward_zero(value: float) -> float:
-    """``value`` cut to ``STATE_DECIMALS`` decimals towards zero (never larger in size)."""
-    scale = 10**STATE_DECIMALS
-    return math.trunc(value * scale) / scale
 
 
 def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
@@ -477,9 +383,3 @@ def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
     if speed <= top_mps:
         return (vx, vy)
     return (vx * top_mps / speed, vy * top_mps / speed)
-
-
-def wrap_angle(angle_rad: float) -> float:
-    """The angle in (-pi, pi]."""
-    wrapped = math.remainder(angle_rad, math.tau)
-    return math.pi if wrapped == -math.pi else wrapped

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import itertools
 import math
+import struct
 
 import msgspec
+import pymunk
 import pytest
-from oimi.pipeline.events import encode
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+from oimi.pipeline.events import BodyState, WorldState, encode
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
+from oimi.scenarios.simulation.bodies import STATE_DECIMALS, rounded, wrap_angle
 from oimi.scenarios.simulation.humans import PACE
 from oimi.scenarios.simulation.world import World, stream_rng
 
@@ -280,3 +285,107 @@ def test_each_human_body_moves_at_the_velocity_its_driver_asked_for_every_tick()
             assert (math.copysign(1, body.x), body.x) == (math.copysign(1, vx), vx)
             assert (math.copysign(1, body.y), body.y) == (math.copysign(1, vy), vy)
     assert {("Wander", True), ("Stand", True), ("Leave", False)} <= kinds_seen
+
+
+def _reference_state(w: World, tick: int) -> WorldState:
+    """``/world/state`` read through pymunk's own properties and rounded with ``round``
+    (the rule the world's cached, fast path must reproduce to the bit)."""
+
+    def cut(speed: float) -> float:
+        return math.trunc(speed * 10**STATE_DECIMALS) / 10**STATE_DECIMALS
+
+    def rigid(ident: str, kind: str, body: pymunk.Body, radius_m: float) -> BodyState:
+        return BodyState(
+            id=ident,
+            kind=kind,
+            x_m=round(body.position.x, STATE_DECIMALS),
+            y_m=round(body.position.y, STATE_DECIMALS),
+            theta_rad=round(wrap_angle(body.angle), STATE_DECIMALS),
+            vx_mps=cut(body.velocity.x),
+            vy_mps=cut(body.velocity.y),
+            omega_radps=cut(body.angular_velocity),
+            radius_m=radius_m,
+        )
+
+    humans = tuple(
+        BodyState(
+            id=h.spec.id,
+            kind=str(h.spec.role),
+            x_m=round(h.body.position.x, STATE_DECIMALS),
+            y_m=round(h.body.position.y, STATE_DECIMALS),
+            theta_rad=round(h.driver.heading_rad, STATE_DECIMALS),
+            vx_mps=cut(h.body.velocity.x),
+            vy_mps=cut(h.body.velocity.y),
+            radius_m=h.spec.radius_m,
+        )
+        for h in w.humans
+        if h.present
+    )
+    return WorldState(
+        tick=tick,
+        time_ms=tick * 20,
+        robot=rigid("robot", "robot", w.robot, w.scenario.robot.radius_m),
+        humans=humans,
+        objects=tuple(rigid(t.spec.id, t.spec.category, t.body, t.spec.radius_m) for t in w.things),
+        led=w.led,
+        audio=w.audio,
+        contacts=w.last_report.contacts,
+    )
+
+
+def test_the_state_of_bodies_at_rest_is_reused_and_equals_a_fresh_reading_to_the_bit():
+    # standing, pausing, leaving and coming back; a robot that stops and turns
+    # (a standing human glances around: a new heading, the same motion)
+    timeline = '{ at_s = 2.0, kind = "stand" }, { at_s = 4.0, kind = "leave" }]'
+    text = WANDERERS.replace("pause_s = 0.3 }]", f"pause_s = 0.3 }}, {timeline}")
+    w = world(text + "[[humans]]\nid = 'onlooker'\nx_m = 5.0\ny_m = 1.0\n", seed=5)
+    reused = 0
+    previous = None
+    for tick in range(1000):
+        if tick == 450:
+            w.apply_event(BehaviourEvent(at_s=9.0, human="kid", segment=Stand()))
+        turning = ActuatorOutputs(v_theta=0.5)  # only the angle and spin change
+        command = ActuatorOutputs(v_x=0.3, v_theta=-0.2) if tick % 200 < 100 else turning
+        w.step(command if tick < 800 else STOP, tick=tick)
+        state = w.state(tick=tick, time_ms=tick * 20)
+        assert encode(state) == encode(_reference_state(w, tick)), tick
+        if previous is not None:
+            reused += sum(a is b for a, b in zip(previous.humans, state.humans, strict=False))
+        previous = state
+    assert reused > 100  # the fast path was taken (a standing human, a still therapist)
+
+
+def test_one_human_leaving_as_another_comes_back_keeps_each_body_its_own_motion():
+    # the space's order of bodies changes without its count changing between two reads
+    two = APPROACHING_CHILD.replace('"approach", distance_m = 0.5', '"leave"')
+    two += '[[humans]]\nid = "sib"\nx_m = 0.5\ny_m = 2.5\nbehaviour = [{ kind = "leave" }]\n'
+    w = world(two)
+    for tick in range(70):
+        if tick == 50:
+            w.apply_event(BehaviourEvent(at_s=1.0, human="sib", segment=Stand()))
+        report = w.step(ActuatorOutputs(v_x=0.2, v_theta=0.3), tick=tick)
+        assert encode(w.state(tick=tick, time_ms=tick * 20)) == encode(_reference_state(w, tick))
+        if tick == 49:
+            assert report.left == ("kid",)
+    assert [h[0] for h in w.human_positions()] == ["sib"]
+
+
+@settings(derandomize=True, max_examples=2000, deadline=None)
+@given(
+    st.floats(allow_nan=True, allow_infinity=True) | st.floats(-20.0, 20.0),
+    st.sampled_from([STATE_DECIMALS, 4, 0, 15]),
+)
+@example(0.0000005, 6)  # ties (as far as a double is one), both signs of zero, tiny negatives
+@example(-0.0000025, 6)
+@example(2.5e-6, 6)
+@example(0.00015, 4)
+@example(-0.0, 6)
+@example(-1e-9, 6)
+@example(1e-9, 4)
+@example(1e11 / 1e6, 6)
+@example(123456.0000005, 6)
+@example(2.5, 0)
+def test_fast_rounding_is_round_to_the_bit(value: float, decimals: int):
+    expected = round(value, decimals)
+    got = rounded(value, decimals)
+    assert struct.pack("<d", got) == struct.pack("<d", expected)
