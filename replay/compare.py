@@ -97,6 +97,7 @@ def first_difference(recorded: Any, replayed: Any, path: str = "$") -> tuple[str
     (:data:`~pipeline.jsontree.ABSENT` on the side where it does not exist)."""
     return next(differences(recorded, replayed, path, exact=True), None)
 
+
 NONE_TEXT: Final = "<none>"
 
 

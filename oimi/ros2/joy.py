@@ -58,9 +58,7 @@ def pad_of(joy: types.Joy, mapping: JoyMapping = XBOX_360) -> Pad:
         left_y=_axis(axes, mapping.left_y),
         right_x=sign * _axis(axes, mapping.right_x) + 0.0,
         buttons=tuple(
-            button
-            for button, index in mapping.buttons
-            if index < len(pressed) and pressed[index]
+            button for button, index in mapping.buttons if index < len(pressed) and pressed[index]
         ),
     )
 

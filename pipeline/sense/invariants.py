@@ -8,14 +8,18 @@ _ENTITY_LISTS = tuple(m.field for m in ENTITY_LISTS)
 _DEVICE_LISTS = tuple(m.field for m in MAP_LISTS if not m.entity)
 _ENTITY_REGISTERS = ("poses", "tracking")
 _ROBOT_REGISTERS = (
-    "touch", "led", "audioout", "audioin", "speed",
-    "goalreached", "goalfailed", "goalinterrupted",
+    "touch",
+    "led",
+    "audioout",
+    "audioin",
+    "speed",
+    "goalreached",
+    "goalfailed",
+    "goalinterrupted",
 )
 
 
-def map_invariants(
-    world_map: WorldMap, *, register_capacity: int = REGISTER_CAPACITY
-) -> list[str]:
+def map_invariants(world_map: WorldMap, *, register_capacity: int = REGISTER_CAPACITY) -> list[str]:
     """The violated invariants of ``world_map``, each as a sentence; empty when sound.
 
     Checked: IDs unique and non-empty within each class; every register at most
@@ -62,7 +66,5 @@ def map_invariants(
     for register in _ROBOT_REGISTERS:
         size = len(getattr(world_map.robotstatus, register))
         if size > register_capacity:
-            problems.append(
-                f"robotstatus.{register}: {size} entries, capacity {register_capacity}"
-            )
+            problems.append(f"robotstatus.{register}: {size} entries, capacity {register_capacity}")
     return problems

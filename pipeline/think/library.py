@@ -20,6 +20,7 @@ from oimi.pipeline.think.rules import Effect, Rule, RuleContext
 IDLE_ACTIVITY: Final = "idle_activity"
 WAITING_ACTIVITY: Final = "wait_for_child"
 
+
 def replace_block(world_map: WorldMap, block: InstructionBlock) -> None:
     """Put ``block`` in place of the current one and ask the actuator to restart."""
     world_map.scriptinfo.block = block

@@ -26,9 +26,11 @@ def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     # from a copy of the tracked files: setuptools builds in the source's build/, which
     # would leave files behind in the checkout (and reuse stale ones in the next wheel)
     source = tmp_path_factory.mktemp("source")
-    tracked = subprocess.run(
-        ["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True
-    ).stdout.decode().split("\0")
+    tracked = (
+        subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True)
+        .stdout.decode()
+        .split("\0")
+    )
     for name in filter(None, tracked):
         (source / name).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / name, source / name, follow_symlinks=False)  # links stay links

@@ -160,9 +160,7 @@ def tick_events(tick: int) -> list[tuple[Topic, Event]]:
         Topic.ACTUATOR_COMMANDS: ActuatorCommands(
             **t,
             commands=(
-                MoveCommand(
-                    source=Source.SCRIPT, v_x=0.6, clamped=True, requested=(0.9, 0.0, 0.0)
-                ),
+                MoveCommand(source=Source.SCRIPT, v_x=0.6, clamped=True, requested=(0.9, 0.0, 0.0)),
                 AudioCommand(source=Source.SCRIPT, track_path="hello.wav", stop=True),
             ),
             block=InstructionBlock(

@@ -188,8 +188,9 @@ def test_the_reader_rebuilds_the_full_map_at_every_map_message(recording: Path) 
     assert opened.map_at(last.tick + 1000) == last.map
     assert opened.map_at(maps[1].tick - 1) == maps[0].map
     assert opened.map_at(-1) is None
-    keyframes = [m.tick for m in opened.iter_messages([Topic.MAP]) if b'"keyframe"' in
-                 m.payload_bytes]
+    keyframes = [
+        m.tick for m in opened.iter_messages([Topic.MAP]) if b'"keyframe"' in m.payload_bytes
+    ]
     assert keyframes[0] == 0 and all(b - a >= 250 for a, b in itertools.pairwise(keyframes)), (
         "keyframes at least 5 s (250 ticks) apart"
     )

@@ -22,9 +22,7 @@ def pose(rho: float, t: int = 0) -> str:
 
 
 def upd(objectid: str, attr: str, jsonmsg: str, policy: Policy = Policy.R, seq: int = 0):
-    return MapUpdate(
-        objectid=objectid, attributename=attr, policy=policy, jsonmsg=jsonmsg, seq=seq
-    )
+    return MapUpdate(objectid=objectid, attributename=attr, policy=policy, jsonmsg=jsonmsg, seq=seq)
 
 
 def fresh(**kwargs) -> tuple[WorldMap, MapProducer]:
@@ -46,8 +44,9 @@ def test_submit_rejects_at_once_and_queues_nothing():
 def test_r_drops_earlier_pending_updates_of_same_target_and_attribute():
     _, producer = fresh()
     producer.submit(upd("Human/1", "poses", pose(1), Policy.A, seq=1))
-    producer.submit(upd("Human/1", "tracking", '{"permanencetime": 1, "appearanceon": 0}',
-                        Policy.A, seq=2))
+    producer.submit(
+        upd("Human/1", "tracking", '{"permanencetime": 1, "appearanceon": 0}', Policy.A, seq=2)
+    )
     producer.submit(upd("Human/2", "poses", pose(2), Policy.A, seq=3))
     producer.submit(upd("Human\\1", "poses", pose(3), Policy.R, seq=4))
     assert [u.seq for u in producer.pending_updates] == [2, 3, 4]
@@ -175,8 +174,14 @@ def test_the_map_records_which_robot_status_fields_were_ever_set():
     the inputs received by the sensors")."""
     world, producer = fresh()
     assert world.robotstatus.setfields == []
-    producer.submit(upd("RobotStatus", "touch",
-                        '{"touchtype": "C", "duration": 200, "startingtime": 50}', Policy.A))
+    producer.submit(
+        upd(
+            "RobotStatus",
+            "touch",
+            '{"touchtype": "C", "duration": 200, "startingtime": 50}',
+            Policy.A,
+        )
+    )
     producer.submit(upd("RobotStatus", "batterytimeleft", "0"))
     producer.submit(upd("RobotStatus", "batterytimeleft", "5"))
     producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
@@ -189,10 +194,17 @@ def test_the_map_records_which_robot_status_fields_were_ever_set():
 
 def test_robot_status_registers_and_scalars():
     world, producer = fresh()
-    producer.submit(upd("RobotStatus", "touch",
-                        '{"touchtype": "C", "duration": 200, "startingtime": 50}', Policy.A))
-    producer.submit(upd("RobotStatus/r", "goalreached", '{"goalid": "g", "timestamp": 60}',
-                        Policy.A))
+    producer.submit(
+        upd(
+            "RobotStatus",
+            "touch",
+            '{"touchtype": "C", "duration": 200, "startingtime": 50}',
+            Policy.A,
+        )
+    )
+    producer.submit(
+        upd("RobotStatus/r", "goalreached", '{"goalid": "g", "timestamp": 60}', Policy.A)
+    )
     producer.submit(upd("RobotStatus", "batterytimeleft", "1000"))
     producer.submit(upd("RobotStatus", "elapsedtime", "70"))
     producer.submit(upd("RobotStatus", "startingtime", "0"))
@@ -209,8 +221,13 @@ def test_script_updates_set_scriptinfo():
     producer.submit(upd("Script", "submove", "2"))
     producer.submit(upd("Script", "subled", "1"))
     producer.submit(upd("Script/x", "subaout", "3"))
-    producer.submit(upd("Script", "script_vect",
-                        '{"restart": "s_true", "update": ["activities/a.json", "activities/b"]}'))
+    producer.submit(
+        upd(
+            "Script",
+            "script_vect",
+            '{"restart": "s_true", "update": ["activities/a.json", "activities/b"]}',
+        )
+    )
     producer.consume(5)
     info = world.scriptinfo
     assert (info.submove, info.subled, info.subaout) == (2, 1, 3)

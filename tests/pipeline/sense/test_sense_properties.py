@@ -28,25 +28,34 @@ VALID_PAYLOAD: dict[str, st.SearchStrategy[str]] = {
     "istarget": st.sampled_from(["s_true", "s_false"]),
     "category": st.text(max_size=5),
     "audioin": st.text(max_size=5),
-    "poses": obj(positionrho=st.floats(0.0, 5.0), positiontheta=finite,
-                 positionchangetime=nonneg),
+    "poses": obj(positionrho=st.floats(0.0, 5.0), positiontheta=finite, positionchangetime=nonneg),
     "tracking": obj(permanencetime=nonneg, appearanceon=nonneg),
     "touch": obj(touchtype=st.sampled_from("CHPST"), duration=nonneg, startingtime=nonneg),
     "led": obj(r=unit, g=unit, b=unit, frequency=nonneg, duration=nonneg, startingtime=nonneg),
     "audioout": obj(duration=nonneg, startingtime=nonneg, trackpath=st.just("t.ogg")),
-    "speed": obj(xspeed=finite, yspeed=finite, thetaspeed=finite, duration=nonneg,
-                 startingtime=nonneg),
+    "speed": obj(
+        xspeed=finite, yspeed=finite, thetaspeed=finite, duration=nonneg, startingtime=nonneg
+    ),
     "goalreached": obj(goalid=st.just("g1"), timestamp=nonneg),
     "goalfailed": obj(goalid=st.just("g2"), timestamp=nonneg),
     "goalinterrupted": obj(goalid=st.just("g3"), timestamp=nonneg),
     "script_vect": obj(
         restart=st.sampled_from(["s_true", "s_false"]),
-        update=st.lists(st.sampled_from(["activities/a.json", "activities/b/c.txt"]),
-                        max_size=3),
+        update=st.lists(st.sampled_from(["activities/a.json", "activities/b/c.txt"]), max_size=3),
     ),
 }
-INT_ATTRS = {"width", "height", "fps", "scanfrequency", "batterytimeleft", "elapsedtime",
-             "startingtime", "submove", "subled", "subaout"}
+INT_ATTRS = {
+    "width",
+    "height",
+    "fps",
+    "scanfrequency",
+    "batterytimeleft",
+    "elapsedtime",
+    "startingtime",
+    "submove",
+    "subled",
+    "subaout",
+}
 
 
 def valid_payload(attr: str) -> st.SearchStrategy[str]:
@@ -81,16 +90,25 @@ def corrupted_update(draw) -> MapUpdate:
         case "attr":
             return msgspec.structs.replace(good, attributename=draw(st.text(max_size=6)))
         case "policy":
-            return msgspec.structs.replace(good, policy=Policy.A, attributename="isonline",
-                                           objectid="Camera/1", jsonmsg="s_true")
+            return msgspec.structs.replace(
+                good,
+                policy=Policy.A,
+                attributename="isonline",
+                objectid="Camera/1",
+                jsonmsg="s_true",
+            )
         case "json":
             return msgspec.structs.replace(good, jsonmsg=good.jsonmsg + '"')
         case "text":
             return msgspec.structs.replace(good, jsonmsg=draw(st.text(max_size=8)))
         case "path":
             bad = draw(st.sampled_from(["../x", "/abs", "", "activities\\x", "a/./b", "x/y"]))
-            return MapUpdate(objectid="Script", attributename="script_vect", policy=Policy.R,
-                             jsonmsg=json.dumps({"restart": "s_true", "update": [bad]}))
+            return MapUpdate(
+                objectid="Script",
+                attributename="script_vect",
+                policy=Policy.R,
+                jsonmsg=json.dumps({"restart": "s_true", "update": [bad]}),
+            )
         case _:
             return msgspec.structs.replace(good, objectid="Human/a b")
 
@@ -151,8 +169,11 @@ APPENDABLE = [
 def register_of(world: WorldMap, klass: EntityClass, ident: str, attr: str) -> list:
     if klass is EntityClass.ROBOT_STATUS:
         return getattr(world.robotstatus, attr)
-    field = {EntityClass.HUMAN: "humans", EntityClass.OBSTACLE: "obstacles",
-             EntityClass.OBJECT: "objects"}[klass]
+    field = {
+        EntityClass.HUMAN: "humans",
+        EntityClass.OBSTACLE: "obstacles",
+        EntityClass.OBJECT: "objects",
+    }[klass]
     for entity in getattr(world, field):
         if entity.id == ident:
             return getattr(entity, attr)
@@ -160,19 +181,21 @@ def register_of(world: WorldMap, klass: EntityClass, ident: str, attr: str) -> l
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.lists(
-    st.one_of(
-        hot_update,
-        hot_update,
-        valid_update(
-            classes=(EntityClass.HUMAN, EntityClass.OBJECT, EntityClass.ROBOT_STATUS),
-            attrs=("poses", "tracking", "audioin", "touch"),
-            ids=["1", "2"],
+@given(
+    st.lists(
+        st.one_of(
+            hot_update,
+            hot_update,
+            valid_update(
+                classes=(EntityClass.HUMAN, EntityClass.OBJECT, EntityClass.ROBOT_STATUS),
+                attrs=("poses", "tracking", "audioin", "touch"),
+                ids=["1", "2"],
+            ),
+            st.none(),
         ),
-        st.none(),
-    ),
-    max_size=40,
-))
+        max_size=40,
+    )
+)
 def test_registers_keep_history_and_r_drops_only_the_pending_updates(sequence):
     """Thesis 4.1: append-able fields: "all incoming updates will be stored in a circular
     register"; 4.5: "R deletes all non-already-processed updates that were issued before it"."""
@@ -226,9 +249,14 @@ def test_rejected_updates_never_change_the_encoded_map(batch, max_entities):
     batch = list(numbered(batch))
     start = WorldMap()
     warmup = MapProducer(start, register_capacity=CAPACITY)
-    warmup.submit(MapUpdate(objectid="Human/1", attributename="poses", policy=Policy.A,
-                            jsonmsg='{"positionrho": 1, "positiontheta": 0, '
-                                    '"positionchangetime": 0}'))
+    warmup.submit(
+        MapUpdate(
+            objectid="Human/1",
+            attributename="poses",
+            policy=Policy.A,
+            jsonmsg='{"positionrho": 1, "positiontheta": 0, "positionchangetime": 0}',
+        )
+    )
     warmup.consume(5)
     snapshot = msgspec.json.encode(start)
 

@@ -397,12 +397,12 @@ def test_a_bare_word_argument_is_a_string_literal():
 
     registry = FunctionRegistry([konst, count_of, *default_registry().functions()])
     world = _map(_human("c1"))
-    found = _eval("{VAR @v L F: konst (x)} ! {E: var_is (@v, \"x\")}", world, registry=registry)
+    found = _eval('{VAR @v L F: konst (x)} ! {E: var_is (@v, "x")}', world, registry=registry)
     assert found.result
     assert _eval("! {E: countOf (Human)}", world, registry=registry).result
     assert not _eval("! {E: countOf (Object)}", world, registry=registry).result
-    assert _eval('! {E: countOf (Human, 2)}', world, registry=registry).result is False
-    assert _eval("! {E: equals (calm, \"calm\")}", world).result
+    assert _eval("! {E: countOf (Human, 2)}", world, registry=registry).result is False
+    assert _eval('! {E: equals (calm, "calm")}', world).result
 
 
 def test_a_bare_word_where_a_number_is_expected_is_refused_at_load():

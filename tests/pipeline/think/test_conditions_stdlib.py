@@ -315,7 +315,8 @@ def test_value_comparisons():
 
 def test_touched_names_a_touch_type_in_either_case():
     """Thesis table 4.1: touch is {"touchtype": char, ...}; c and C are one type."""
-    world = WorldMap(robotstatus=RobotStatus(touch=[Touch(touchtype="C", duration=1,
-                                                          startingtime=9_900)]))
+    world = WorldMap(
+        robotstatus=RobotStatus(touch=[Touch(touchtype="C", duration=1, startingtime=9_900)])
+    )
     assert _true('! {E: touched ("c")}', world) is True
     assert _true('! {E: touched ("h")}', world) is False
