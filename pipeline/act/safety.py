@@ -192,9 +192,10 @@ class SafetySupervisor:
         for human in world_map.humans:
             if human.poses:
                 self._anchor(human.id, human)
-        for key, echo in _echoes(world_map):
+        echoes = _echoes(world_map)
+        for key, echo in echoes:
             self._anchor(key, echo)
-        verdict = self._limit(requested, world_map, now_ms)
+        verdict = self._limit(requested, world_map, echoes, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -242,7 +243,13 @@ class SafetySupervisor:
             return SafetyPhase.CHANGE
         return None
 
-    def _limit(self, requested: Velocity, world_map: WorldMap, now_ms: int) -> Verdict:
+    def _limit(
+        self,
+        requested: Velocity,
+        world_map: WorldMap,
+        echoes: list[tuple[str, Entity]],
+        now_ms: int,
+    ) -> Verdict:
         if requested.v_x == 0.0 and requested.v_y == 0.0:
             return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
@@ -252,18 +259,16 @@ class SafetySupervisor:
         )
         stale = False
         constraints: list[_Constraint] = []
+        seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             age_ms = now_ms - human.positionchangetime
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
                 constraints.append(self._constraint(human.id, human, age_ms))
-        seen = [
-            self._anchors[human.id]
-            for human in world_map.humans
-            if human.poses and now_ms - human.positionchangetime <= config.max_data_age_ms
-        ]
-        for key, echo in _echoes(world_map):
+                if age_ms <= config.max_data_age_ms:
+                    seen.append(self._anchors[human.id])
+        for key, echo in echoes:
             age_ms = now_ms - echo.positionchangetime
             if age_ms <= config.max_data_age_ms and not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
@@ -377,12 +382,14 @@ class SafetySupervisor:
         )
 
 
-def _echoes(world_map: WorldMap) -> Iterator[tuple[str, Entity]]:
+def _echoes(world_map: WorldMap) -> list[tuple[str, Entity]]:
     """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
     (their anchors and holds are kept apart from the humans')."""
-    for obstacle in world_map.obstacles:
-        if not obstacle.isfixed and obstacle.poses:
-            yield f"Obstacle/{obstacle.id}", obstacle
+    return [
+        (f"Obstacle/{obstacle.id}", obstacle)
+        for obstacle in world_map.obstacles
+        if not obstacle.isfixed and obstacle.poses
+    ]
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
