@@ -31,6 +31,7 @@ demo: $(STAMP)
 
 test: $(DEV)
 	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest
 
 # The fuzz suite (also part of `test`) with FUZZ times as many examples per property.
@@ -39,6 +40,7 @@ fuzz: $(DEV)
 
 lint: $(DEV)
 	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 
 golden: $(STAMP)
 	$(BIN)/python -m oimi.replay.golden --regenerate

@@ -174,7 +174,6 @@ class Recording:
             if scan.damage is not None:
                 self.recovery = scan.report()
 
-
     def maps(self) -> Iterator[RecordedMap]:
         """The full map after each ``/map`` message, in order: keyframes and deltas applied
         (``pipeline.mapdeltas.apply_delta``), the one way to read maps back. A delta
