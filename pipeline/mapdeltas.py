@@ -39,15 +39,36 @@ _UNSET: Final[Any] = object()
 
 
 def _copy(value: Any) -> Any:
-    """A deep copy to compare with later: Structs through msgpack (fast, every float bit
-    kept), or ``deepcopy`` for what a typed decode would refuse (an int beyond 64 bits; a
-    value of another type than its field's, which an extension's rule may write)."""
+    """A copy to compare with later, sharing what cannot change in place (numbers, texts,
+    frozen structs such as a register's readings): lists, dicts and mutable structs are
+    new, so a later change to the map never reaches the copy. Comparing it with the live
+    map is then mostly identity checks (``list.__eq__`` compares its items by identity
+    first), and copying a person's row copies three containers, not 32 readings."""
+    kind = type(value)
+    if kind in _SHARED:
+        return value
+    if kind is list:
+        return value.copy() if _SHARED.issuperset(map(type, value)) else [_copy(v) for v in value]
+    if kind is dict:
+        if _SHARED.issuperset(map(type, value.values())):
+            return value.copy()
+        return {k: _copy(v) for k, v in value.items()}
     if isinstance(value, msgspec.Struct):
-        try:
-            return msgspec.msgpack.decode(msgspec.msgpack.encode(value), type=type(value))
-        except (OverflowError, msgspec.ValidationError):
-            return copy.deepcopy(value)
-    return dict(value) if isinstance(value, dict) else value
+        if kind.__struct_config__.frozen:
+            _SHARED.add(kind)
+            return value
+        twin = copy.copy(value)
+        for name, field in zip(kind.__struct_fields__, msgspec.structs.astuple(value), strict=True):
+            if type(field) not in _SHARED:
+                setattr(twin, name, _copy(field))
+        return twin
+    if kind is tuple and _SHARED.issuperset(map(type, value)):
+        return value
+    return copy.deepcopy(value)
+
+
+_SHARED: Final[set[type]] = {str, int, float, bool, type(None), bytes}
+"""Types whose values never change in place (frozen structs join when first met)."""
 
 
 class MapDeltas:

@@ -33,6 +33,12 @@ class State(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """Base of the mutable map structures (owned by the Map Producer and the rules)."""
 
 
+class Reading(State, frozen=True):
+    """Base of a register's entry (a pose, a touch, an LED colour shown ...): what was
+    observed at one time, never changed once in the map (a register changes by entries
+    added and dropped), so a copy of the map may share the entries, not the lists."""
+
+
 # --------------------------------------------------------------------------- codes
 
 
@@ -318,7 +324,7 @@ class MapUpdate(Message):
 # ---------------------------------------------------------------------- the map
 
 
-class Pose(State):
+class Pose(Reading):
     positionrho: float
     """Distance from the robot, m."""
     positiontheta: float
@@ -327,7 +333,7 @@ class Pose(State):
     """Simulated time of the observation, ms."""
 
 
-class Tracking(State):
+class Tracking(Reading):
     permanencetime: int
     """How long the entity has been tracked, ms."""
     appearanceon: int
@@ -396,14 +402,14 @@ class TouchType(enum.StrEnum):
     """Tap."""
 
 
-class Touch(State):
+class Touch(Reading):
     touchtype: TouchType
     """One letter: ``C`` caress, ``H`` hug, ``P`` push, ``S`` slap, ``T`` tap."""
     duration: int
     startingtime: int
 
 
-class LedStatus(State):
+class LedStatus(Reading):
     r: float
     g: float
     b: float
@@ -412,13 +418,13 @@ class LedStatus(State):
     startingtime: int
 
 
-class AudioStatus(State):
+class AudioStatus(Reading):
     duration: int
     startingtime: int
     trackpath: str
 
 
-class SpeedStatus(State):
+class SpeedStatus(Reading):
     xspeed: float
     yspeed: float
     thetaspeed: float
@@ -426,7 +432,7 @@ class SpeedStatus(State):
     startingtime: int
 
 
-class GoalEvent(State):
+class GoalEvent(Reading):
     goalid: str
     timestamp: int
 

@@ -167,3 +167,21 @@ def test_a_value_of_the_wrong_type_is_recorded_as_it_is_not_a_crash() -> None:
     assert delta is not None and b'"attributes":{"count":3}' in msgspec.json.encode(delta)
     world.humans[0].attributes["count"] = 3  # type: ignore[assignment]
     assert deltas.after(world, tick=2, time_ms=40) is None, "kept as it was: no change"
+
+
+def test_a_registers_readings_are_frozen_so_the_kept_copy_may_share_them() -> None:
+    """The publisher's copy shares readings (poses, touches, ...) with the live map; that is
+    safe only because no one can change a reading in place: a register changes by entries
+    added and dropped, which the copy's own lists show."""
+    pose = Pose(positionrho=1.0, positiontheta=0.0, positionchangetime=0)
+    world = WorldMap(humans=[Human(id="a", creationtime=0, poses=[pose])])
+    deltas = MapDeltas(keyframe_ms=5000)
+    assert deltas.after(world, tick=0, time_ms=0) is not None
+    with pytest.raises(AttributeError):
+        world.humans[0].poses[0].positionrho = 2.0  # type: ignore[misc]
+    world.humans[0].poses.append(Pose(positionrho=0.9, positiontheta=0.1, positionchangetime=20))
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert delta is not None and len(delta.humans) == 1
+    world.robotstatus.goalreached.append(GoalEvent(goalid="g", timestamp=40))  # in place
+    assert deltas.after(world, tick=2, time_ms=40) is not None
+    assert deltas.after(world, tick=3, time_ms=60) is None
