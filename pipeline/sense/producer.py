@@ -77,6 +77,8 @@ class MapProducer:
         self.script_root = check_script_root(script_root)
         self.max_entities = max_entities
         self._pending: list[DecodedUpdate] = []
+        self._pending_keys: set[tuple[EntityClass, str, str]] = set()
+        """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
 
     # ---------------------------------------------------------------- queue
 
@@ -86,9 +88,11 @@ class MapProducer:
             decoded = decode_update(update, script_root=self.script_root)
         except MapUpdateError as exc:
             return Rejection(update=update, reason=exc.message)
-        if update.policy is Policy.R:
-            self._pending = [p for p in self._pending if p.key != decoded.key]
+        key = decoded.key
+        if update.policy is Policy.R and key in self._pending_keys:
+            self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
+        self._pending_keys.add(key)
         return None
 
     @property
@@ -115,6 +119,7 @@ class MapProducer:
                 f"now_ms {now_ms} is earlier than the map's lastupdatetime {world.lastupdatetime}"
             )
         pending, self._pending = self._pending, []
+        self._pending_keys.clear()
         index = _Index(world)
         rejections: list[Rejection] = []
         applied = False
