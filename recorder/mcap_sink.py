@@ -236,8 +236,9 @@ class _MessageWriter:
     record's fixed part in one go into the writer's chunk builder and keeps the
     writer's statistics the same way, so the file's bytes do not change (the
     recorder tests and the golden recordings compare them). It relies on the
-    writer's private chunk builder, statistics and chunk finaliser, like
-    ``_outside_chunks``; without them it falls back to ``add_message``.
+    writer's private chunk builder, statistics and chunk finaliser and on the record
+    builder's buffer, like ``_outside_chunks``; without them it falls back to
+    ``add_message``.
     """
 
     def __init__(self, writer: Writer, *, chunk_size_bytes: int) -> None:
@@ -245,9 +246,10 @@ class _MessageWriter:
         self._chunk_size = chunk_size_bytes
         self._fast = all(
             hasattr(writer, name) for name in (_outside_chunks._ATTR, _STATISTICS, _FINALIZE_CHUNK)
-        ) and isinstance(getattr(writer, _outside_chunks._ATTR), ChunkBuilder)
+        ) and isinstance(builder := getattr(writer, _outside_chunks._ATTR, None), ChunkBuilder)
+        self._fast = self._fast and hasattr(builder.record_writer, "_buffer")
         if self._fast:
-            self._builder = _ChunkBuilder()
+            self._builder = ChunkBuilder()
             setattr(writer, _outside_chunks._ATTR, self._builder)
             self._statistics: Any = getattr(writer, _STATISTICS)
             self._finalize_chunk = getattr(writer, _FINALIZE_CHUNK)
@@ -270,31 +272,25 @@ class _MessageWriter:
             statistics.message_end_time = time_ns
         statistics.channel_message_counts[channel] += 1  # insertion order is recorded
         statistics.message_count += 1
-        self._builder.add_message_fields(channel, sequence, time_ns, payload)
-        if self._builder.count > self._chunk_size:
-            self._finalize_chunk()
-
-
-class _ChunkBuilder(ChunkBuilder):
-    """mcap's chunk builder with one call per message (see ``_MessageWriter``)."""
-
-    def add_message_fields(self, channel: int, sequence: int, time_ns: int, payload: bytes) -> None:
-        """What ``ChunkBuilder.add_message`` does for ``Message(channel, time_ns, ...)``."""
-        records = self.record_writer
-        if self.num_messages == 0 or time_ns < self.message_start_time:
-            self.message_start_time = time_ns
-        if time_ns > self.message_end_time:
-            self.message_end_time = time_ns
-        index = self.message_indices.get(channel)
+        # What ``ChunkBuilder.add_message`` does for ``Message(channel, time_ns, ...)``:
+        chunk = self._builder
+        buffer = chunk.record_writer._buffer  # the RecordBuilder's BytesIO (new per chunk)
+        if chunk.num_messages == 0 or time_ns < chunk.message_start_time:
+            chunk.message_start_time = time_ns
+        if time_ns > chunk.message_end_time:
+            chunk.message_end_time = time_ns
+        index = chunk.message_indices.get(channel)
         if index is None:
-            index = self.message_indices[channel] = _MessageIndex(channel_id=channel, records=[])
-        index.records.append((time_ns, records.count))
-        self.num_messages += 1
+            index = chunk.message_indices[channel] = _MessageIndex(channel_id=channel, records=[])
+        index.records.append((time_ns, buffer.tell()))
+        chunk.num_messages += 1
         length = _MESSAGE_FIELDS_BYTES + len(payload)
-        records.write(
+        buffer.write(
             _MESSAGE_PREFIX.pack(Opcode.MESSAGE, length, channel, sequence, time_ns, time_ns)
         )
-        records.write(payload)
+        buffer.write(payload)
+        if buffer.tell() > self._chunk_size:
+            self._finalize_chunk()
 
 
 class _MessageIndex(MessageIndex):

@@ -73,9 +73,10 @@ class Tracker:
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         self.last_ms = message.time_ms
+        if type(message) is WorldState:  # 50 times a simulated second: tested first
+            self._world(message)
+            return
         match message:
-            case WorldState():
-                self._world(message)
             case RuleDecisions():
                 self.fired.update(d.rule for d in message.decisions if d.fired)
             case ReaderProgress():
