@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import statistics
 import time
@@ -62,10 +63,12 @@ def timed(work: Callable[[], Any]) -> tuple[float, Any]:
 
 def interleaved(repetitions: int, *works: Callable[[], Any]) -> list[list[tuple[float, Any]]]:
     """Each of ``works`` timed once per repetition, in turn (ABAB...); per work, its
-    ``(seconds, result)`` of every repetition."""
+    ``(seconds, result)`` of every repetition. The garbage of the work before is collected
+    first, untimed, so that no work pays for another's."""
     timings: list[list[tuple[float, Any]]] = [[] for _ in works]
     for _ in range(repetitions):
         for work, times in zip(works, timings, strict=True):
+            gc.collect()
             times.append(timed(work))
     return timings
 

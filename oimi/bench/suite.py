@@ -7,7 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Final
 
-from oimi.bench.measure import Case
+from oimi.bench.measure import Case, in_child
 from oimi.bench.pipeline_cases import bench_conditions, bench_latency
 from oimi.bench.recordings import bench_analyse, bench_analysis_memory, bench_replay
 from oimi.bench.report import format_row, header, write_results
@@ -52,7 +52,7 @@ def run_suite(
         recording = Path(folder) / "run-mcap.mcap"
         add(bench_replay(recording, repetitions, cases[0].value))
         add(bench_analyse(recording, repetitions))
-        add(bench_conditions(repetitions))
+        add(in_child(bench_conditions, repetitions))  # not after the parent's garbage
         add(bench_latency())
         add([bench_crowd(min(ticks, CROWD_TICKS), repetitions, folder)])
         short_ticks = min(ticks, MEMORY_SHORT_TICKS)
