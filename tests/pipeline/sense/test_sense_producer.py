@@ -168,20 +168,19 @@ def test_r_drops_pending_updates_and_is_appended_without_erasing_history():
     assert world.humans[0].positionrho == 3.0
 
 
+def caress():
+    """A 200 ms caress at 50 ms, for the robot's touch register."""
+    touch = '{"touchtype": "C", "duration": 200, "startingtime": 50}'
+    return upd("RobotStatus", "touch", touch, Policy.A)
+
+
 def test_the_map_records_which_robot_status_fields_were_ever_set():
     """Issue 16 ruling on thesis 4.1/4.5: an attribute never updated is unknown; the map
     records whether each RobotStatus field was ever set (RobotStatus "commits to memory ...
     the inputs received by the sensors")."""
     world, producer = fresh()
     assert world.robotstatus.setfields == []
-    producer.submit(
-        upd(
-            "RobotStatus",
-            "touch",
-            '{"touchtype": "C", "duration": 200, "startingtime": 50}',
-            Policy.A,
-        )
-    )
+    producer.submit(caress())
     producer.submit(upd("RobotStatus", "batterytimeleft", "0"))
     producer.submit(upd("RobotStatus", "batterytimeleft", "5"))
     producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
@@ -194,14 +193,7 @@ def test_the_map_records_which_robot_status_fields_were_ever_set():
 
 def test_robot_status_registers_and_scalars():
     world, producer = fresh()
-    producer.submit(
-        upd(
-            "RobotStatus",
-            "touch",
-            '{"touchtype": "C", "duration": 200, "startingtime": 50}',
-            Policy.A,
-        )
-    )
+    producer.submit(caress())
     producer.submit(
         upd("RobotStatus/r", "goalreached", '{"goalid": "g", "timestamp": 60}', Policy.A)
     )
