@@ -192,6 +192,13 @@ class McapSink:
             for log in foxglove.log_messages(message, time_ns):
                 self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
 
+    def add_encoded(self, topic: str, time_ns: int, payload: bytes) -> None:
+        """Write one message already encoded (a recording's payload re-written) on one of
+        the sink's topics (``Topic`` or, with views on, ``FoxgloveTopic``)."""
+        if self._closed:
+            raise RecordingError(f"add_encoded({topic}) after close()", source=self._name)
+        self._add(topic, time_ns, payload)
+
     def _add(self, topic: str, time_ns: int, payload: bytes) -> None:
         try:
             channel = self._channels[topic]

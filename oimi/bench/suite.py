@@ -12,6 +12,7 @@ from oimi.bench.pipeline_cases import bench_conditions, bench_latency
 from oimi.bench.recordings import bench_analyse, bench_analysis_memory, bench_replay
 from oimi.bench.report import format_row, header, write_results
 from oimi.bench.runs import bench_crowd, bench_memory, bench_run
+from oimi.bench.writers import bench_writers
 
 FULL_TICKS: Final = 180_000
 """One hour at 50 Hz."""
@@ -52,6 +53,7 @@ def run_suite(
         recording = Path(folder) / "run-mcap.mcap"
         add(bench_replay(recording, repetitions, cases[0].value))
         add(bench_analyse(recording, repetitions))
+        add(bench_writers(recording, repetitions))
         add(in_child(bench_conditions, repetitions))  # not after the parent's garbage
         add(bench_latency())
         add([bench_crowd(min(ticks, CROWD_TICKS), repetitions, folder)])

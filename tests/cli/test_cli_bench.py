@@ -14,6 +14,7 @@ CASES = {
     "run + MCAP + Rerun",
     "replay redrive",
     "analyse (load into polars)",
+    "MCAP writer: foxglove-sdk",
     "compile conditions",
     "evaluate a condition",
     "latency joystick -> command",
@@ -51,6 +52,10 @@ def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Pat
     run = by_name["run + MCAP"]
     assert results["headline"]["ratio"] == run["ratio"] == run["value"] / run["against_value"]
     assert by_name["analyse (load into polars)"]["against"].startswith("baseline")
+    writer = by_name["MCAP writer: foxglove-sdk"]
+    assert writer["against"].startswith("the sink's writer") and writer["ratio"] > 0
+    assert writer["extra"]["same_bytes_each_run"] == 1
+    assert writer["extra"]["sink_same_bytes_each_run"] == 1
     assert by_name["latency joystick -> command"]["value"] == 0, "an input acts in its own tick"
     assert 0 <= by_name["latency operator stop -> command"]["value"] <= 1
     memory = by_name["memory (2000 vs 1000 ticks)"]["extra"]
