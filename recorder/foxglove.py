@@ -373,8 +373,8 @@ def _object(body: BodyState, t: Time) -> SceneEntity:
 
 class Views:
     """Foxglove's view messages for a session's events, as the MCAP sink and the live
-    server both send them: the static scene with the first world state, then the robot,
-    people and objects and the robot's transform every ``every_n_ticks`` ticks."""
+    server both send them: the arena (on its own topic) with the first world state, then
+    the robot, people and objects and the robot's transform every ``every_n_ticks`` ticks."""
 
     def __init__(self, scene: SceneGeometry | None, every_n_ticks: int) -> None:
         self.scene = scene
@@ -388,7 +388,7 @@ class Views:
         if not self._static_sent:
             self._static_sent = True
             if self.scene is not None:
-                views.append((FoxgloveTopic.SCENE, static_scene(self.scene, time_ns)))
+                views.append((FoxgloveTopic.ARENA, static_scene(self.scene, time_ns)))
         elif state.tick % self.every:
             return views
         update = dynamic_scene(state, time_ns, previous_ids=self._ids)

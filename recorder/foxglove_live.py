@@ -145,7 +145,7 @@ class FoxgloveLiveSink:
                 self._log(view_topic, time_ns, view)
             if self._scene is not None and time_ns - self._static_at_ns >= STATIC_SCENE_EVERY_NS:
                 self._static_at_ns = time_ns
-                self._log(FoxgloveTopic.SCENE, time_ns, foxglove.static_scene(self._scene, time_ns))
+                self._log(FoxgloveTopic.ARENA, time_ns, foxglove.static_scene(self._scene, time_ns))
         elif isinstance(message, LogEntries):
             for log in foxglove.log_messages(message, time_ns):
                 self._log(FoxgloveTopic.LOG, time_ns, log)

@@ -132,6 +132,7 @@ class McapSink:
         self._messages = _MessageWriter(self._writer, chunk_size_bytes=chunk_size_bytes)
         self._writer.start(profile="", library=LIBRARY)
         self._channels: dict[str, int] = {}
+        self._schemas: dict[tuple[str, bytes], int] = {}
         self._sequence: dict[str, int] = {}
         with _outside_chunks(self._writer):
             for topic in Topic:
@@ -150,7 +151,11 @@ class McapSink:
         self._views = foxglove.Views(scene, foxglove_every_n_ticks)
 
     def _register(self, topic: str, name: str, data: bytes) -> None:
-        schema_id = self._writer.register_schema(name=name, encoding=SCHEMA_ENCODING, data=data)
+        """A channel for ``topic``; channels of the same schema share its one record."""
+        schema_id = self._schemas.get((name, data))
+        if schema_id is None:
+            schema_id = self._writer.register_schema(name=name, encoding=SCHEMA_ENCODING, data=data)
+            self._schemas[name, data] = schema_id
         self._channels[topic] = self._writer.register_channel(
             topic=topic, message_encoding=MESSAGE_ENCODING, schema_id=schema_id
         )

@@ -23,12 +23,18 @@ class FoxgloveTopic(enum.StrEnum):
     """Channels written in addition to ours so Foxglove's 3D, transform and log panels work."""
 
     SCENE = "/foxglove/scene"
+    """The robot, people and objects (every few ticks)."""
+    ARENA = "/foxglove/arena"
+    """The walls and the furniture, once (live: every second). A topic of its own because
+    Foxglove, after a seek, shows each topic's last message before the new time: on the
+    scene's topic the arena would vanish at the first seek."""
     TF = "/foxglove/tf"
     LOG = "/foxglove/log"
 
 
 FOXGLOVE_SCHEMA_FILES: Final[dict[FoxgloveTopic, str]] = {
     FoxgloveTopic.SCENE: "SceneUpdate.json",
+    FoxgloveTopic.ARENA: "SceneUpdate.json",
     FoxgloveTopic.TF: "FrameTransforms.json",
     FoxgloveTopic.LOG: "Log.json",
 }

@@ -165,6 +165,8 @@ class SafetySupervisor:
             maxlen=config.max_data_age_ms // tick_ms + 3
         )
         self._anchors: dict[str, tuple[int, float, float]] = {}
+        self._echo_keys: dict[str, str] = {}
+        """An echo's key by its obstacle id (made once)."""
         """Human id (``Obstacle/<id>`` for an echo) -> (positionchangetime, x, y) of its last
         reading in the odometry frame."""
         self._held: dict[str, None] = {}
@@ -189,12 +191,17 @@ class SafetySupervisor:
         the robot is then taken to drive it for one tick (dead reckoning)."""
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self._pose))
-        for human in world_map.humans:
+        anchors = self._anchors
+        for human in world_map.humans:  # most readings are placed already: tested inline
             if human.poses:
-                self._anchor(human.id, human)
-        echoes = _echoes(world_map)
+                anchor = anchors.get(human.id)
+                if anchor is None or anchor[0] != human.positionchangetime:
+                    self._anchor(human.id, human)
+        echoes = self._echoes(world_map)
         for key, echo in echoes:
-            self._anchor(key, echo)
+            anchor = anchors.get(key)
+            if anchor is None or anchor[0] != echo.positionchangetime:
+                self._anchor(key, echo)
         verdict = self._limit(requested, world_map, echoes, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
@@ -342,17 +349,29 @@ class SafetySupervisor:
 
     def _anchor(self, key: str, human: Entity) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it
-        was taken (every tick, so that a reading is placed while that pose is kept)."""
+        was taken (looked for every tick, so that a reading is placed while that pose is
+        kept)."""
         at_ms = human.positionchangetime
-        anchor = self._anchors.get(key)
-        if anchor is None or anchor[0] != at_ms:
-            px, py, ptheta = self._pose_at(at_ms)
-            bearing = ptheta + human.positiontheta
-            self._anchors[key] = (
-                at_ms,
-                px + human.positionrho * math.cos(bearing),
-                py + human.positionrho * math.sin(bearing),
+        px, py, ptheta = self._pose_at(at_ms)
+        bearing = ptheta + human.positiontheta
+        self._anchors[key] = (
+            at_ms,
+            px + human.positionrho * math.cos(bearing),
+            py + human.positionrho * math.sin(bearing),
+        )
+
+    def _echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
+        """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
+        (their anchors and holds are kept apart from the humans')."""
+        keys = self._echo_keys
+        return [
+            (
+                keys.get(obstacle.id) or keys.setdefault(obstacle.id, f"Obstacle/{obstacle.id}"),
+                obstacle,
             )
+            for obstacle in world_map.obstacles
+            if not obstacle.isfixed and obstacle.poses
+        ]
 
     def _estimate(self, key: str) -> tuple[float, float]:
         """The last reported position of ``key`` in the robot's current body frame."""
@@ -380,16 +399,6 @@ class SafetySupervisor:
             y + dt * (sin * velocity.v_x + cos * velocity.v_y),
             theta + dt * velocity.v_theta,
         )
-
-
-def _echoes(world_map: WorldMap) -> list[tuple[str, Entity]]:
-    """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
-    (their anchors and holds are kept apart from the humans')."""
-    return [
-        (f"Obstacle/{obstacle.id}", obstacle)
-        for obstacle in world_map.obstacles
-        if not obstacle.isfixed and obstacle.poses
-    ]
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:

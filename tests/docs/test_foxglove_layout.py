@@ -70,6 +70,7 @@ def test_the_3d_panel_shows_the_scene_and_the_log_panel_the_log() -> None:
     configs = LAYOUT["configById"]
     scene = next(c for k, c in configs.items() if k.startswith("3D!"))
     assert scene["topics"]["/foxglove/scene"]["visible"] is True
+    assert scene["topics"]["/foxglove/arena"]["visible"] is True
     log = next(c for k, c in configs.items() if k.startswith("Log!"))
     assert log["topicToRender"] == FoxgloveTopic.LOG.value
 

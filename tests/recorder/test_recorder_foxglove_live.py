@@ -82,9 +82,10 @@ def test_the_live_sink_advertises_the_mcaps_channels_and_streams_its_messages() 
             title, data = foxglove_schema(FoxgloveTopic.SCENE)
             assert by_topic["/foxglove/scene"]["schemaName"] == title == "foxglove.SceneUpdate"
             assert by_topic["/foxglove/scene"]["schema"].encode() == data
-            await client.subscribe(["/world/state", "/foxglove/scene"])
+            topics = ["/world/state", "/foxglove/scene", "/foxglove/arena"]
+            await client.subscribe(topics)
             for _ in range(100):  # the server takes the subscription in its own time
-                if sink.subscribed("/world/state") and sink.subscribed("/foxglove/scene"):
+                if all(sink.subscribed(t) for t in topics):
                     break
                 await asyncio.sleep(0.05)
             for topic, time_ns, message in events:
@@ -98,9 +99,12 @@ def test_the_live_sink_advertises_the_mcaps_channels_and_streams_its_messages() 
     states = [(t, m) for topic, t, m in received if topic == "/world/state"]
     sent = [(t, msgspec.json.encode(m)) for topic, t, m in events if topic == Topic.WORLD_STATE]
     assert states == sent[: len(states)] and len(states) >= 3, "the MCAP's bytes, in order"
-    scenes = [json.loads(m) for topic, _, m in received if topic == "/foxglove/scene"]
-    ids = [e["id"] for scene in scenes for e in scene["entities"]]
-    assert "arena" in ids and "robot" in ids
+
+    def drawn(topic: str) -> list[str]:
+        scenes = [json.loads(m) for t, _, m in received if t == topic]
+        return [e["id"] for scene in scenes for e in scene["entities"]]
+
+    assert "robot" in drawn("/foxglove/scene") and "arena" in drawn("/foxglove/arena")
 
 
 def test_the_server_refuses_a_non_loopback_address() -> None:

@@ -93,6 +93,7 @@ def test_foxglove_channels_carry_foxgloves_schema_files_unchanged(recorded: Path
         seen[channel.topic] = schema.data
     for topic, name in {
         FoxgloveTopic.SCENE: "SceneUpdate.json",
+        FoxgloveTopic.ARENA: "SceneUpdate.json",
         FoxgloveTopic.TF: "FrameTransforms.json",
         FoxgloveTopic.LOG: "Log.json",
     }.items():
@@ -102,6 +103,7 @@ def test_foxglove_channels_carry_foxgloves_schema_files_unchanged(recorded: Path
 def test_foxglove_messages_validate_against_the_shared_schema_files(recorded: Path) -> None:
     files = {
         FoxgloveTopic.SCENE: "SceneUpdate.json",
+        FoxgloveTopic.ARENA: "SceneUpdate.json",
         FoxgloveTopic.TF: "FrameTransforms.json",
         FoxgloveTopic.LOG: "Log.json",
     }
@@ -296,27 +298,27 @@ def test_non_string_metadata_is_refused() -> None:
         McapSink(io.BytesIO(), metadata={"scenario": {"seed": 7}})  # type: ignore[dict-item]
 
 
-def _scene_updates(path: Path) -> list[tuple[int, dict]]:
-    return [
-        (m.log_time, json.loads(m.data))
-        for _, c, m in raw_messages(path)
-        if c.topic == FoxgloveTopic.SCENE
-    ]
+def _scene_updates(path: Path, topic: str = FoxgloveTopic.SCENE) -> list[tuple[int, dict]]:
+    return [(m.log_time, json.loads(m.data)) for _, c, m in raw_messages(path) if c.topic == topic]
 
 
-def test_foxglove_scene_draws_the_static_scene_once_then_thins_dynamic_updates(
+def test_foxglove_draws_the_arena_once_on_its_topic_then_thins_dynamic_updates(
     tmp_path: Path,
 ) -> None:
     path = tmp_path / "s.mcap"
     write(path, session(6), foxglove_every_n_ticks=2)
+    arena = _scene_updates(path, FoxgloveTopic.ARENA)
+    assert [t for t, _ in arena] == [0]  # the last message before any time: after a seek too
+    assert [e["id"] for e in arena[0][1]["entities"]] == [
+        "arena",
+        "obstacle/table",
+        "obstacle/pillar",
+    ]
     updates = _scene_updates(path)
-    static_ids = [e["id"] for e in updates[0][1]["entities"]]
-    assert static_ids == ["arena", "obstacle/table", "obstacle/pillar"]
-    dynamic_times = [t for t, _ in updates[1:]]
-    assert dynamic_times == [0, 2 * TICK_NS, 4 * TICK_NS]
-    ids = [e["id"] for e in updates[1][1]["entities"]]
+    assert [t for t, _ in updates] == [0, 2 * TICK_NS, 4 * TICK_NS]
+    ids = [e["id"] for e in updates[0][1]["entities"]]
     assert ids == ["robot", "human/child1", "human/therapist1", "object/ball"]
-    robot = updates[1][1]["entities"][0]
+    robot = updates[0][1]["entities"][0]
     body, *strips = robot["cylinders"]
     assert body["color"] == msgspec.to_builtins(foxglove.ROBOT_BODY_COLOR)
     assert [s["color"] for s in strips] == [msgspec.to_builtins(foxglove.LED_OFF_COLOR)] * 2
