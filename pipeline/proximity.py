@@ -13,7 +13,6 @@ pressed into each other are slightly negative.
 
 from __future__ import annotations
 
-import bisect
 import enum
 import math
 from typing import Final
@@ -52,7 +51,7 @@ def surface_distance(robot: BodyState, human: BodyState) -> float:
     return centres - robot.radius_m - human.radius_m
 
 
-_UPPER_BOUNDS_M: Final = tuple(high for _, _, high in ZONES_M[1:-1])
+_INTIMATE_M, _PERSONAL_M, _SOCIAL_M = (high for _, _, high in ZONES_M[1:-1])
 """Where each zone after ``contact`` ends, but the last (which has none)."""
 
 
@@ -60,7 +59,13 @@ def zone_of(distance_m: float) -> str:
     """The :data:`ZONES_M` name of a surface distance (NaN counts as ``public``)."""
     if distance_m <= 0.0:
         return "contact"
-    return ZONE_NAMES[1 + bisect.bisect_right(_UPPER_BOUNDS_M, distance_m)]
+    if distance_m < _INTIMATE_M:
+        return "intimate"
+    if distance_m < _PERSONAL_M:
+        return "personal"
+    if distance_m < _SOCIAL_M:
+        return "social"
+    return "public"
 
 
 def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:
@@ -121,13 +126,15 @@ class ProximityTracker:
         self.zone_ms: dict[str, dict[str, int]] = {}
         self.episodes: list[ContactEpisode] = []
         self._open: dict[str, _Open] = {}
-        self._previous: dict[str, tuple[BodyState, BodyState]] = {}
+        self._previous: WorldState | None = None
+        """The state before the one being read: where a contact's speeds are taken."""
         self._last_ms = 0
 
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
         self._last_ms = now
         kinds, closest_m, zone_ms, tick_ms = self.kinds, self.closest_m, self.zone_ms, self.tick_ms
+        contacts, open_ = state.contacts, self._open
         for human in state.humans:
             who = human.id
             zones = zone_ms.get(who)
@@ -138,17 +145,22 @@ class ProximityTracker:
             if distance < closest_m.get(who, math.inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
             zones[zone_of(distance)] += tick_ms
-            if distance <= 0.0 or who in state.contacts:
+            if distance <= 0.0 or who in contacts:
                 self._touch(who, human, robot, now, distance)
-            elif (open_ := self._open.get(who)) and now - open_.last_ms > MERGE_MS:
+            elif open_ and who in open_ and now - open_[who].last_ms > MERGE_MS:
                 self._close(who)
-            self._previous[who] = (robot, human)
+        self._previous = state
 
     def _touch(self, who: str, human: BodyState, robot: BodyState, now: int, d: float) -> None:
         if (open_ := self._open.get(who)) is not None:
             open_.last_ms, open_.deepest = now, min(open_.deepest, d)
             return
-        before_robot, before_human = self._previous.get(who, (robot, human))
+        before_robot, before_human = robot, human  # first seen touching: no speeds before
+        if (previous := self._previous) is not None:
+            for body in previous.humans:
+                if body.id == who:
+                    before_robot, before_human = previous.robot, body
+                    break
         robot_speed, person_speed = approach_speeds(before_robot, before_human)
         initiator = Initiator.ROBOT if robot_speed > person_speed else Initiator.PERSON
         episode = ContactEpisode(

@@ -96,11 +96,12 @@ class Tracker:
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         if not speed <= self.max_speed_mps:  # a larger speed, or NaN (which sticks)
             self.max_speed_mps = speed if math.isfinite(self.max_speed_mps) else math.nan
+        min_distance_m, x, y, hypot = self.min_distance_m, robot.x_m, robot.y_m, math.hypot
         for human in state.humans:
-            distance = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
-            closest = self.min_distance_m.get(human.id, math.inf)
-            if not distance >= closest and not math.isnan(closest):
-                self.min_distance_m[human.id] = distance
+            distance = hypot(human.x_m - x, human.y_m - y)
+            closest = min_distance_m.get(human.id, math.inf)
+            if not distance >= closest and closest == closest:  # a smaller one, or a first NaN
+                min_distance_m[human.id] = distance
         self.contacts += len(state.contacts)
         world = self.scenario.world
         inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
