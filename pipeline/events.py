@@ -8,22 +8,20 @@ recorder writes at most one message per topic per tick.
 from __future__ import annotations
 
 import enum
-from typing import ClassVar, Final
+import typing
+from typing import Any, ClassVar, Final, Generic, TypeVar
 
 import msgspec
 from oimi.pipeline.messages import (
+    MAP_LISTS,
     ActuatorCommand,
-    Camera,
-    Human,
     InstructionBlock,
     MapUpdate,
     Message,
-    Object,
-    Obstacle,
     RobotStatus,
     RuleMessage,
     ScriptInfo,
-    Sonar,
+    State,
 )
 from oimi.pipeline.messages import Source as Source  # re-exported with the commands
 from oimi.pipeline.operator.commands import OperatorCommand
@@ -166,15 +164,50 @@ class JoystickInput(Event):
 _ABSENT: Final = msgspec.Raw()
 
 
+_Reading = TypeVar("_Reading")
+
+
+class Appended(msgspec.Struct, Generic[_Reading], forbid_unknown_fields=True, kw_only=True):
+    """A register's change in a ``/map`` delta: the ``dropped`` oldest readings gone, then
+    ``added`` appended (a circular register that took one reading: ``dropped`` 1, one added)."""
+
+    dropped: int = 0
+    added: list[_Reading]
+
+
+def _patch_of(row: type[State]) -> type[msgspec.Struct]:
+    """The type of ``row``'s change in a delta: its ``id`` and the fields that changed, a
+    list either whole or :class:`Appended` (a whole row is a change of every field)."""
+    fields: list[tuple[str, Any] | tuple[str, Any, Any]] = [("id", str)]
+    for field in msgspec.structs.fields(row):
+        if field.name == "id":
+            continue
+        kind = field.type
+        if typing.get_origin(kind) is list:
+            kind = kind | Appended[typing.get_args(kind)[0]]  # type: ignore[index]
+        fields.append((field.name, kind | msgspec.UnsetType, msgspec.UNSET))
+    return msgspec.defstruct(
+        f"{row.__name__}Patch", fields, kw_only=True, forbid_unknown_fields=True
+    )
+
+
+ROW_PATCHES: Final[dict[str, type[msgspec.Struct]]] = {
+    m.field: _patch_of(m.struct) for m in MAP_LISTS
+}
+"""Each table's row change in a delta (``HumanPatch``...): fields left out are unchanged."""
+
+
 class MapDelta(Event, omit_defaults=True):
     """The world map after this tick's producer and rules, when it changed: a keyframe (the
     whole map) or a delta (what changed since the previous ``/map`` message).
 
     One Struct for both, told apart by ``keyframe``, so the topic keeps one schema: a
-    keyframe has every section and row; a delta only the sections that changed (an empty
-    ``Raw``, left out of the JSON: unchanged), the rows that changed or appeared (whole, in
-    the map's order) and, in ``removed``, the ``Class/id`` (``Human/ada``) of rows
-    forgotten. Keyframes come first and then at the first change
+    keyframe has every section and row, whole; a delta only the sections that changed (an
+    empty ``Raw``, left out of the JSON: unchanged), the rows that appeared (whole) or
+    changed (a :data:`ROW_PATCHES` row: the id and only the fields that changed; a register
+    that took readings as :class:`Appended`), in the map's order, and, in ``removed``, the
+    ``Class/id`` (``Human/ada``) of rows forgotten. A delta's row is a change when the map
+    before it has the id. Keyframes come first and then at the first change
     ``PipelineConfig.map_keyframe_ms`` or more after the previous one. Parts are the JSON
     the loop encoded (``msgspec.Raw``; :data:`RAW_TYPES` says what each holds);
     ``pipeline.mapdeltas`` makes them and its ``apply_delta`` rebuilds full maps
@@ -199,15 +232,12 @@ class MapDelta(Event, omit_defaults=True):
         "scriptinfo": ScriptInfo,
         "lastupdatetime": int,
         "robotstatus": RobotStatus,
-        "cameras": tuple[Camera, ...],
-        "sonars": tuple[Sonar, ...],
-        "humans": tuple[Human, ...],
-        "obstacles": tuple[Obstacle, ...],
-        "objects": tuple[Object, ...],
+        **{table: tuple[patch, ...] for table, patch in ROW_PATCHES.items()},  # type: ignore[valid-type]
         "variables": dict[str, str],
         "aliases": dict[str, str],
     }
-    """The type each raw field holds (as ``WorldMap``'s; a table as a tuple of its rows)."""
+    """The type each raw field holds (as ``WorldMap``'s; a table as a tuple of its rows'
+    changes, of which a whole row is one)."""
 
 
 class MapChange(Message):

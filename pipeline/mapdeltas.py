@@ -5,8 +5,10 @@ of ``WorldMap`` and each row of each listed class, by id) and, after a tick, com
 live map with them by value (struct equality: one C call per unchanged table, no JSON
 encoded or decoded to find what changed). Only the parts that differ are encoded (into the
 :class:`~pipeline.events.MapDelta`, as ``msgspec.Raw``: the sink writes them as they are)
-and copied. :func:`apply_delta` is the one function that rebuilds full maps from a
-keyframe and the deltas after it.
+and copied; a row that was there before is written as its change (its id and the fields
+that differ; a register that took readings as the readings added and how many it
+dropped, not its whole history). :func:`apply_delta` is the one function that rebuilds
+full maps from a keyframe and the deltas after it.
 
 A recorded part is the live part's JSON at its change, so a rebuilt map equals the loop's
 (``==``). A change between values that compare equal is not one (``0.0`` and ``-0.0``; an
@@ -21,7 +23,7 @@ import copy
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.events import MapDelta
+from oimi.pipeline.events import ROW_PATCHES, Appended, MapDelta
 from oimi.pipeline.messages import MAP_LISTS, WorldMap
 
 TABLES: Final = tuple(m.field for m in MAP_LISTS)
@@ -34,6 +36,9 @@ _DECODERS: Final[dict[str, msgspec.json.Decoder[Any]]] = {
     name: msgspec.json.Decoder(MapDelta.RAW_TYPES[name]) for name in SECTIONS
 } | {m.field: msgspec.json.Decoder(m.struct) for m in MAP_LISTS}
 """Each section's and each table's row's decoder."""
+_PATCH_DECODERS: Final = {t: msgspec.json.Decoder(p) for t, p in ROW_PATCHES.items()}
+"""Each table's row change's decoder."""
+_FIELDS: Final = {m.field: m.struct.__struct_fields__ for m in MAP_LISTS}
 _encode: Final = msgspec.json.Encoder().encode
 _UNSET: Final[Any] = object()
 
@@ -133,14 +138,17 @@ class MapDeltas:
         """Update a table's kept rows to ``live``: the rows that changed or appeared (their
         JSON), the ids gone, and whether a delta can say it (unique ids, kept rows in their
         old order, new ones at the end)."""
-        kept = self._ids[table]
+        kept, names = self._ids[table], _FIELDS[table]
         rows = []
         fresh: dict[str, Any] = {}
         for row in live:
             old = kept.get(row.id)
-            if old is None or old != row:
-                old = _copy(row)
+            if old is None:
                 rows.append(msgspec.Raw(_encode(row)))
+                old = _copy(row)
+            elif old != row:
+                rows.append(msgspec.Raw(_encode(_patch(names, old, row))))
+                old = _copy(row)
             fresh[row.id] = old
         ids = [row.id for row in live]
         gone = [i for i in kept if i not in fresh]
@@ -149,6 +157,56 @@ class MapDeltas:
         unique = len(fresh) == len(ids)
         self._rows[table] = [fresh[i] for i in ids] if unique else [_copy(r) for r in live]
         return tuple(rows), gone, unique and expected == ids
+
+
+def _patch(names: tuple[str, ...], old: Any, new: Any) -> dict[str, Any]:
+    """A row's change from ``old`` to ``new`` (same id): the fields that differ, a list
+    that kept a run of its old items at its start as what it dropped and added."""
+    patch: dict[str, Any] = {"id": new.id}
+    for name, before, after in zip(
+        names, msgspec.structs.astuple(old), msgspec.structs.astuple(new), strict=True
+    ):
+        if before == after:
+            continue
+        if type(after) is list and type(before) is list:
+            dropped = _dropped(before, after)
+            if dropped is not None:
+                kept = len(before) - dropped
+                change = {"dropped": dropped} if dropped else {}
+                after = change | {"added": after[kept:]}
+        patch[name] = after
+    return patch
+
+
+def _dropped(before: list[Any], after: list[Any]) -> int | None:
+    """How many items ``before`` dropped from its start if ``after`` begins with the rest
+    of them (then it added what follows); None if it did not (it is written whole)."""
+    if not after:
+        return None
+    first, size = after[0], len(before)
+    for dropped in range(size):
+        if before[dropped] == first and after[: size - dropped] == before[dropped:]:
+            return dropped
+    return None
+
+
+def _applied(row: Any, patch: Any) -> Any:
+    """``row`` (left unchanged) with a :data:`~pipeline.events.ROW_PATCHES` change."""
+    fields = {}
+    for name in row.__struct_fields__:
+        value = getattr(patch, name)
+        if value is msgspec.UNSET:
+            continue
+        if type(value) is Appended:
+            register = getattr(row, name)
+            if not 0 <= value.dropped <= len(register):
+                raise ValueError(
+                    f"drops {value.dropped} of the {len(register)} items of"
+                    f" {type(row).__name__}/{row.id}'s {name}"
+                )
+            value = register[value.dropped :] + value.added
+        fields[name] = value
+    return msgspec.structs.replace(row, **fields)
 
 
 def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
@@ -177,10 +235,32 @@ def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
         fields[name] = _DECODERS[name].decode(data) if data else getattr(world_map, name)
     for table in TABLES:
         rows: list[Any] = getattr(world_map, table)
-        changed = {row.id: row for row in map(_DECODERS[table].decode, getattr(delta, table))}
+        changed = _changed_rows(table, rows, getattr(delta, table), delta.tick)
         dropped = gone.get(table, set())
         if changed or dropped:
             rows = [changed.pop(r.id, r) for r in rows if r.id not in dropped]
             rows += changed.values()
         fields[table] = list(rows)
     return WorldMap(**fields)
+
+
+def _changed_rows(
+    table: str, rows: list[Any], raws: tuple[msgspec.Raw, ...], tick: int
+) -> dict[str, Any]:
+    """A delta's rows of ``table`` rebuilt, by id: a change applied to the row ``rows`` has
+    with its id, else a whole new row."""
+    if not raws:
+        return {}
+    before = {row.id: row for row in rows}
+    changed = {}
+    for raw in raws:
+        patch = _PATCH_DECODERS[table].decode(raw)
+        row = before.get(patch.id)
+        if row is None:
+            changed[patch.id] = _DECODERS[table].decode(raw)
+            continue
+        try:
+            changed[patch.id] = _applied(row, patch)
+        except ValueError as error:
+            raise ValueError(f"the delta of tick {tick} {error}") from None
+    return changed

@@ -18,7 +18,7 @@ from typing import Final, NamedTuple
 
 import msgspec
 
-FORMAT_VERSION: Final = 2
+FORMAT_VERSION: Final = 3
 """Version of the recorded message layout; bumped on any incompatible change."""
 
 REGISTER_CAPACITY: Final = 16

@@ -116,8 +116,8 @@ def test_a_delta_holds_only_the_changed_rows_and_sections_and_the_forgotten_ids(
     world.lastupdatetime = 40
     delta = deltas.after(world, tick=2, time_ms=40)
     assert delta is not None and not delta.keyframe
-    humans = [msgspec.json.decode(h, type=Human) for h in delta.humans]
-    assert humans == [world.humans[0]] and delta.removed == ("Human/a",)
+    assert [bytes(h) for h in delta.humans] == [b'{"id":"b","positionrho":2.0}']
+    assert delta.removed == ("Human/a",)
     assert bytes(delta.lastupdatetime) == b"40" and not delta.scriptinfo and not delta.robotstatus
     assert b'"scriptinfo"' not in msgspec.json.encode(delta), "unchanged sections are left out"
     assert apply_delta(apply_delta(None, first), delta) == world
@@ -185,3 +185,34 @@ def test_a_registers_readings_are_frozen_so_the_kept_copy_may_share_them() -> No
     world.robotstatus.goalreached.append(GoalEvent(goalid="g", timestamp=40))  # in place
     assert deltas.after(world, tick=2, time_ms=40) is not None
     assert deltas.after(world, tick=3, time_ms=60) is None
+
+
+def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_dropped() -> None:
+    poses = [Pose(positionrho=n, positiontheta=0.0, positionchangetime=n) for n in range(16)]
+    world = WorldMap(humans=[Human(id="a", creationtime=0, poses=poses)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    assert first is not None
+    world.humans[0].poses = [
+        *poses[1:],
+        Pose(positionrho=16, positiontheta=0.0, positionchangetime=16),
+    ]
+    world.humans[0].positionrho = 16.0
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert delta is not None and not delta.keyframe
+    assert bytes(delta.humans[0]) == (
+        b'{"id":"a","positionrho":16.0,"poses":{"dropped":1,"added":'
+        b'[{"positionrho":16,"positiontheta":0.0,"positionchangetime":16}]}}'
+    )
+    assert apply_delta(apply_delta(None, first), delta) == world
+
+
+def test_a_change_dropping_more_readings_than_the_register_has_is_refused() -> None:
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    first = MapDeltas(keyframe_ms=5000).after(world, tick=0, time_ms=0)
+    assert first is not None
+    bad = MapDelta(
+        tick=1, time_ms=20, humans=(msgspec.Raw(b'{"id":"a","poses":{"dropped":2,"added":[]}}'),)
+    )
+    with pytest.raises(ValueError, match="tick 1 drops 2 of the 0 items of Human/a's poses"):
+        apply_delta(apply_delta(None, first), bad)

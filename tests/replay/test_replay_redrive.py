@@ -159,7 +159,8 @@ def test_a_changed_map_delta_is_reported_at_its_tick_and_field(
     deltas = [
         (index, message.tick)
         for index, message in enumerate(open_recording(recording).iter_messages([Topic.MAP]))
-        if b'"humans"' in message.payload_bytes and b'"keyframe"' not in message.payload_bytes
+        if b'"keyframe"' not in message.payload_bytes
+        and "positionrho" in msgspec.json.decode(message.payload_bytes).get("humans", [{}])[0]
     ]
     index, tick = deltas[len(deltas) // 2]
 
