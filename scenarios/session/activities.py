@@ -81,6 +81,14 @@ class ActivityLibrary:
             self.loaded[path] = load_script_file(path)
         return self.loaded[path]
 
+    def holds_script(self, path: Path) -> bool:
+        """Whether ``path`` is a script (loaded, and kept, if so)."""
+        try:
+            self.load(path)
+        except ScriptError:
+            return False
+        return True
+
     def resolve(self, name: str) -> ScriptEntry | None:
         """The Block Reader's resolver: a script entry for a name or path, or None."""
         path = self.find(name)

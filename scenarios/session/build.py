@@ -107,13 +107,15 @@ class BuiltPipeline:
         )
 
     def attachments(self) -> list[tuple[str, bytes]]:
-        """The scenario file, every script its activity folders hold (first folder wins a name),
-        the rule library's source and every extension's sources (``extensions/NAME/PATH``)."""
+        """The scenario file, every script its activity folders hold (first folder wins a name;
+        a ``.json`` or ``.txt`` that is not a script, such as notes beside the scenario, is
+        not one and stays out of the recording), the rule library's source and every
+        extension's sources (``extensions/NAME/PATH``)."""
         files = [(f"scenario/{self.loaded.source.name}", self.loaded.raw)]
         seen: set[str] = set()
         for folder in self.library.folders:
             for path in sorted([*folder.glob("*.json"), *folder.glob("*.txt")]):
-                if path.name not in seen:
+                if path.name not in seen and self.library.holds_script(path):
                     seen.add(path.name)
                     files.append((f"activities/{path.name}", path.read_bytes()))
         files.append(("rules/library.py", inspect.getsource(rule_library).encode()))

@@ -367,6 +367,25 @@ def test_a_recording_replays_from_its_attachments_after_the_scenario_files_are_g
         assert comparison.compared[Topic.ACTUATOR_COMMANDS.value] > 0
 
 
+def test_only_scripts_beside_the_scenario_are_attached_not_other_text_files(
+    tmp_path: Path,
+) -> None:
+    """A therapist's notes beside the scenario must not travel inside the recording."""
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "mine.txt").write_text(
+        (ACTIVITIES / "test_act.txt").read_text().replace("[test_act]", "[mine]")
+    )
+    (folder / "notes.txt").write_text("Session notes: the child was tired today.\n")
+    (folder / "results.json").write_text('{"score": 3}\n')
+    (folder / "mine.toml").write_text(
+        'name = "mine"\nduration_s = 1.0\n[[activities]]\nscript = "mine.txt"\n'
+    )
+    attached = open_recording(record(folder / "mine.toml", tmp_path / "m.mcap")).attachments
+    assert "activities/mine.txt" in attached and "activities/test_act.txt" in attached
+    assert "activities/notes.txt" not in attached and "activities/results.json" not in attached
+
+
 def test_the_comparator_holds_only_the_current_ticks_messages(recording: Path) -> None:
     opened = open_recording(recording)
     with_session = Session(load_scenario(SHORT))
