@@ -164,14 +164,29 @@ def installed_extensions() -> list[LoadedExtension]:
 def load_extensions(
     specs: Sequence[str], *, base: Path | None = None, installed: bool = True
 ) -> tuple[LoadedExtension, ...]:
-    """``specs`` loaded (relative to ``base``), then the installed ones, each module once."""
-    loaded: dict[str, LoadedExtension] = {}
-    for ext in [
-        *(load_extension(s, base=base) for s in specs),
-        *(installed_extensions() if installed else []),
-    ]:
-        loaded.setdefault(ext.module, ext)
-    return tuple(loaded.values())
+    """``specs`` loaded (relative to ``base``), then the installed ones, each module once
+    (two with one module name and different sources: :class:`ExtensionError`)."""
+    return _each_module_once(
+        [
+            *(load_extension(s, base=base) for s in specs),
+            *(installed_extensions() if installed else []),
+        ]
+    )
+
+
+def _each_module_once(extensions: Iterable[LoadedExtension]) -> tuple[LoadedExtension, ...]:
+    """The first of each module name; another of that name must have the same sources (the
+    same extension named twice), for one import name cannot hold two extensions."""
+    unique: dict[str, LoadedExtension] = {}
+    for ext in extensions:
+        kept = unique.setdefault(ext.module, ext)
+        if kept.digest != ext.digest:
+            raise ExtensionError(
+                f"extensions {kept.origin!r} and {ext.origin!r} both import as module"
+                f" {ext.module!r} but are different code: rename one",
+                source=ext.origin,
+            )
+    return tuple(unique.values())
 
 
 @dataclass(frozen=True)
@@ -186,12 +201,9 @@ class Toolkit:
 
 
 def build_toolkit(extensions: Iterable[LoadedExtension] = ()) -> Toolkit:
-    """The built-ins plus ``extensions`` (one module counted once); a colliding name or
-    rule code raises :class:`ExtensionError` naming both origins."""
-    unique: dict[str, LoadedExtension] = {}
-    for ext in extensions:
-        unique.setdefault(ext.module, ext)
-    extensions = tuple(unique.values())
+    """The built-ins plus ``extensions`` (one module counted once); a colliding name, rule
+    code or module name raises :class:`ExtensionError` naming both origins."""
+    extensions = _each_module_once(extensions)
     functions = {name: BUILTIN for name in default_registry().names()}
     rules = {cls.rulecode: f"{cls.__name__} ({BUILTIN})" for cls in BUILTIN_RULES}
     generators = {name: BUILTIN for name in default_catalogue().names()}

@@ -19,7 +19,12 @@ from oimi.replay.rebuild import _attached_extensions
 from oimi.replay.redrive import redrive
 from oimi.replay.rerun import rerun
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.extensions import ExtensionError, build_toolkit, load_extension
+from oimi.scenarios.extensions import (
+    ExtensionError,
+    build_toolkit,
+    load_extension,
+    load_extensions,
+)
 from oimi.scenarios.simulation.humans import Arena, BehaviourView
 
 import oimi
@@ -86,6 +91,19 @@ def test_a_function_name_of_a_builtin_or_another_extension_is_refused(tmp_path: 
     )
     with pytest.raises(ExtensionError, match=r"'touched' .* collides with oimi \(built-in\)"):
         build_toolkit([load_extension(str(builtin))])
+
+
+def test_two_different_extensions_with_one_module_name_are_refused_naming_both(
+    tmp_path: Path,
+) -> None:
+    """One import name cannot hold two extensions: the second was dropped silently."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    first = write_extension(tmp_path / "a", "mine", "def register(ext):\n    pass\n")
+    second = write_extension(tmp_path / "b", "mine", "def register(ext):\n    return None\n")
+    with pytest.raises(ExtensionError, match=r"a/mine.py' and .*b/mine.py' both import as module"):
+        load_extensions([str(first), str(second)])
+    assert len(load_extensions([str(first), str(first)])) == 1, "one extension named twice"
 
 
 def test_compile_needs_the_extension_for_its_functions() -> None:
