@@ -26,6 +26,8 @@ class Analysis(NamedTuple):
     """The one session's metadata and metrics when one recording was analysed."""
     warnings: list[str]
     """What could not be read as expected (``AnalysisWarning``\\ s)."""
+    skipped: list[str]
+    """The recordings left out, each as ``PATH: why`` (none could be read)."""
 
 
 def analyse(
@@ -65,4 +67,5 @@ def analyse(
         comparison=dataset.comparison,
         session=one,
         warnings=[str(warning.message) for warning in caught],
+        skipped=[str(error) for error in dataset.skipped],
     )

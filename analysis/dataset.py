@@ -17,6 +17,7 @@ import polars as pl
 from oimi.analysis.load import SessionData, load_session
 from oimi.analysis.metrics import SessionMetrics, Verdicts, session_metrics, session_run_name
 from oimi.pipeline.errors import LocatedError
+from oimi.recorder.errors import RecordingError
 
 SESSION_ID = "session_id"
 
@@ -56,10 +57,13 @@ class Dataset:
         comparison: pl.DataFrame,
         folder: Path | None,
         frames: dict[str, list[pl.LazyFrame]],
+        skipped: Sequence[RecordingError] = (),
     ):
         self.comparison = comparison
         self.folder = folder
         self._frames = frames
+        self.skipped = tuple(skipped)
+        """The recordings of several that could not be read at all, each with why."""
 
     @property
     def sessions(self) -> list[str]:
@@ -90,13 +94,23 @@ def build_dataset(
     ``on_session`` is called with each session (e.g. to write its report); ``verdicts``
     checks a recording's expectations (``analysis`` cannot load scenarios itself). Without
     ``folder`` only the metric tables are kept (in memory); with it, the topic
-    tables are also written and scannable.
+    tables are also written and scannable. Of several recordings, one that cannot be read
+    at all (nothing recoverable, another format version) is left out and listed in
+    ``Dataset.skipped``; one alone, or every one, raises its ``RecordingError``.
     """
     rows: list[pl.DataFrame] = []
     frames: dict[str, list[pl.LazyFrame]] = {}
     seen: set[str] = set()
-    for path in recordings(paths):
-        data = load_session(path, stream=True)
+    skipped: list[RecordingError] = []
+    files = recordings(paths)
+    for path in files:
+        try:
+            data = load_session(path, stream=True)
+        except RecordingError as error:
+            if len(files) == 1 or len(skipped) + 1 == len(files):
+                raise
+            skipped.append(error)
+            continue
         data.session_id = session_run_name(data)
         if data.session_id in seen:
             data.session_id = f"{data.session_id}@{path.stem}"
@@ -123,4 +137,4 @@ def build_dataset(
         rows.append(metrics.summary.with_columns(pl.lit(str(path)).alias("path")))
         del data, metrics, tables
     comparison = pl.concat(rows, how="diagonal_relaxed") if rows else pl.DataFrame()
-    return Dataset(comparison=comparison, folder=folder, frames=frames)
+    return Dataset(comparison=comparison, folder=folder, frames=frames, skipped=skipped)

@@ -57,10 +57,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output(args.out, folder=True)
-    print_analysis(analyse(args.paths, out=args.out, verdicts=recorded_verdicts))
+    analysis = analyse(args.paths, out=args.out, verdicts=recorded_verdicts)
+    print_analysis(analysis)
     if args.out is not None:
         print(f"report: {args.out / 'index.html'}")
-    return 0
+    return 1 if analysis.skipped else 0
 
 
 def print_analysis(analysis: Analysis) -> None:
@@ -71,6 +72,8 @@ def print_analysis(analysis: Analysis) -> None:
         print_session(metrics)
     for warning in analysis.warnings:
         print(f"warning: {warning}", file=sys.stderr)
+    for skipped in analysis.skipped:
+        print(f"error: left out {skipped}", file=sys.stderr)
     if analysis.session is None:
         with console.table_config():
             print(analysis.comparison.select(COMPARISON_COLUMNS))

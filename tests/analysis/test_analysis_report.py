@@ -109,3 +109,20 @@ def test_cli_warns_about_a_truncated_file(too_close_mcap: Path, tmp_path: Path, 
 def test_cli_names_a_missing_path(tmp_path: Path, capsys) -> None:
     assert main(["analyse", str(tmp_path / "nothing.mcap")]) == 2
     assert "nothing.mcap: no such file or folder" in capsys.readouterr().err
+
+
+def test_a_folder_with_an_unreadable_recording_is_analysed_without_it_and_exits_1(
+    walk_mcap: Path, too_close_mcap: Path, tmp_path: Path, capsys
+) -> None:
+    """One bad file (nothing recoverable, an older format) must not stop a folder's analysis."""
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    for source in (walk_mcap, too_close_mcap):
+        (folder / source.name).write_bytes(source.read_bytes())
+    (folder / "broken.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\0" * 64)
+    assert main(["analyse", str(folder), "--out", str(tmp_path / "report")]) == 1
+    captured = capsys.readouterr()
+    assert f"error: left out {folder / 'broken.mcap'}: " in captured.err
+    assert "walk_at_robot-s0" in captured.out and "child_too_close-s3" in captured.out
+    assert pl.read_csv(tmp_path / "report" / "comparison.csv").height == 2
+    assert main(["analyse", str(folder / "broken.mcap")]) == 2, "alone, it is an error"
