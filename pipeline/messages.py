@@ -21,6 +21,10 @@ import msgspec
 FORMAT_VERSION: Final = 3
 """Version of the recorded message layout; bumped on any incompatible change."""
 
+READ_FORMAT_VERSIONS: Final = (2, 3)
+"""The versions a recording may have to be read (2 wrote a ``/map`` delta's changed rows
+whole, which read as changes of every field); replays need ``FORMAT_VERSION``."""
+
 REGISTER_CAPACITY: Final = 16
 """Default capacity of an appendable (circular) register in the map."""
 

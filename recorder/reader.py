@@ -22,7 +22,7 @@ from mcap.reader import SeekingReader
 from mcap.records import AttachmentIndex
 from oimi.pipeline.events import TOPIC_TYPES, Event, MapDelta, Topic
 from oimi.pipeline.mapdeltas import apply_delta
-from oimi.pipeline.messages import FORMAT_VERSION, WorldMap
+from oimi.pipeline.messages import READ_FORMAT_VERSIONS, WorldMap
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.scan import ChunkScan, Damage, RecoveryReport, attachment
@@ -345,9 +345,10 @@ def _check_version(recording: Recording) -> None:
             f" {FORMAT_VERSION_KEY!r}",
             source=recording.path,
         )
-    if version != str(FORMAT_VERSION):
+    if version not in [str(v) for v in READ_FORMAT_VERSIONS]:
+        readable = ", ".join(map(str, READ_FORMAT_VERSIONS))
         raise RecordingError(
-            f"recorded with format version {version}, but this oimi reads format version"
-            f" {FORMAT_VERSION}",
+            f"recorded with format version {version}, but this oimi reads format versions"
+            f" {readable}",
             source=recording.path,
         )

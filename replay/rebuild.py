@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Final, Protocol, TypeVar
 
 import msgspec
 from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import FORMAT_VERSION
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
 from oimi.recorder.reader import Recording
@@ -69,6 +70,14 @@ def rebuilt_pipeline(recording: Recording) -> contextlib.AbstractContextManager[
 def _rebuilt(recording: Recording, build: Callable[..., R]) -> Iterator[R]:
     """``build(loaded, seed=, overrides=)`` of the recording's attached scenario."""
     where = recording.path
+    version = recording.meta.oimi.format_version
+    if version != str(FORMAT_VERSION):
+        raise RecordingError(
+            f"recorded with format version {version}: a replay compares every message with"
+            f" what this oimi writes (format version {FORMAT_VERSION}); record the scenario"
+            " again to replay it (oimi analyse, view and info still read this one)",
+            source=where,
+        )
     scenario_meta = recording.meta.scenario
     if scenario_meta is None or scenario_meta.file is None or scenario_meta.seed is None:
         raise RecordingError(

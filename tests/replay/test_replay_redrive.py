@@ -300,11 +300,40 @@ def test_a_recording_of_another_format_version_is_refused_naming_both_versions(
     )
     assert main(["replay", str(old)]) == 2
     err = capsys.readouterr().err
-    assert (
-        f"recorded with format version 0, but this oimi reads format version {FORMAT_VERSION}"
-        in err
-    )
+    assert "recorded with format version 0, but this oimi reads format versions 2, 3" in err
     assert "Traceback" not in err
+
+
+def test_a_format_2_recording_is_read_with_its_maps_but_not_replayed(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Format 2 wrote a /map delta's changed rows whole: the same maps, read as changes."""
+    maps = [m.map for m in open_recording(recording).maps()]
+    index = iter(range(len(maps)))
+
+    def whole_rows(topic: str, at: int, data: bytes) -> bytes:
+        if topic != "/map":
+            return data
+        event, world = msgspec.json.decode(data), maps[next(index)]
+        for table in ("cameras", "sonars", "humans", "obstacles", "objects"):
+            ids = [row["id"] for row in event.get(table, [])]
+            rows = {row.id: row for row in getattr(world, table)}
+            if ids:
+                event[table] = [msgspec.to_builtins(rows[i]) for i in ids]
+        return msgspec.json.encode(event)
+
+    old = tmp_path / "format2.mcap"
+    rewrite(
+        recording,
+        old,
+        message=whole_rows,
+        metadata=lambda name, data: {**data, "format_version": "2"} if name == "oimi" else data,
+    )
+    assert [m.map for m in open_recording(old).maps()] == maps
+    assert main(["replay", str(old)]) == 2
+    err = capsys.readouterr().err
+    assert "recorded with format version 2: a replay compares every message" in err
+    assert f"(format version {FORMAT_VERSION}); record the scenario again" in err
 
 
 def test_a_recording_without_its_scenario_attachment_is_refused(
