@@ -316,13 +316,14 @@ def _class_step(node: ClassClause, criteria: tuple[Callable[[Run, Bound], bool],
         return True
 
     def step(run: Run) -> int:
-        ref = run.alias_ref(alias)
+        own = run.alias_store(scope)  # a binding of this name in another scope is not ours
+        ref = own.get(alias)
         if ref is not None:
             entity = find_entity(run.world_map, ref) if ref.startswith(cls + "/") else None
             if entity is not None and meets(run, entity):
                 run.bindings[alias] = ref
                 return GO
-            run.unbind_alias(alias)
+            run.unbind_alias(alias, scope)
         taken = run.taken(alias)
         best: Bound | None = None
         for entity in entities_of(run.world_map, cls):
@@ -336,7 +337,7 @@ def _class_step(node: ClassClause, criteria: tuple[Callable[[Run, Bound], bool],
         if best is None:
             return FAIL
         ref = entity_ref(cls, best)
-        run.alias_store(scope)[alias] = ref
+        own[alias] = ref
         run.bindings[alias] = ref
         return GO
 

@@ -114,7 +114,8 @@ class Run:
         return None
 
     def alias_ref(self, alias: str) -> str | None:
-        return self.lookup(alias, (self.local, self.tick, self.world_map.aliases))
+        """The entity ``alias`` names: as this evaluation bound it, else as scope L, T, U do."""
+        return self.lookup(alias, (self.bindings, self.local, self.tick, self.world_map.aliases))
 
     def entity(self, alias: str) -> Bound | None:
         ref = self.alias_ref(alias)
@@ -133,8 +134,10 @@ class Run:
             return MISSING
         return attributes[att]
 
-    def unbind_alias(self, alias: str) -> None:
-        for store in (self.local, self.tick, self.world_map.aliases, self.world_map.variables):
+    def unbind_alias(self, alias: str, scope: Scope) -> None:
+        """Release ``alias`` and the attributes bound to it in ``scope`` (the thesis's scopes
+        are separate: a rule's L alias never releases another rule's U alias of that name)."""
+        for store in (self.alias_store(scope), self.store(scope)):
             for key in [k for k in store if k == alias or k.startswith(alias + "$")]:
                 del store[key]
 

@@ -196,6 +196,34 @@ def test_binding_is_rechosen_when_its_entity_left_the_map():
     assert world.aliases == {}
 
 
+def test_a_scope_l_clause_never_releases_another_rules_u_alias_of_the_same_name():
+    """Thesis 4.3: a U alias lasts "until the current Script remains in execution or a Rule
+    removes it"; an L alias only "until the Rule ... has passed the map". The idle activity's
+    kick_starter (L ?child, a child in front within 2 m) found child_left's U ?child (a child
+    far away) failing its criteria and released it on every pass."""
+    world = _map(_human("far", rho=4.0), _human("near", age_ms=5, rho=1.0, theta=0.1))
+    child_left = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
+    kick_starter = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
+    assert _eval(child_left, world).result is True
+    assert world.aliases == {"?child": "Human/far"}
+    assert _eval(kick_starter, world).bindings == {"?child": "Human/near"}
+    assert world.aliases == {"?child": "Human/far"}, "the U alias is child_left's"
+    assert _eval(child_left, world).bindings == {"?child": "Human/far"}
+    world.humans.pop()  # nobody in front: kick_starter fails, child_left's alias stays
+    assert _eval(kick_starter, world).result is False
+    assert world.aliases == {"?child": "Human/far"}
+
+
+def test_an_alias_bound_by_this_evaluation_wins_over_one_of_another_scope():
+    world, tick = _map(_human("a", rho=1.0), _human("b", age_ms=5, rho=5.0)), {}
+    world.aliases["?c"] = "Human/b"  # a U binding of another rule
+    result = _eval(
+        "{CLASS #Human T ?c ?THIS>&positionrho OP< 2} ! {E: near (?c, 2)}", world, tick=tick
+    )
+    assert result.result is True and tick == {"?c": "Human/a"}
+    assert world.aliases == {"?c": "Human/b"}
+
+
 def test_classes_read_their_own_lists():
     world = WorldMap(
         obstacles=[Obstacle(id="wall", creationtime=0, positionrho=0.3)],
