@@ -219,6 +219,8 @@ class Invalid(Exception):
         super().__init__(what)
         self.where = where
         self.what = what
+        self.others: tuple[Invalid, ...] = ()
+        """The scenario's other problems found with this one."""
 
     def message(self) -> str:
         """``field (unit): what is wrong``."""
@@ -305,8 +307,13 @@ def parse_scenario(
         _check_behaviours(scenario, toolkit)
         paths = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
     except Invalid as problem:
-        line, column = locator.locate(problem.where)
-        raise ScenarioError(problem.message(), source=name, line=line, column=column) from None
+        first, *others = (
+            ScenarioError(p.message(), source=name, line=line, column=column)
+            for p in (problem, *problem.others)
+            for line, column in [locator.locate(p.where)]
+        )
+        first.also = tuple(others)
+        raise first from None
     except ExtensionError as error:
         line, column = locator.locate(("extensions",))
         raise ScenarioError(error.message, source=name, line=line, column=column) from None
@@ -339,15 +346,23 @@ def _check_behaviours(scenario: Scenario, toolkit: Toolkit) -> None:
 
 def decode_scenario(document: Any) -> Scenario:
     """The one validation of a scenario (files and overrides): every number finite, then
-    the schema's types and ranges, then :func:`check_scenario`. Raises ``Invalid``."""
-    for where, value in _non_finite(document, ()):
-        raise Invalid(where, f"must be a finite number, got {value!r}")
-    try:
-        scenario = msgspec.convert(document, Scenario)
-    except msgspec.ValidationError as error:
-        raise _invalid(str(error), document) from None
-    for where, what in check_scenario(scenario):
-        raise Invalid(where, what)
+    the schema's types and ranges, then :func:`check_scenario`. Raises the first
+    ``Invalid`` with the others of its stage (every number that is not finite, or every
+    problem of the checks; the schema reports its first)."""
+    problems = [
+        Invalid(where, f"must be a finite number, got {value!r}")
+        for where, value in _non_finite(document, ())
+    ]
+    if not problems:
+        try:
+            scenario = msgspec.convert(document, Scenario)
+        except msgspec.ValidationError as error:
+            raise _invalid(str(error), document) from None
+        problems = [Invalid(where, what) for where, what in check_scenario(scenario)]
+    if problems:
+        first = problems[0]
+        first.others = tuple(problems[1:])
+        raise first
     return scenario
 
 

@@ -80,6 +80,38 @@ def test_check_reports_every_file_and_fails_if_any_failed(tmp_path, capsys):
     assert errors[1].startswith(f"{binary}:1:5: not a text script")
 
 
+TWO_PROBLEMS = """name = "two"
+duration_s = 2.0
+
+[world]
+width_m = 4.0
+height_m = 4.0
+
+[robot]
+x_m = 9.0
+
+[[humans]]
+id = "ada"
+x_m = 2.0
+y_m = 7.5
+"""
+
+
+def test_check_and_run_list_every_problem_of_a_scenario_each_placed(tmp_path, capsys):
+    """A designer fixes a scenario in one pass: not one problem per attempt."""
+    scenario = tmp_path / "two.toml"
+    scenario.write_text(TWO_PROBLEMS, encoding="utf-8")
+    expected = [
+        f"{scenario}:9:1: robot.x_m (m): the robot's start (9.0, 2.0) is outside the arena",
+        f"{scenario}:13:1: humans[0].x_m (m): human 'ada' starts outside the arena",
+    ]
+    assert main(["check", str(scenario)]) == 2
+    assert [line for line in capsys.readouterr().err.splitlines() if line in expected] == expected
+    assert main(["run", str(scenario), "-o", str(tmp_path / "two.mcap")]) == 2
+    assert capsys.readouterr().err.splitlines() == expected
+    assert not (tmp_path / "two.mcap").exists()
+
+
 def test_check_passes_good_files(capsys):
     files = [str(p) for p in sorted(ACTIVITIES.iterdir()) if p.suffix in (".txt", ".json")]
     assert main(["check", *files]) == 0
