@@ -51,6 +51,19 @@ def _safe_name(name: str, *, source: str) -> str:
     return path.name
 
 
+def check_replayable(recording: Recording) -> None:
+    """A replay compares every message with what this oimi writes: ``RecordingError`` for a
+    recording of an older format version (still read by analysis and the viewers)."""
+    version = recording.meta.oimi.format_version
+    if version != str(FORMAT_VERSION):
+        raise RecordingError(
+            f"recorded with format version {version}: a replay compares every message with"
+            f" what this oimi writes (format version {FORMAT_VERSION}); record the scenario"
+            " again to replay it (oimi analyse, view and info still read this one)",
+            source=recording.path,
+        )
+
+
 def rebuilt_session(recording: Recording) -> contextlib.AbstractContextManager[Session]:
     """A fresh ``Session`` of the recorded scenario with the recorded seed and scripts, its
     world included (rerun). The temporary folder lives as long as the context (scripts load
@@ -70,14 +83,6 @@ def rebuilt_pipeline(recording: Recording) -> contextlib.AbstractContextManager[
 def _rebuilt(recording: Recording, build: Callable[..., R]) -> Iterator[R]:
     """``build(loaded, seed=, overrides=)`` of the recording's attached scenario."""
     where = recording.path
-    version = recording.meta.oimi.format_version
-    if version != str(FORMAT_VERSION):
-        raise RecordingError(
-            f"recorded with format version {version}: a replay compares every message with"
-            f" what this oimi writes (format version {FORMAT_VERSION}); record the scenario"
-            " again to replay it (oimi analyse, view and info still read this one)",
-            source=where,
-        )
     scenario_meta = recording.meta.scenario
     if scenario_meta is None or scenario_meta.file is None or scenario_meta.seed is None:
         raise RecordingError(

@@ -16,7 +16,7 @@ from typing import Final
 from oimi.pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
 from oimi.recorder.reader import Recording, open_recording
 from oimi.replay.compare import Comparator, Comparison, compare_ticks
-from oimi.replay.rebuild import rebuild_notes, rebuilt_pipeline
+from oimi.replay.rebuild import check_replayable, rebuild_notes, rebuilt_pipeline
 
 REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
 """What the pipeline emits (every topic but the world's state)."""
@@ -35,6 +35,7 @@ def redrive(path: str | os.PathLike[str]) -> Comparison:
 
 def redrive_recording(recording: Recording) -> Comparison:
     """Redrive an opened recording."""
+    check_replayable(recording)
     with rebuilt_pipeline(recording) as built:
         notes = rebuild_notes(recording, built)
         comparator = Comparator(recording, compared=REDRIVE_TOPICS, ticks=recorded_ticks(recording))

@@ -14,7 +14,7 @@ import os
 from oimi.pipeline.events import Topic
 from oimi.recorder.reader import Recording, open_recording
 from oimi.replay.compare import Comparator, Comparison, compare_ticks
-from oimi.replay.rebuild import rebuild_notes, rebuilt_session
+from oimi.replay.rebuild import check_replayable, rebuild_notes, rebuilt_session
 
 
 def rerun(path: str | os.PathLike[str]) -> Comparison:
@@ -24,6 +24,7 @@ def rerun(path: str | os.PathLike[str]) -> Comparison:
 
 def rerun_recording(recording: Recording) -> Comparison:
     """Rerun an opened recording's scenario."""
+    check_replayable(recording)
     with rebuilt_session(recording) as session:
         notes = rebuild_notes(recording, session)
         comparator = Comparator(recording, compared=tuple(Topic))
