@@ -663,6 +663,16 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
                 ("expect", index, "at_most"),
                 f"{expectation.at_most} is less than at_least ({expectation.at_least})",
             )
+        if (
+            isinstance(expectation, RuleFired)
+            and expectation.after_s is not None
+            and expectation.by_s is not None
+            and expectation.by_s < expectation.after_s
+        ):
+            yield (
+                ("expect", index, "by_s"),
+                f"{expectation.by_s} is before after_s ({expectation.after_s})",
+            )
 
 
 def _check_ids(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:

@@ -425,6 +425,10 @@ class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
     """The rule instance's id."""
     at_least: Count = 1
     at_most: Count | None = None
+    after_s: NonNegative | None = None
+    """Count only the ticks from this time on; None: from the start."""
+    by_s: NonNegative | None = None
+    """Count only the ticks up to this time; None: to the end."""
 
 
 class MinDistance(ExpectSpec, tag="min_distance", kw_only=True):

@@ -61,6 +61,12 @@ class Tracker:
         self.max_speed_mps = 0.0
         self.left_arena_ms: int | None = None
         self.fired: Counter[str] = Counter()
+        self.fired_at: dict[str, list[int]] = {
+            e.rule: []
+            for e in scenario.expect
+            if isinstance(e, RuleFired) and (e.after_s is not None or e.by_s is not None)
+        }
+        """When each rule a windowed ``rule_fired`` names fired (ms; only those rules)."""
         self.goals_reached: dict[str, int] = {}
         self.activity_states: dict[str, list[tuple[int, str]]] = {}
         self.rejections: list[str] = []
@@ -78,7 +84,11 @@ class Tracker:
             return
         match message:
             case RuleDecisions():
-                self.fired.update(d.rule for d in message.decisions if d.fired)
+                fired = [d.rule for d in message.decisions if d.fired]
+                self.fired.update(fired)
+                for rule in fired:
+                    if (times := self.fired_at.get(rule)) is not None:
+                        times.append(message.time_ms)
             case ReaderProgress():
                 self._progress(message)
             case SafetyIntervention():
@@ -155,10 +165,21 @@ class Tracker:
                 ok = bool(done) and deadline is not None and done[0] <= deadline
                 seen = f"at {done[0] / 1000:.2f} s" if done else "never"
                 return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
-            case RuleFired():
+            case RuleFired() if e.after_s is None and e.by_s is None:
                 count = self.fired[e.rule]
                 ok, bound = _within(count, e.at_least, e.at_most)
                 return self._verdict(e, f"rule {e.rule} fired {bound} times", ok, f"fired {count}")
+            case RuleFired():
+                start, stop = _ms(e.after_s, 0), _ms(e.by_s, end_ms)
+                count = sum(
+                    start is not None and stop is not None and start <= at <= stop
+                    for at in self.fired_at[e.rule]
+                )
+                ok, bound = _within(count, e.at_least, e.at_most)
+                window = f"between {_s(start)} s and {_s(stop)} s"
+                return self._verdict(
+                    e, f"rule {e.rule} fired {bound} times {window}", ok, f"fired {count}"
+                )
             case SafetyIntervened():
                 count = sum(
                     (e.zone is None or e.zone in episode.zones)

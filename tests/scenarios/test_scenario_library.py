@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import msgspec
 import pytest
 from oimi.pipeline.events import ActuatorCommands, Topic
 from oimi.pipeline.messages import AudioCommand
@@ -13,6 +14,7 @@ from oimi.pipeline.operator.generators import GreetingGenerator
 from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.schema import RuleFired
 from oimi.scenarios.session.runner import RunResult, Session, library_scenarios
 
 LIBRARY = {path.stem: path for path in library_scenarios()}
@@ -153,6 +155,24 @@ def test_each_caress_plays_the_chime_once_and_the_push_none() -> None:
     ]
     assert len(chimes) == 2
     assert 6000 < chimes[0] < 8000 and 14000 < chimes[1] < 16000
+
+
+def test_rule_fired_counts_only_the_ticks_of_its_window() -> None:
+    """touch_reward fires for each caress (6 s, 14 s) and not for the push (10 s)."""
+    loaded = load_scenario(LIBRARY["caress_reward"])
+    windows = [
+        RuleFired(name="first caress", rule="touch_reward", after_s=6.0, by_s=9.0, at_least=10),
+        RuleFired(name="push", rule="touch_reward", after_s=9.0, by_s=13.9, at_least=0, at_most=0),
+        RuleFired(name="before", rule="touch_reward", by_s=5.9, at_least=1),
+    ]
+    scenario = msgspec.structs.replace(loaded.scenario, expect=windows)
+    verdicts = Session(msgspec.structs.replace(loaded, scenario=scenario)).run().verdicts
+    assert [(v.name, v.ok) for v in verdicts] == [
+        ("first caress", True),
+        ("push", True),
+        ("before", False),
+    ]
+    assert verdicts[2].detail == "fired 0"
 
 
 def test_greeting_auto_steps_reach_a_child_four_metres_away() -> None:

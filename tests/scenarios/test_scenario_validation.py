@@ -155,6 +155,12 @@ BAD = [
         6,
     ),
     (
+        "a window ending before it starts",
+        '[[expect]]\nkind = "rule_fired"\nrule = "r"\nafter_s = 5.0\nby_s = 2.0\n',
+        "expect[0].by_s (s): 2.0 is before after_s (5.0)",
+        6,
+    ),
+    (
         "NaN distance threshold",
         '[[expect]]\nkind = "min_distance"\nat_least_m = nan\n',
         "expect[0].at_least_m (m): must be a finite number, got nan",
