@@ -354,12 +354,17 @@ def _plain(value: float) -> str:
     return "0" if text == "-0" else text
 
 
+def _span(low: float, high: float) -> str:
+    """``0.1–0.4``; ``-0.03 to -0.02`` when a dash would run into a minus sign."""
+    return f"{_plain(low)}{' to ' if min(low, high) < 0 else '–'}{_plain(high)}"
+
+
 def group_cells(groups: pl.DataFrame) -> pl.DataFrame:
     """The groups as a person reads them: one cell per metric, ``mean ± spread (min–max)``."""
     keys = [c for c in groups.columns if c.startswith("param:")] or ["params"]
     cells = {
         metric: [
-            f"{readable(m, metric)} ± {_plain(sd)} ({_plain(lo)}–{_plain(hi)})"
+            f"{readable(m, metric)} ± {_plain(sd)} ({_span(lo, hi)})"
             if m is not None
             else "–"
             for m, sd, lo, hi in groups.select(

@@ -11,7 +11,7 @@ from oimi.analysis.dataset import build_dataset
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import session_metrics
 from oimi.analysis.plots import PLOTS, label_levels
-from oimi.analysis.report import human_duration, readable, write_session_report
+from oimi.analysis.report import group_cells, human_duration, readable, write_session_report
 
 from oimi.cli import main
 
@@ -43,6 +43,24 @@ def test_values_read_like_a_person_writes_them() -> None:
     assert readable(True) == "yes" and readable(False) == "no"
     assert readable(0.123456, "max_speed_mps") == "0.12 m/s"
     assert readable(None) == "–"
+
+
+def test_a_group_cell_never_runs_a_dash_into_a_minus_sign() -> None:
+    """'(-0.03--0.02)' read as a typo on the comparison page."""
+    groups = pl.DataFrame(
+        {
+            "scenario": ["a", "b"],
+            "param:robot.max_speed_mps": ["0.2", "0.3"],
+            "runs": [3, 3],
+            "seeds": ["1, 2, 3", "1, 2, 3"],
+            "min_surface_distance_m mean": [-0.025, 0.2],
+            "min_surface_distance_m spread": [0.005, 0.1],
+            "min_surface_distance_m min": [-0.03, 0.1],
+            "min_surface_distance_m max": [-0.02, 0.4],
+        }
+    )
+    cells = group_cells(groups)["min_surface_distance_m"].to_list()
+    assert cells == ["-0.03 m ± 0.01 (-0.03 to -0.02)", "0.2 m ± 0.1 (0.1–0.4)"]
 
 
 def test_goal_labels_close_in_time_go_to_separate_levels() -> None:
