@@ -364,9 +364,7 @@ def group_cells(groups: pl.DataFrame) -> pl.DataFrame:
     keys = [c for c in groups.columns if c.startswith("param:")] or ["params"]
     cells = {
         metric: [
-            f"{readable(m, metric)} ± {_plain(sd)} ({_span(lo, hi)})"
-            if m is not None
-            else "–"
+            f"{readable(m, metric)} ± {_plain(sd)} ({_span(lo, hi)})" if m is not None else "–"
             for m, sd, lo, hi in groups.select(
                 f"{metric} mean", f"{metric} spread", f"{metric} min", f"{metric} max"
             ).iter_rows()
