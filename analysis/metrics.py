@@ -10,6 +10,8 @@ loaded session; split by topic they would import each other's helpers.
 
 from __future__ import annotations
 
+import hashlib
+import re
 from typing import Final
 
 import msgspec
@@ -496,9 +498,16 @@ def session_run_name(data: SessionData) -> str:
     return run_name(stem or data.session_id, data.metadata.params, scenario.seed_number)
 
 
+MAX_PARAMS_CHARS: Final = 60
+"""Overrides longer than this (as ``key=value,...``) are named by a hash instead."""
+_TIDY: Final = re.compile(r"[A-Za-z0-9._=,+-]+")
+
+
 def run_name(scenario: str, params: str, seed: int | None) -> str:
     """The one name of a run everywhere (batch files, comparison rows, report pages):
-    ``STEM[-KEY=VALUE,...]-sSEED`` with the scenario file's stem, as ``oimi batch`` names its
-    recordings (``oimi.batch.spec.task_name``, which hashes untidy overrides)."""
+    ``STEM[-KEY=VALUE,...]-sSEED`` with the scenario file's stem and the overrides sorted by
+    key; overrides too long or untidy for a file name are ``p`` and a short stable hash."""
+    if params and (len(params) > MAX_PARAMS_CHARS or not _TIDY.fullmatch(params)):
+        params = "p" + hashlib.sha256(params.encode()).hexdigest()[:10]
     middle = f"-{params}" if params else ""
     return f"{scenario}{middle}-s{seed if seed is not None else 0}"

@@ -16,17 +16,17 @@ the same name, so reruns and ``--resume`` find their recordings.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Final
+from typing import Any
 
 import msgspec
 
+from oimi.analysis.metrics import run_name
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import (
     TomlLocator,
@@ -34,11 +34,6 @@ from oimi.scenarios.loader import (
     apply_overrides,
     load_scenario,
 )
-
-MAX_SLUG_CHARS: Final = 60
-"""Overrides longer than this (as ``key=value,...``) are named by a hash instead."""
-
-_TIDY: Final = re.compile(r"[A-Za-z0-9._=,+-]+")
 
 
 class SpecError(ScenarioError):
@@ -189,15 +184,10 @@ def seeds_for(default_seed: int, *, seeds: int | None, seed_range: range | None)
 
 
 def task_name(scenario: Path, overrides: Sequence[tuple[str, str]], seed: int) -> str:
-    """``greeting-robot.max_speed_mps=0.3-s2``; a hash replaces untidy or long overrides."""
-    parts = [scenario.stem]
-    if overrides:
-        slug = ",".join(f"{k}={v}" for k, v in overrides)
-        if not _TIDY.fullmatch(slug) or len(slug) > MAX_SLUG_CHARS:
-            slug = "p" + hashlib.sha256(slug.encode()).hexdigest()[:10]
-        parts.append(slug)
-    parts.append(f"s{seed}")
-    return "-".join(parts)
+    """``greeting-robot.max_speed_mps=0.3-s2`` (``analysis.metrics.run_name``: the name
+    ``oimi analyse`` gives the recording; a hash replaces untidy or long overrides)."""
+    params = ",".join(f"{k}={v}" for k, v in sorted(overrides))
+    return run_name(scenario.stem, params, seed)
 
 
 def scenario_files(entries: Iterable[str | Path], *, base: Path) -> list[Path]:

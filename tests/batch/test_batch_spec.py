@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 from batch_scenarios import write_scenario
+from oimi.analysis.metrics import run_name
+from oimi.recorder.metadata import RecordingMetadata
 from oimi.scenarios.errors import ScenarioError
 
 from oimi.batch.spec import (
@@ -67,6 +69,18 @@ def test_untidy_or_long_overrides_are_named_by_a_stable_hash() -> None:
     assert odd.startswith("a-p") and odd.endswith("-s1") and "/" not in odd
     long = task_name(Path("a.toml"), [(f"k{i}", "1") for i in range(20)], 1)
     assert len(long) < 30
+
+
+def test_a_runs_name_is_the_one_oimi_analyse_gives_its_recording() -> None:
+    """Batch files and analysis rows are joined by name: the hashed ones too."""
+    for combo in [
+        (("robot.max_speed_mps", "0.3"),),
+        (("name", '"a b/c"'),),
+        tuple((f"k{i:02}", "1") for i in range(20)),
+        (("z", "1"), ("a", "2")),
+    ]:
+        params = RecordingMetadata(variation=dict(combo)).params
+        assert task_name(Path("a.toml"), combo, 4) == run_name("a", params, 4)
 
 
 def test_a_bad_override_fails_before_anything_runs(tmp_path: Path) -> None:
