@@ -14,6 +14,7 @@ the next tick, drops every pending press, and the input says why
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Final
 
 import msgspec
@@ -61,6 +62,12 @@ class JoystickGuard:
         """Buttons (other than the lock) pressed since the last tick."""
         self._release: LockRelease | None = None
         """The lock was released since the last tick, and why."""
+        self._sources: list[Callable[[float], None]] = []
+
+    def poll(self, source: Callable[[float], None]) -> None:
+        """Call ``source(now_s)`` first in every :meth:`take`: pad states that arrive another
+        way than from a client (``/joy`` over DDS) count in the tick that takes them."""
+        self._sources.append(source)
 
     @property
     def latest(self) -> Pad:
@@ -85,6 +92,8 @@ class JoystickGuard:
 
     def take(self, *, now_s: float) -> Taken | None:
         """This tick's input (after the heartbeat check); None when nothing changed."""
+        for source in self._sources:
+            source(now_s)
         if released := self._lock.expire(now_s=now_s):
             self._let_go(released)
         release, self._release = self._release, None

@@ -17,7 +17,6 @@ bridge stops, it commands the robot to stand still.
 from __future__ import annotations
 
 import argparse
-import asyncio
 import contextlib
 from collections.abc import Callable, Iterable, Iterator
 from typing import Final
@@ -134,8 +133,15 @@ class BridgeSession(LiveSession):
         self.sink.add(ProgressPublisher(node, self.pipeline.map))
 
     def attach(self, guard: JoystickGuard) -> None:
-        """Hand the pad states received to the live server's joystick guard."""
+        """Hand the pad states received to the live server's joystick guard, as it takes a
+        tick's input (a ``Joy`` counts in the tick that takes it, as a client's pad does)."""
         self.guard = guard
+        guard.poll(self._receive_pads)
+
+    def _receive_pads(self, now_s: float) -> None:
+        for joy in take_all(self._joy):
+            if self.guard is not None:
+                self.guard.receive(JOY_OWNER, pad_of(joy), now_s=now_s)  # type: ignore[arg-type]
 
     def step(
         self,
@@ -149,11 +155,8 @@ class BridgeSession(LiveSession):
             self.remote_sensors.receive(update)  # type: ignore[arg-type]
         for odometry in take_all(self._odometry):
             self.body.odometry = odometry  # type: ignore[assignment]
-        pads = [pad_of(joy) for joy in take_all(self._joy)]  # type: ignore[arg-type]
-        if pads and self.guard is not None:
-            now_s = asyncio.get_running_loop().time()
-            for pad in pads:
-                self.guard.receive(JOY_OWNER, pad, now_s=now_s)
+        if self.guard is None:
+            take_all(self._joy)  # no live server to drive: pad states are dropped
         for why in self.remote_sensors.refused:
             self._note(why)
         self.remote_sensors.refused.clear()

@@ -106,3 +106,16 @@ def test_a_tick_never_drives_on_a_state_older_than_the_latest(stream):
         else:
             guard.receive("a", event, now_s=now)
             live = event.locked
+
+
+def test_a_polled_source_counts_in_the_tick_that_takes_it():
+    """/joy over DDS is polled when a tick takes its input: not one tick late."""
+    guard = JoystickGuard()
+    arriving: list[Pad] = []
+    guard.poll(lambda now_s: [guard.receive("ros2", p, now_s=now_s) for p in arriving])
+    arriving.append(DRIVE)
+    assert guard.take(now_s=0.02) == Taken(pad=DRIVE)
+    arriving[:] = [NEUTRAL]
+    assert guard.take(now_s=0.04) == Taken(pad=NEUTRAL, release=LockRelease.OPERATOR)
+    arriving.clear()
+    assert guard.take(now_s=0.06) is None
