@@ -431,12 +431,23 @@ class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
     """Count only the ticks up to this time; None: to the end."""
 
 
+class Between(enum.StrEnum):
+    """What a ``min_distance`` measures."""
+
+    CENTRES = "centres"
+    """Centre to centre (the bodies' radii included)."""
+    SURFACES = "surfaces"
+    """Surface to surface, as the run's summary and ``oimi analyse`` report it (0: touching)."""
+
+
 class MinDistance(ExpectSpec, tag="min_distance", kw_only=True):
-    """The robot is never closer than ``at_least_m`` (centre to centre) to the human(s)."""
+    """The robot is never closer than ``at_least_m`` to the human(s), centre to centre or
+    surface to surface (``between``)."""
 
     human: str | None = None
     """None: every human."""
     at_least_m: NonNegative
+    between: Between = Between.CENTRES
 
 
 class MaxSpeed(ExpectSpec, tag="max_speed", kw_only=True):

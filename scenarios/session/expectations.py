@@ -27,6 +27,7 @@ from oimi.pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
 from oimi.scenarios.schema import (
     ActivityCompleted,
     ActivityState,
+    Between,
     ClosingSpeedAtContact,
     Expectation,
     GoalReached,
@@ -196,14 +197,21 @@ class Tracker:
                 )
             case MinDistance():
                 humans = [e.human] if e.human else list(self.min_distance_m)
-                distances = [self.min_distance_m.get(h, math.inf) for h in humans]
+                closest_m = (
+                    self.proximity.closest_m
+                    if e.between is Between.SURFACES
+                    else self.min_distance_m
+                )
+                distances = [closest_m.get(h, math.inf) for h in humans]
                 nan = any(math.isnan(d) for d in distances)
                 closest = math.nan if nan else min(distances, default=math.inf)
                 measured = math.isfinite(closest) or not humans  # no humans: never closer
                 ok = measured and _finite(e.at_least_m) and closest >= e.at_least_m
                 who = e.human or "every human"
                 seen = f"closest {closest:.3f} m" if humans else "no humans in the room"
-                return self._verdict(e, f"distance to {who} >= {e.at_least_m} m", ok, seen)
+                surfaces = " (surface to surface)" if e.between is Between.SURFACES else ""
+                what = f"distance to {who} >= {e.at_least_m} m{surfaces}"
+                return self._verdict(e, what, ok, seen)
             case MaxSpeed():
                 ok = (
                     math.isfinite(self.max_speed_mps)

@@ -14,7 +14,7 @@ from oimi.pipeline.operator.generators import GreetingGenerator
 from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.schema import RuleFired
+from oimi.scenarios.schema import Between, MinDistance, RuleFired
 from oimi.scenarios.session.runner import RunResult, Session, library_scenarios
 
 LIBRARY = {path.stem: path for path in library_scenarios()}
@@ -173,6 +173,25 @@ def test_rule_fired_counts_only_the_ticks_of_its_window() -> None:
         ("before", False),
     ]
     assert verdicts[2].detail == "fired 0"
+
+
+def test_min_distance_measures_centres_or_surfaces_as_asked() -> None:
+    """The run's summary says 'closest (surface to surface)': an expectation can say so too."""
+    loaded = load_scenario(LIBRARY["child_too_close"])
+    both = [
+        MinDistance(name="centres", human="child", at_least_m=0.5),
+        MinDistance(name="surfaces", human="child", at_least_m=0.5, between=Between.SURFACES),
+    ]
+    scenario = msgspec.structs.replace(loaded.scenario, expect=both)
+    result = Session(msgspec.structs.replace(loaded, scenario=scenario)).run()
+    centres, surfaces = (float(v.detail.split()[1]) for v in result.verdicts)
+    radii = loaded.scenario.robot.radius_m + next(
+        h.radius_m for h in loaded.scenario.humans if h.id == "child"
+    )
+    assert surfaces == pytest.approx(centres - radii, abs=2e-3)
+    assert surfaces == pytest.approx(result.summary.min_surface_distance_m["child"], abs=1e-3)
+    assert [v.ok for v in result.verdicts] == [centres >= 0.5, surfaces >= 0.5]
+    assert result.verdicts[1].name == "surfaces"
 
 
 def test_greeting_auto_steps_reach_a_child_four_metres_away() -> None:
