@@ -104,7 +104,7 @@ def _run(argv: Sequence[str] | None) -> int:
         with jsonout.human_to_stderr(args):
             code = int(args.handler(args) or EXIT_OK)
     except LocatedError as error:
-        text = "\n".join(map(str, (error, *getattr(error, "also", ()))))  # every problem found
+        text = "\n".join(map(str, (error, *error.also)))
         print(text, file=sys.stderr)
         jsonout.finish(args, EXIT_BAD_INPUT, text)
         return EXIT_BAD_INPUT

@@ -19,6 +19,10 @@ def _cut(match: re.Match[str]) -> str:
 class LocatedError(Exception):
     """A user-input error with the place it was found (line and column count from 1)."""
 
+    also: tuple[LocatedError, ...] = ()
+    """Other problems of the same input found with this one, each placed (the command line
+    and ``oimi check`` list them all)."""
+
     def __init__(self, message: str, *, source: str = "<input>", line: int = 0, column: int = 0):
         message = _LONG_WORD.sub(_cut, message)
         super().__init__(message)

@@ -8,8 +8,7 @@ recorder writes at most one message per topic per tick.
 from __future__ import annotations
 
 import enum
-import typing
-from typing import Any, ClassVar, Final, Generic, TypeVar
+from typing import Any, ClassVar, Final, Generic, TypeVar, get_args, get_origin
 
 import msgspec
 from oimi.pipeline.messages import (
@@ -167,7 +166,9 @@ _ABSENT: Final = msgspec.Raw()
 _Reading = TypeVar("_Reading")
 
 
-class Appended(msgspec.Struct, Generic[_Reading], forbid_unknown_fields=True, kw_only=True):
+class Appended(
+    msgspec.Struct, Generic[_Reading], forbid_unknown_fields=True, kw_only=True, omit_defaults=True
+):
     """A register's change in a ``/map`` delta: the ``dropped`` oldest readings gone, then
     ``added`` appended (a circular register that took one reading: ``dropped`` 1, one added)."""
 
@@ -183,8 +184,8 @@ def _patch_of(row: type[State]) -> type[msgspec.Struct]:
         if field.name == "id":
             continue
         kind = field.type
-        if typing.get_origin(kind) is list:
-            kind = kind | Appended[typing.get_args(kind)[0]]  # type: ignore[index]
+        if get_origin(kind) is list:
+            kind = kind | Appended[get_args(kind)[0]]  # type: ignore[index]
         fields.append((field.name, kind | msgspec.UnsetType, msgspec.UNSET))
     return msgspec.defstruct(
         f"{row.__name__}Patch", fields, kw_only=True, forbid_unknown_fields=True

@@ -38,7 +38,6 @@ _DECODERS: Final[dict[str, msgspec.json.Decoder[Any]]] = {
 """Each section's and each table's row's decoder."""
 _PATCH_DECODERS: Final = {t: msgspec.json.Decoder(p) for t, p in ROW_PATCHES.items()}
 """Each table's row change's decoder."""
-_FIELDS: Final = {m.field: m.struct.__struct_fields__ for m in MAP_LISTS}
 _encode: Final = msgspec.json.Encoder().encode
 _UNSET: Final[Any] = object()
 
@@ -138,16 +137,13 @@ class MapDeltas:
         """Update a table's kept rows to ``live``: the rows that changed or appeared (their
         JSON), the ids gone, and whether a delta can say it (unique ids, kept rows in their
         old order, new ones at the end)."""
-        kept, names = self._ids[table], _FIELDS[table]
+        kept = self._ids[table]
         rows = []
         fresh: dict[str, Any] = {}
         for row in live:
             old = kept.get(row.id)
-            if old is None:
-                rows.append(msgspec.Raw(_encode(row)))
-                old = _copy(row)
-            elif old != row:
-                rows.append(msgspec.Raw(_encode(_patch(names, old, row))))
+            if old is None or old != row:
+                rows.append(msgspec.Raw(_encode(row if old is None else _patch(old, row))))
                 old = _copy(row)
             fresh[row.id] = old
         ids = [row.id for row in live]
@@ -159,21 +155,18 @@ class MapDeltas:
         return tuple(rows), gone, unique and expected == ids
 
 
-def _patch(names: tuple[str, ...], old: Any, new: Any) -> dict[str, Any]:
+def _patch(old: Any, new: Any) -> dict[str, Any]:
     """A row's change from ``old`` to ``new`` (same id): the fields that differ, a list
     that kept a run of its old items at its start as what it dropped and added."""
     patch: dict[str, Any] = {"id": new.id}
-    for name, before, after in zip(
-        names, msgspec.structs.astuple(old), msgspec.structs.astuple(new), strict=True
-    ):
+    olds, news = msgspec.structs.astuple(old), msgspec.structs.astuple(new)
+    for name, before, after in zip(new.__struct_fields__, olds, news, strict=True):
         if before == after:
             continue
         if type(after) is list and type(before) is list:
             dropped = _dropped(before, after)
             if dropped is not None:
-                kept = len(before) - dropped
-                change = {"dropped": dropped} if dropped else {}
-                after = change | {"added": after[kept:]}
+                after = Appended(dropped=dropped, added=after[len(before) - dropped :])
         patch[name] = after
     return patch
 

@@ -13,6 +13,7 @@ pressed into each other are slightly negative.
 
 from __future__ import annotations
 
+import bisect
 import enum
 import math
 from typing import Final
@@ -51,7 +52,7 @@ def surface_distance(robot: BodyState, human: BodyState) -> float:
     return centres - robot.radius_m - human.radius_m
 
 
-_INTIMATE_M, _PERSONAL_M, _SOCIAL_M = (high for _, _, high in ZONES_M[1:-1])
+_UPPER_BOUNDS_M: Final = tuple(high for _, _, high in ZONES_M[1:-1])
 """Where each zone after ``contact`` ends, but the last (which has none)."""
 
 
@@ -59,13 +60,7 @@ def zone_of(distance_m: float) -> str:
     """The :data:`ZONES_M` name of a surface distance (NaN counts as ``public``)."""
     if distance_m <= 0.0:
         return "contact"
-    if distance_m < _INTIMATE_M:
-        return "intimate"
-    if distance_m < _PERSONAL_M:
-        return "personal"
-    if distance_m < _SOCIAL_M:
-        return "social"
-    return "public"
+    return ZONE_NAMES[1 + bisect.bisect_right(_UPPER_BOUNDS_M, distance_m)]
 
 
 def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:

@@ -16,7 +16,6 @@ from oimi.pipeline.script import ParsedScript, ScriptError
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.rules import RuleRegistry
-from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.activities import check_script_file
@@ -102,10 +101,8 @@ def check_scenario_file(
     ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
     try:
         load_scenario(path, allow_outside=allow_outside, extensions=extensions)
-    except ScenarioError as error:
-        return [error, *error.also]
     except LocatedError as error:
-        return [error]
+        return [error, *error.also]
     except OSError as error:
         return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
     return []

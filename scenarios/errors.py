@@ -7,7 +7,3 @@ from oimi.pipeline.errors import LocatedError
 
 class ScenarioError(LocatedError):
     """A scenario file (or an override of it) that cannot be used, with where and why."""
-
-    also: tuple[ScenarioError, ...] = ()
-    """The file's other problems found with this one, each placed (``oimi check`` and the
-    command line list them all)."""

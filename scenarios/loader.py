@@ -307,13 +307,12 @@ def parse_scenario(
         _check_behaviours(scenario, toolkit)
         paths = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
     except Invalid as problem:
-        first, *others = (
-            ScenarioError(p.message(), source=name, line=line, column=column)
-            for p in (problem, *problem.others)
-            for line, column in [locator.locate(p.where)]
-        )
-        first.also = tuple(others)
-        raise first from None
+        errors = []
+        for each in (problem, *problem.others):
+            line, column = locator.locate(each.where)
+            errors.append(ScenarioError(each.message(), source=name, line=line, column=column))
+        errors[0].also = tuple(errors[1:])
+        raise errors[0] from None
     except ExtensionError as error:
         line, column = locator.locate(("extensions",))
         raise ScenarioError(error.message, source=name, line=line, column=column) from None

@@ -136,12 +136,12 @@ class BridgeSession(LiveSession):
         """Hand the pad states received to the live server's joystick guard, as it takes a
         tick's input (a ``Joy`` counts in the tick that takes it, as a client's pad does)."""
         self.guard = guard
-        guard.poll(self._receive_pads)
 
-    def _receive_pads(self, now_s: float) -> None:
-        for joy in take_all(self._joy):
-            if self.guard is not None:
-                self.guard.receive(JOY_OWNER, pad_of(joy), now_s=now_s)  # type: ignore[arg-type]
+        def receive(now_s: float) -> None:
+            for joy in take_all(self._joy):
+                guard.receive(JOY_OWNER, pad_of(joy), now_s=now_s)  # type: ignore[arg-type]
+
+        guard.poll(receive)
 
     def step(
         self,

@@ -111,7 +111,7 @@ class Tracker:
         for human in state.humans:
             distance = hypot(human.x_m - x, human.y_m - y)
             closest = min_distance_m.get(human.id, math.inf)
-            if not distance >= closest and closest == closest:  # a smaller one, or a first NaN
+            if not distance >= closest and not math.isnan(closest):
                 min_distance_m[human.id] = distance
         self.contacts += len(state.contacts)
         world = self.scenario.world
