@@ -2,15 +2,16 @@
 
 The Structs mirror ``recorder/foxglove_schemas/*.json``: every field a schema
 requires is present (empty lists where we draw nothing), enums are integers and
-times are ``{"sec", "nsec"}``. Everything is drawn in the ``world`` frame, z up,
-the arena's lower-left corner at the origin.
+times are ``{"sec", "nsec"}``. The ``world`` frame is the arena, z up, its lower-left
+corner at the origin; the arena is drawn in it, and each body in its own frame
+(``robot``, ``human/<id>``, ``object/<id>``), which ``/foxglove/tf`` moves.
 """
 
 from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import Final
 
 import msgspec
@@ -20,6 +21,9 @@ from oimi.recorder.topics import FoxgloveTopic
 
 WORLD_FRAME: Final = "world"
 ROBOT_FRAME: Final = "robot"
+HUMAN_FRAME: Final = "human/{}"
+"""A person's frame (and the id of the entity drawn in it), by the person's id."""
+OBJECT_FRAME: Final = "object/{}"
 WALL_THICKNESS_M: Final = 0.05
 WALL_HEIGHT_M: Final = 0.4
 OBSTACLE_HEIGHT_M: Final = 0.5
@@ -214,9 +218,10 @@ def stamp(time_ns: int) -> Time:
 
 
 def yaw(theta_rad: float) -> Quaternion:
-    """The rotation by ``theta_rad`` about z."""
+    """The rotation by ``theta_rad`` about z (its components rounded to 6 decimals, as the
+    world state's numbers are: a drawing needs no more, and the file stays smaller)."""
     half = theta_rad / 2.0
-    return Quaternion(z=math.sin(half), w=math.cos(half))
+    return Quaternion(z=round(math.sin(half), 6), w=round(math.cos(half), 6))
 
 
 def led_color(led: tuple[float, float, float]) -> Color:
@@ -271,19 +276,38 @@ def _obstacle(obstacle: ObstacleGeometry, t: Time) -> SceneEntity:
     return SceneEntity(timestamp=t, id=f"obstacle/{obstacle.id}", metadata=metadata, cubes=(cube,))
 
 
+def _bodies(state: WorldState) -> Iterator[tuple[str, BodyState]]:
+    """Each body of a world state with its frame, in drawing order."""
+    yield ROBOT_FRAME, state.robot
+    for human in state.humans:
+        yield HUMAN_FRAME.format(human.id), human
+    for thing in state.objects:
+        yield OBJECT_FRAME.format(thing.id), thing
+
+
 def dynamic_entity_ids(state: WorldState) -> tuple[str, ...]:
-    """The ids :func:`dynamic_scene` draws for a world state, in drawing order."""
+    """The ids :func:`dynamic_scene` draws for a world state, in drawing order (each
+    entity is named for the frame it is drawn in)."""
+    return tuple(frame for frame, _ in _bodies(state))
+
+
+def look(state: WorldState) -> tuple[object, ...]:
+    """What :func:`dynamic_scene` draws of a world state apart from where the bodies are:
+    the scene is sent again only when this changes."""
     return (
-        "robot",
-        *(f"human/{h.id}" for h in state.humans),
-        *(f"object/{o.id}" for o in state.objects),
+        state.led,
+        state.audio,
+        state.robot.radius_m,
+        tuple((h.id, h.kind, h.radius_m) for h in state.humans),
+        tuple((o.id, o.radius_m) for o in state.objects),
     )
 
 
 def dynamic_scene(
     state: WorldState, time_ns: int, *, previous_ids: Iterable[str] = ()
 ) -> SceneUpdate:
-    """The robot, humans and objects now; deletes the entities of ``previous_ids`` now gone."""
+    """The robot, humans and objects, each drawn in its own frame (``frame_locked``: it
+    moves with :func:`body_transforms`); deletes the entities of ``previous_ids`` now gone."""
     t = stamp(time_ns)
     entities = [_robot(state, t)]
     entities.extend(_human(h, t) for h in state.humans)
@@ -299,36 +323,33 @@ def _radius(body: BodyState) -> float:
     return body.radius_m if body.radius_m > 0 else DEFAULT_RADIUS_M
 
 
+def _at(z: float) -> Pose:
+    """A pose ``z`` above the origin of the entity's frame."""
+    return Pose(position=Vector3(x=0.0, y=0.0, z=z))
+
+
 def _robot(state: WorldState, t: Time) -> SceneEntity:
     """The body (a light cylinder), its two LED strips in the LED colour, its heading and
     name; the cylinders are the body first, then the strips from the bottom up."""
-    body = state.robot
-    r = _radius(body)
+    r = _radius(state.robot)
     shell = CylinderPrimitive(
-        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M / 2)),
+        pose=_at(ROBOT_HEIGHT_M / 2),
         size=Vector3(x=2 * r, y=2 * r, z=ROBOT_HEIGHT_M),
         color=ROBOT_BODY_COLOR,
     )
     led = led_color(state.led)
     d = 2 * r * LED_STRIP_OUTSET
     strips = tuple(
-        CylinderPrimitive(
-            pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=z)),
-            size=Vector3(x=d, y=d, z=LED_STRIP_THICKNESS_M),
-            color=led,
-        )
+        CylinderPrimitive(pose=_at(z), size=Vector3(x=d, y=d, z=LED_STRIP_THICKNESS_M), color=led)
         for z in LED_STRIP_HEIGHTS_M
     )
     label = TextPrimitive(
-        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M + 0.25)),
+        pose=_at(ROBOT_HEIGHT_M + 0.25),
         color=LABEL_COLOR,
         text=f"robot: {state.audio}" if state.audio else "robot",
     )
     arrow = ArrowPrimitive(
-        pose=Pose(
-            position=Vector3(x=body.x_m, y=body.y_m, z=ROBOT_HEIGHT_M + 0.05),
-            orientation=yaw(body.theta_rad),
-        ),
+        pose=_at(ROBOT_HEIGHT_M + 0.05),
         shaft_length=r,
         shaft_diameter=r / 5,
         head_length=r / 2,
@@ -338,7 +359,9 @@ def _robot(state: WorldState, t: Time) -> SceneEntity:
     metadata = (KeyValuePair(key="audio", value=state.audio),) if state.audio else ()
     return SceneEntity(
         timestamp=t,
-        id="robot",
+        frame_id=ROBOT_FRAME,
+        id=ROBOT_FRAME,
+        frame_locked=True,
         metadata=metadata,
         cylinders=(shell, *strips),
         arrows=(arrow,),
@@ -349,38 +372,50 @@ def _robot(state: WorldState, t: Time) -> SceneEntity:
 def _human(body: BodyState, t: Time) -> SceneEntity:
     r = _radius(body)
     cylinder = CylinderPrimitive(
-        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=HUMAN_HEIGHT_M / 2)),
+        pose=_at(HUMAN_HEIGHT_M / 2),
         size=Vector3(x=2 * r, y=2 * r, z=HUMAN_HEIGHT_M),
         color=ROLE_COLORS.get(body.kind, OTHER_HUMAN_COLOR),
     )
     label = TextPrimitive(
-        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=HUMAN_HEIGHT_M + 0.2)),
+        pose=_at(HUMAN_HEIGHT_M + 0.2),
         color=LABEL_COLOR,
         text=f"{body.id} ({body.kind})" if body.kind else body.id,
     )
-    return SceneEntity(timestamp=t, id=f"human/{body.id}", cylinders=(cylinder,), texts=(label,))
+    frame = HUMAN_FRAME.format(body.id)
+    return SceneEntity(
+        timestamp=t,
+        frame_id=frame,
+        id=frame,
+        frame_locked=True,
+        cylinders=(cylinder,),
+        texts=(label,),
+    )
 
 
 def _object(body: BodyState, t: Time) -> SceneEntity:
     r = _radius(body)
     sphere = SpherePrimitive(
-        pose=Pose(position=Vector3(x=body.x_m, y=body.y_m, z=r)),
-        size=Vector3(x=2 * r, y=2 * r, z=2 * r),
-        color=OBJECT_COLOR,
+        pose=_at(r), size=Vector3(x=2 * r, y=2 * r, z=2 * r), color=OBJECT_COLOR
     )
-    return SceneEntity(timestamp=t, id=f"object/{body.id}", spheres=(sphere,))
+    frame = OBJECT_FRAME.format(body.id)
+    return SceneEntity(timestamp=t, frame_id=frame, id=frame, frame_locked=True, spheres=(sphere,))
 
 
 class Views:
     """Foxglove's view messages for a session's events, as the MCAP sink and the live
-    server both send them: the arena (on its own topic) with the first world state, then
-    the robot, people and objects and the robot's transform every ``every_n_ticks`` ticks."""
+    server both send them: the arena (on its own topic) with the first world state; every
+    ``every_n_ticks`` ticks each body's transform; the robot, people and objects, drawn in
+    their frames, only when what they look like changes (each such message draws them all,
+    so the last one before any time is the whole scene: Foxglove after a seek)."""
 
     def __init__(self, scene: SceneGeometry | None, every_n_ticks: int) -> None:
         self.scene = scene
         self.every = every_n_ticks
         self._ids: tuple[str, ...] = ()
+        self._look: tuple[object, ...] | None = None
         self._static_sent = False
+        self.last_scene: SceneUpdate | None = None
+        """The last dynamic scene sent (a live server re-sends it to clients that join late)."""
 
     def world(self, state: WorldState, time_ns: int) -> list[tuple[FoxgloveTopic, _Fox]]:
         """The views due for this world state (none between thinned ticks)."""
@@ -391,25 +426,30 @@ class Views:
                 views.append((FoxgloveTopic.ARENA, static_scene(self.scene, time_ns)))
         elif state.tick % self.every:
             return views
-        update = dynamic_scene(state, time_ns, previous_ids=self._ids)
-        self._ids = dynamic_entity_ids(state)
-        views.append((FoxgloveTopic.SCENE, update))
-        views.append((FoxgloveTopic.TF, robot_transform(state, time_ns)))
+        views.append((FoxgloveTopic.TF, body_transforms(state, time_ns)))
+        now = look(state)
+        if now != self._look:
+            self._look = now
+            self.last_scene = dynamic_scene(state, time_ns, previous_ids=self._ids)
+            self._ids = dynamic_entity_ids(state)
+            views.append((FoxgloveTopic.SCENE, self.last_scene))
         return views
 
 
-def robot_transform(state: WorldState, time_ns: int) -> FrameTransforms:
-    """``world -> robot``: the robot's pose in the arena."""
-    body = state.robot
+def body_transforms(state: WorldState, time_ns: int) -> FrameTransforms:
+    """``world -> robot``, ``world -> human/<id>``, ``world -> object/<id>``: each body's
+    pose in the arena (its rotation rounded to the micro-unit, as the state's numbers are)."""
+    t = stamp(time_ns)
     return FrameTransforms(
-        transforms=(
+        transforms=tuple(
             FrameTransform(
-                timestamp=stamp(time_ns),
+                timestamp=t,
                 parent_frame_id=WORLD_FRAME,
-                child_frame_id=ROBOT_FRAME,
+                child_frame_id=frame,
                 translation=Vector3(x=body.x_m, y=body.y_m, z=0.0),
                 rotation=yaw(body.theta_rad),
-            ),
+            )
+            for frame, body in _bodies(state)
         )
     )
 

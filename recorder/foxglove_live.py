@@ -40,7 +40,8 @@ from oimi.recorder.topics import (
 DEFAULT_PORT: Final = 8765
 """Foxglove's usual WebSocket port."""
 STATIC_SCENE_EVERY_NS: Final = 1_000_000_000
-"""The arena is re-sent once a simulated second, so a client that joins late draws it."""
+"""The arena and the bodies' scene (sent when it changes) are re-sent once a simulated
+second, so that a client that joins late draws them."""
 
 
 LINGER_S: Final = 1.0
@@ -143,9 +144,13 @@ class FoxgloveLiveSink:
         if isinstance(message, WorldState):
             for view_topic, view in self._views.world(message, time_ns):
                 self._log(view_topic, time_ns, view)
-            if self._scene is not None and time_ns - self._static_at_ns >= STATIC_SCENE_EVERY_NS:
+            if time_ns - self._static_at_ns >= STATIC_SCENE_EVERY_NS:
                 self._static_at_ns = time_ns
-                self._log(FoxgloveTopic.ARENA, time_ns, foxglove.static_scene(self._scene, time_ns))
+                if self._scene is not None:
+                    arena = foxglove.static_scene(self._scene, time_ns)
+                    self._log(FoxgloveTopic.ARENA, time_ns, arena)
+                if self._views.last_scene is not None:
+                    self._log(FoxgloveTopic.SCENE, time_ns, self._views.last_scene)
         elif isinstance(message, LogEntries):
             for log in foxglove.log_messages(message, time_ns):
                 self._log(FoxgloveTopic.LOG, time_ns, log)

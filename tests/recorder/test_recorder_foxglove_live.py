@@ -20,7 +20,7 @@ from oimi.pipeline.events import Topic
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.foxglove_live import FoxgloveLiveSink, loopback_host
 from oimi.recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
-from recorder_synthetic import SCENE, session
+from recorder_synthetic import SCENE, TICK_NS, session, world_state
 
 ROOT = Path(__file__).resolve().parents[2]
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
@@ -105,6 +105,26 @@ def test_the_live_sink_advertises_the_mcaps_channels_and_streams_its_messages() 
         return [e["id"] for scene in scenes for e in scene["entities"]]
 
     assert "robot" in drawn("/foxglove/scene") and "arena" in drawn("/foxglove/arena")
+
+
+def test_a_client_that_joins_late_gets_the_arena_and_the_bodies_once_a_second() -> None:
+    """The scene is sent when its look changes; a live server sends it again, with the
+    arena, once a simulated second, or a client that joined since would draw no body."""
+    sink = FoxgloveLiveSink(port=0, scene=SCENE, every_n_ticks=5)
+    sent: list[tuple[str, int]] = []
+    sink._log = lambda topic, time_ns, message: sent.append((topic, time_ns))  # type: ignore[method-assign]
+    try:
+        for tick in range(0, 120, 2):  # the same look every fifth tick (LEDs off, a sound)
+            sink.record(Topic.WORLD_STATE, tick * TICK_NS, world_state(tick))
+    finally:
+        sink.close()
+
+    def times(topic: str) -> list[int]:
+        return [t // TICK_NS for name, t in sent if name == topic]
+
+    assert times("/foxglove/scene") == [0, 10, 50, 100]  # new look at 0 and 10, then resent
+    assert times("/foxglove/arena") == [0, 50, 100]
+    assert times("/foxglove/tf") == list(range(0, 120, 10))
 
 
 def test_the_server_refuses_a_non_loopback_address() -> None:

@@ -301,7 +301,7 @@ def _scene_updates(path: Path, topic: str = FoxgloveTopic.SCENE) -> list[tuple[i
     return [(m.log_time, json.loads(m.data)) for _, c, m in raw_messages(path) if c.topic == topic]
 
 
-def test_foxglove_draws_the_arena_once_on_its_topic_then_thins_dynamic_updates(
+def test_foxglove_draws_the_arena_once_moves_bodies_by_transforms_and_redraws_on_a_new_look(
     tmp_path: Path,
 ) -> None:
     path = tmp_path / "s.mcap"
@@ -313,17 +313,30 @@ def test_foxglove_draws_the_arena_once_on_its_topic_then_thins_dynamic_updates(
         "obstacle/table",
         "obstacle/pillar",
     ]
+    bodies = ["robot", "human/child1", "human/therapist1", "object/ball"]
+    tfs = _scene_updates(path, FoxgloveTopic.TF)
+    assert [t for t, _ in tfs] == [0, 2 * TICK_NS, 4 * TICK_NS]
+    for tick, (_, tf) in zip((0, 2, 4), tfs, strict=True):
+        assert [t["child_frame_id"] for t in tf["transforms"]] == bodies
+        assert {t["parent_frame_id"] for t in tf["transforms"]} == {"world"}
+        robot = tf["transforms"][0]
+        assert robot["translation"] == {"x": 1.0 + 0.01 * tick, "y": 2.0, "z": 0.0}
+        assert robot["rotation"] == msgspec.to_builtins(foxglove.yaw(0.1 * tick))
+    # the bodies are drawn when their look changes (the robot starts playing a sound at
+    # tick 2; its LEDs are off at every even tick), each in its own frame, which moves it
     updates = _scene_updates(path)
-    assert [t for t, _ in updates] == [0, 2 * TICK_NS, 4 * TICK_NS]
-    ids = [e["id"] for e in updates[0][1]["entities"]]
-    assert ids == ["robot", "human/child1", "human/therapist1", "object/ball"]
+    assert [t for t, _ in updates] == [0, 2 * TICK_NS]
+    for _, update in updates:
+        entities = update["entities"]
+        assert [(e["id"], e["frame_id"], e["frame_locked"]) for e in entities] == [
+            (body, body, True) for body in bodies
+        ]
+        assert {e["cylinders"][0]["pose"]["position"]["x"] for e in entities[:3]} == {0.0}
+    assert updates[1][1]["entities"][0]["texts"][0]["text"] == "robot: hello.wav"
     robot = updates[0][1]["entities"][0]
     body, *strips = robot["cylinders"]
     assert body["color"] == msgspec.to_builtins(foxglove.ROBOT_BODY_COLOR)
     assert [s["color"] for s in strips] == [msgspec.to_builtins(foxglove.LED_OFF_COLOR)] * 2
-    tfs = [json.loads(m.data) for _, c, m in raw_messages(path) if c.topic == FoxgloveTopic.TF]
-    assert len(tfs) == 3
-    assert tfs[0]["transforms"][0]["parent_frame_id"] == "world"
 
 
 def test_the_robot_is_drawn_with_a_fixed_body_and_led_strips_in_the_led_colour() -> None:
