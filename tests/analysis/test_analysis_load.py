@@ -27,6 +27,11 @@ from oimi.pipeline.messages import AudioCommand, LedCommand, MoveCommand, Source
 from oimi.pipeline.operator.commands import Reorder, Start
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
+
+LIBRARY = Path(__file__).resolve().parents[2] / "scenarios" / "library"
 
 
 def test_schema_follows_the_struct_and_leaves_out_free_keyed_dicts() -> None:
@@ -130,10 +135,12 @@ def test_the_map_asked_for_is_the_full_map_after_each_map_message(walk_mcap: Pat
     assert all(rhos), "every row holds every human, not only the ones a delta changed"
 
 
-def test_a_truncated_recording_is_loaded_up_to_the_damage_with_a_warning(
-    too_close_mcap: Path, tmp_path: Path
-) -> None:
-    whole = too_close_mcap.read_bytes()
+def test_a_truncated_recording_is_loaded_up_to_the_damage_with_a_warning(tmp_path: Path) -> None:
+    session = Session(load_scenario(LIBRARY / "child_too_close.toml"))
+    whole_file = tmp_path / "whole.mcap"
+    with recorded(session, mcap=whole_file, rrd=None, chunk_size_bytes=64 * 1024):
+        session.run()  # in chunks of 64 KiB: the cut below falls after some of them
+    whole = whole_file.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(whole[: len(whole) * 6 // 10])
     with pytest.warns(
