@@ -107,7 +107,8 @@ class _Open(msgspec.Struct, kw_only=True):
 
 
 class ProximityTracker:
-    """Per human: closest surface distance, time in each zone, and contact episodes.
+    """Per human: closest surface (and centre) distance, time in each zone, and contact
+    episodes.
 
     Feed it every ``WorldState`` in order (:meth:`update`), then :meth:`finish`;
     memory is one entry per human plus the episodes found.
@@ -117,6 +118,9 @@ class ProximityTracker:
         self.tick_ms = tick_ms
         self.kinds: dict[str, str] = {}
         self.closest_m: dict[str, float] = {}
+        self.closest_centres_m: dict[str, float] = {}
+        """Closest centre-to-centre distance; unlike ``closest_m``, a NaN position sticks
+        (an expectation on it must fail, not skip the tick)."""
         self.closest_at_ms: dict[str, int] = {}
         self.zone_ms: dict[str, dict[str, int]] = {}
         self.episodes: list[ContactEpisode] = []
@@ -129,6 +133,13 @@ class ProximityTracker:
         robot, now = state.robot, state.time_ms
         self._last_ms = now
         kinds, closest_m, zone_ms, tick_ms = self.kinds, self.closest_m, self.zone_ms, self.tick_ms
+        centres_m, x, y, hypot, isnan = (
+            self.closest_centres_m,
+            robot.x_m,
+            robot.y_m,
+            math.hypot,
+            math.isnan,
+        )
         contacts, open_ = state.contacts, self._open
         for human in state.humans:
             who = human.id
@@ -136,7 +147,11 @@ class ProximityTracker:
             if zones is None:  # first seen
                 kinds[who] = human.kind
                 zones = zone_ms[who] = dict.fromkeys(ZONE_NAMES, 0)
-            distance = surface_distance(robot, human)
+                centres_m[who] = math.inf
+            centres = hypot(human.x_m - x, human.y_m - y)
+            if not centres >= (closest := centres_m[who]) and not isnan(closest):
+                centres_m[who] = centres
+            distance = centres - robot.radius_m - human.radius_m  # surface_distance's, inline
             if distance < closest_m.get(who, math.inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
             zones[zone_of(distance)] += tick_ms

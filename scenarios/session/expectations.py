@@ -58,7 +58,7 @@ class Tracker:
 
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
-        self.min_distance_m: dict[str, float] = {h.id: math.inf for h in scenario.humans}
+        self._never_seen: dict[str, float] = {h.id: math.inf for h in scenario.humans}
         self.max_speed_mps = 0.0
         self.left_arena_ms: int | None = None
         self.fired: Counter[str] = Counter()
@@ -101,18 +101,18 @@ class Tracker:
                     if e.level >= Level.WARNING and e.source in REJECTING_SOURCES
                 ]
 
+    @property
+    def min_distance_m(self) -> dict[str, float]:
+        """Per human, the closest centre-to-centre distance (inf for a scenario's human
+        never seen; NaN once a position was NaN)."""
+        return self._never_seen | self.proximity.closest_centres_m
+
     def _world(self, state: WorldState) -> None:
         self.proximity.update(state)
         robot = state.robot
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         if not speed <= self.max_speed_mps:  # a larger speed, or NaN (which sticks)
             self.max_speed_mps = speed if math.isfinite(self.max_speed_mps) else math.nan
-        min_distance_m, x, y, hypot = self.min_distance_m, robot.x_m, robot.y_m, math.hypot
-        for human in state.humans:
-            distance = hypot(human.x_m - x, human.y_m - y)
-            closest = min_distance_m.get(human.id, math.inf)
-            if not distance >= closest and not math.isnan(closest):
-                min_distance_m[human.id] = distance
         self.contacts += len(state.contacts)
         world = self.scenario.world
         inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
