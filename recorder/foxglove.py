@@ -10,8 +10,9 @@ corner at the origin; the arena is drawn in it, and each body in its own frame
 from __future__ import annotations
 
 import enum
+import functools
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import Final
 
 import msgspec
@@ -131,6 +132,10 @@ class SceneEntity(_Fox, kw_only=True):
     models: tuple[()] = ()
 
 
+_Drawing = Callable[[str, BodyState, Time], SceneEntity]
+"""How a person or an object is drawn: its frame, its state, the time."""
+
+
 class DeletionType(enum.IntEnum):
     MATCHING_ID = 0
     ALL = 1
@@ -220,6 +225,12 @@ def stamp(time_ns: int) -> Time:
 def yaw(theta_rad: float) -> Quaternion:
     """The rotation by ``theta_rad`` about z (its components rounded to 6 decimals, as the
     world state's numbers are: a drawing needs no more, and the file stays smaller)."""
+    return _yaw(theta_rad + 0.0)  # -0.0 as 0.0: the cache must not tell them apart
+
+
+@functools.lru_cache(maxsize=1024)
+def _yaw(theta_rad: float) -> Quaternion:
+    """:func:`yaw`, remembered: a body walking straight on keeps its heading."""
     half = theta_rad / 2.0
     return Quaternion(z=round(math.sin(half), 6), w=round(math.cos(half), 6))
 
@@ -276,19 +287,20 @@ def _obstacle(obstacle: ObstacleGeometry, t: Time) -> SceneEntity:
     return SceneEntity(timestamp=t, id=f"obstacle/{obstacle.id}", metadata=metadata, cubes=(cube,))
 
 
-def _bodies(state: WorldState) -> Iterator[tuple[str, BodyState]]:
-    """Each body of a world state with its frame, in drawing order."""
-    yield ROBOT_FRAME, state.robot
+def _bodies(state: WorldState) -> Iterator[tuple[str, BodyState, _Drawing | None]]:
+    """Each body of a world state with its frame and how it is drawn (the robot, drawn
+    with the LEDs and the sound, by :func:`_robot`), in drawing order."""
+    yield ROBOT_FRAME, state.robot, None
     for human in state.humans:
-        yield HUMAN_FRAME.format(human.id), human
+        yield HUMAN_FRAME.format(human.id), human, _human
     for thing in state.objects:
-        yield OBJECT_FRAME.format(thing.id), thing
+        yield OBJECT_FRAME.format(thing.id), thing, _object
 
 
 def dynamic_entity_ids(state: WorldState) -> tuple[str, ...]:
     """The ids :func:`dynamic_scene` draws for a world state, in drawing order (each
     entity is named for the frame it is drawn in)."""
-    return tuple(frame for frame, _ in _bodies(state))
+    return tuple(frame for frame, _, _ in _bodies(state))
 
 
 def look(state: WorldState) -> tuple[object, ...]:
@@ -304,14 +316,25 @@ def look(state: WorldState) -> tuple[object, ...]:
 
 
 def dynamic_scene(
-    state: WorldState, time_ns: int, *, previous_ids: Iterable[str] = ()
+    state: WorldState,
+    time_ns: int,
+    *,
+    previous_ids: Iterable[str] = (),
+    drawn: dict[tuple[str, str, float], SceneEntity] | None = None,
 ) -> SceneUpdate:
     """The robot, humans and objects, each drawn in its own frame (``frame_locked``: it
-    moves with :func:`body_transforms`); deletes the entities of ``previous_ids`` now gone."""
+    moves with :func:`body_transforms`); deletes the entities of ``previous_ids`` now gone.
+    ``drawn`` keeps each person's and object's entity by its frame, kind and radius, to be
+    sent again as it was first drawn while those stay the same."""
     t = stamp(time_ns)
+    drawn = {} if drawn is None else drawn
     entities = [_robot(state, t)]
-    entities.extend(_human(h, t) for h in state.humans)
-    entities.extend(_object(o, t) for o in state.objects)
+    for frame, body, draw in _bodies(state):
+        if draw is not None:
+            key = (frame, body.kind, body.radius_m)
+            if (entity := drawn.get(key)) is None:
+                entity = drawn[key] = draw(frame, body, t)
+            entities.append(entity)
     current = set(dynamic_entity_ids(state))
     deletions = tuple(
         SceneEntityDeletion(timestamp=t, id=old) for old in previous_ids if old not in current
@@ -369,7 +392,7 @@ def _robot(state: WorldState, t: Time) -> SceneEntity:
     )
 
 
-def _human(body: BodyState, t: Time) -> SceneEntity:
+def _human(frame: str, body: BodyState, t: Time) -> SceneEntity:
     r = _radius(body)
     cylinder = CylinderPrimitive(
         pose=_at(HUMAN_HEIGHT_M / 2),
@@ -381,7 +404,6 @@ def _human(body: BodyState, t: Time) -> SceneEntity:
         color=LABEL_COLOR,
         text=f"{body.id} ({body.kind})" if body.kind else body.id,
     )
-    frame = HUMAN_FRAME.format(body.id)
     return SceneEntity(
         timestamp=t,
         frame_id=frame,
@@ -392,12 +414,11 @@ def _human(body: BodyState, t: Time) -> SceneEntity:
     )
 
 
-def _object(body: BodyState, t: Time) -> SceneEntity:
+def _object(frame: str, body: BodyState, t: Time) -> SceneEntity:
     r = _radius(body)
     sphere = SpherePrimitive(
         pose=_at(r), size=Vector3(x=2 * r, y=2 * r, z=2 * r), color=OBJECT_COLOR
     )
-    frame = OBJECT_FRAME.format(body.id)
     return SceneEntity(timestamp=t, frame_id=frame, id=frame, frame_locked=True, spheres=(sphere,))
 
 
@@ -413,6 +434,7 @@ class Views:
         self.every = every_n_ticks
         self._ids: tuple[str, ...] = ()
         self._look: tuple[object, ...] | None = None
+        self._drawn: dict[tuple[str, str, float], SceneEntity] = {}
         self._static_sent = False
         self.last_scene: SceneUpdate | None = None
         """The last dynamic scene sent (a live server re-sends it to clients that join late)."""
@@ -430,7 +452,9 @@ class Views:
         now = look(state)
         if now != self._look:
             self._look = now
-            self.last_scene = dynamic_scene(state, time_ns, previous_ids=self._ids)
+            self.last_scene = dynamic_scene(
+                state, time_ns, previous_ids=self._ids, drawn=self._drawn
+            )
             self._ids = dynamic_entity_ids(state)
             views.append((FoxgloveTopic.SCENE, self.last_scene))
         return views
@@ -449,7 +473,7 @@ def body_transforms(state: WorldState, time_ns: int) -> FrameTransforms:
                 translation=Vector3(x=body.x_m, y=body.y_m, z=0.0),
                 rotation=yaw(body.theta_rad),
             )
-            for frame, body in _bodies(state)
+            for frame, body, _ in _bodies(state)
         )
     )
 

@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 from mcap.records import Channel
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
-from oimi.pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic
+from oimi.pipeline.events import TOPIC_TYPES, Level, LogEntries, LogEntry, Topic, WorldState
 from oimi.pipeline.messages import FORMAT_VERSION
 from oimi.recorder import foxglove
 from oimi.recorder.errors import RecordingError
@@ -389,3 +389,26 @@ def test_the_packaged_foxglove_schemas_are_the_shared_ones_unchanged() -> None:
         pytest.skip("shared/ is not beside this checkout")
     for path in sorted(PACKAGED.glob("*.json")):
         assert path.read_bytes() == (SHARED / path.name).read_bytes(), path.name
+
+
+def test_a_new_look_redraws_the_robot_and_only_the_bodies_that_changed() -> None:
+    views = foxglove.Views(None, every_n_ticks=1)
+
+    def scene(state: WorldState) -> foxglove.SceneUpdate:
+        (update,) = [
+            v for t, v in views.world(state, state.tick * TICK_NS) if t == "/foxglove/scene"
+        ]
+        return update
+
+    first = scene(world_state(0))
+    lit = scene(world_state(1))  # the LEDs light up: a new look
+    assert lit.entities[0].timestamp != first.entities[0].timestamp
+    assert lit.entities[1:] == first.entities[1:], "the people and the ball, as first drawn"
+    grown = world_state(2)
+    child = msgspec.structs.replace(grown.humans[0], radius_m=0.3)
+    grown = msgspec.structs.replace(grown, humans=(child, *grown.humans[1:]))
+    redrawn = scene(grown)
+    assert redrawn.entities[1].cylinders[0].size.x == 0.6
+    assert redrawn.entities[2:] == first.entities[2:]
+    same = msgspec.structs.replace(grown, tick=3)
+    assert [topic for topic, _ in views.world(same, 3 * TICK_NS)] == ["/foxglove/tf"]
