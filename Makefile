@@ -8,7 +8,7 @@ DEMO   ?= scenarios/library/greeting.toml
 OUT    ?= out
 FUZZ   ?= 20
 
-.PHONY: env dev demo test fuzz lint golden bench clean
+.PHONY: env dev demo test fuzz lint golden bench clean accel
 
 env: $(STAMP)
 
@@ -19,7 +19,13 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -r requirements.lock
 	$(BIN)/python -m pip install -q --no-deps -e .
+	$(BIN)/python -m oimi.accel --optional
 	touch $(STAMP)
+
+# The hot modules compiled again for their current sources (only those that changed;
+# an edited module runs as Python until then). OIMI_PURE=1 runs everything as Python.
+accel: $(STAMP)
+	$(BIN)/python -m oimi.accel --optional
 
 # The tests' and tools' packages, on top of what oimi itself needs (make demo installs only that).
 $(DEV): $(STAMP) requirements-dev.lock
@@ -45,7 +51,7 @@ lint: $(DEV)
 golden: $(STAMP)
 	$(BIN)/python -m oimi.replay.golden --regenerate
 
-bench: $(STAMP)
+bench: accel
 	$(BIN)/python -m oimi bench --out docs/bench.json
 
 clean:

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from oimi import accel
+
+accel.install()  # the compiled hot modules, if built for their sources (OIMI_PURE=1: none)
+
 if TYPE_CHECKING:
     from oimi.api import (
         Extension,

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import msgspec
 
+from oimi import accel
 from oimi.bench.measure import Case
 
 
@@ -42,7 +43,11 @@ def write_results(
         "quick": quick,
         "ticks": ticks,
         "repetitions": repetitions,
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "compiled_modules": len(accel.ready()),
+        },
         "headline": {
             "case": "run + MCAP",
             "ticks_per_s": run.value if run else None,

@@ -1,0 +1,229 @@
+"""Compiled hot modules: the modules a session spends its time in, compiled unchanged with
+Cython, each loaded only while its source is exactly the source it was compiled from.
+
+``make env`` builds them (``python -m oimi.accel``) when Cython and a C compiler are
+there. A compiled module is kept under the environment (``sys.prefix/oimi-accel``, or
+``$OIMI_ACCEL_DIR``) in a file named for its source's SHA-256, and :class:`CompiledFinder`
+loads it only for that source: an edited module runs as Python until it is built again,
+never stale. ``OIMI_PURE=1`` runs everything as Python (a profiler then sees every
+function). The code is compiled without C types (``annotation_typing=False``): every
+operation keeps Python's semantics, so a session gives the same messages, bit for bit,
+compiled or not (the goldens are checked both ways).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import importlib
+import importlib.abc
+import importlib.machinery
+import importlib.util
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Final
+
+MODULES: Final = (
+    "oimi.pipeline.loop",
+    "oimi.pipeline.sink",
+    "oimi.pipeline.mapdeltas",
+    "oimi.pipeline.proximity",
+    "oimi.pipeline.act.actuator",
+    "oimi.pipeline.act.safety",
+    "oimi.pipeline.sense.producer",
+    "oimi.pipeline.sense.updates",
+    "oimi.pipeline.think.chain",
+    "oimi.pipeline.think.condition_compile",
+    "oimi.pipeline.think.condition_runtime",
+    "oimi.pipeline.think.mapparts",
+    "oimi.pipeline.think.rules",
+    "oimi.scenarios.simulation.bodies",
+    "oimi.scenarios.simulation.humans",
+    "oimi.scenarios.simulation.sensors",
+    "oimi.scenarios.simulation.world",
+    "oimi.scenarios.session.expectations",
+    "oimi.scenarios.session.runner",
+    "oimi.recorder.foxglove",
+    "oimi.recorder.mcap_sink",
+)
+"""The modules compiled: where a recorded session spends most of its time (profiled)."""
+PURE_ENV: Final = "OIMI_PURE"
+DIR_ENV: Final = "OIMI_ACCEL_DIR"
+DIRECTIVES: Final = {"annotation_typing": False, "binding": True, "language_level": 3}
+"""Untyped (Python objects throughout, Python's arithmetic), functions that introspect."""
+SUFFIX: Final = importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+def pure() -> bool:
+    """Whether ``OIMI_PURE`` asks for Python only."""
+    return os.environ.get(PURE_ENV, "") not in ("", "0")
+
+
+def accel_dir() -> Path:
+    """Where compiled modules are kept (per environment: they fit its interpreter)."""
+    return Path(os.environ.get(DIR_ENV) or Path(sys.prefix) / "oimi-accel")
+
+
+def compiled_path(name: str, source: Path, folder: Path) -> Path:
+    """The compiled module for ``name`` built from ``source`` exactly as it is now."""
+    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:24]
+    return folder / f"{name}.{digest}{SUFFIX}"
+
+
+def source_of(name: str, path: Sequence[str] | None = None) -> Path | None:
+    """The ``.py`` file ``name`` would be imported from (``path``: its package's path)."""
+    if path is None:
+        path = importlib.import_module(name.rpartition(".")[0]).__path__
+    spec = importlib.machinery.PathFinder.find_spec(name, path)
+    origin = spec.origin if spec is not None else None
+    return Path(origin) if origin and origin.endswith(".py") else None
+
+
+class CompiledFinder(importlib.abc.MetaPathFinder):
+    """Finds a compiled module for each of ``modules`` whose source it was built from."""
+
+    def __init__(self, folder: Path, modules: Iterable[str] = MODULES) -> None:
+        self.folder = folder
+        self.modules = frozenset(modules)
+        self.loaded: set[str] = set()
+        """The modules this finder loaded compiled."""
+
+    def find_spec(
+        self, fullname: str, path: Sequence[str] | None, target: object = None
+    ) -> importlib.machinery.ModuleSpec | None:
+        if fullname not in self.modules or path is None:
+            return None
+        source = source_of(fullname, path)
+        if source is None:
+            return None
+        compiled = compiled_path(fullname, source, self.folder)
+        if not compiled.is_file():
+            return None
+        self.loaded.add(fullname)
+        loader = importlib.machinery.ExtensionFileLoader(fullname, str(compiled))
+        return importlib.util.spec_from_file_location(fullname, compiled, loader=loader)
+
+
+def install() -> CompiledFinder | None:
+    """Put a :class:`CompiledFinder` first on ``sys.meta_path`` (once), unless pure."""
+    if pure():
+        return None
+    for finder in sys.meta_path:
+        if isinstance(finder, CompiledFinder):
+            return finder
+    folder = accel_dir()
+    if not folder.is_dir():
+        return None
+    finder = CompiledFinder(folder)
+    sys.meta_path.insert(0, finder)
+    return finder
+
+
+def compiled_modules() -> list[str]:
+    """The modules running compiled in this process."""
+    return [
+        m for m in MODULES if (getattr(sys.modules.get(m), "__file__", "") or "").endswith(SUFFIX)
+    ]
+
+
+def ready(folder: Path | None = None) -> list[str]:
+    """The modules that a new process would run compiled (none when pure)."""
+    if pure():
+        return []
+    folder = folder or accel_dir()
+    found = []
+    for name in MODULES:
+        source = source_of(name)
+        if source is not None and compiled_path(name, source, folder).is_file():
+            found.append(name)
+    return found
+
+
+def build(
+    folder: Path, modules: Iterable[str] = MODULES, *, say: Callable[[str], None] = print
+) -> list[str]:
+    """Compile each of ``modules`` whose current source has no compiled module in
+    ``folder`` yet; drop compiled modules of older sources. Returns the names compiled.
+    Needs Cython and a C compiler (``ImportError`` or ``CompileError`` otherwise)."""
+    from Cython.Build import cythonize
+    from setuptools import Distribution, Extension
+
+    folder.mkdir(parents=True, exist_ok=True)
+    wanted = {name: source_of(name) for name in modules}
+    todo = {}
+    for name, source in wanted.items():
+        if source is None:
+            raise FileNotFoundError(f"no Python source for {name}")
+        target = compiled_path(name, source, folder)
+        for old in folder.glob(f"{name}.*{SUFFIX}"):
+            if old != target:
+                old.unlink()
+        if not target.is_file():
+            todo[name] = (source, target)
+    if not todo:
+        return []
+    say(f"compiling {len(todo)} module(s) with Cython into {folder} (about 2 s each)")
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="oimi-accel-") as work:
+        extensions = [
+            Extension(name, [str(source)], extra_compile_args=["-w"])  # Cython's C: no advice
+            for name, (source, _) in todo.items()
+        ]
+        compiled = cythonize(
+            extensions,
+            compiler_directives=DIRECTIVES,
+            build_dir=work,
+            nthreads=os.cpu_count() or 1,
+            quiet=True,
+        )
+        dist = Distribution({"name": "oimi-accel", "ext_modules": compiled})
+        command = dist.get_command_obj("build_ext")
+        command.build_lib = str(Path(work) / "lib")
+        command.build_temp = str(Path(work) / "temp")
+        command.parallel = os.cpu_count() or 1
+        cwd = os.getcwd()
+        os.chdir(work)  # setuptools reads the current folder's configuration
+        try:
+            dist.run_command("build_ext")
+        finally:
+            os.chdir(cwd)
+        for name, (_, target) in todo.items():
+            built = Path(command.get_ext_fullpath(name))
+            built.replace(target)
+    say(f"compiled {len(todo)} module(s) in {time.monotonic() - started:.0f} s")
+    return list(todo)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m oimi.accel",
+        description="Compile oimi's hot modules with Cython (the same results, faster).",
+    )
+    parser.add_argument("--dir", type=Path, default=None, help="where to keep them")
+    parser.add_argument(
+        "--optional",
+        action="store_true",
+        help="without Cython or a C compiler, say so and exit 0 (oimi runs as Python)",
+    )
+    args = parser.parse_args(argv)
+    folder = args.dir or accel_dir()
+    try:
+        build(folder, say=lambda line: print(f"oimi.accel: {line}", file=sys.stderr))
+    except Exception as error:  # a failed build leaves pure Python, and says so
+        print(f"oimi.accel: not compiled ({type(error).__name__}: {error})", file=sys.stderr)
+        if args.optional:
+            print(
+                "oimi.accel: oimi runs as pure Python (the same results, slower)", file=sys.stderr
+            )
+            return 0
+        return 1
+    print(f"oimi.accel: {len(MODULES)} modules compiled in {folder}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,111 @@
+"""The compiled hot modules: loaded only for the source they were built from, the same
+results as Python (the goldens both ways), and really used where they were built."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.machinery
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from oimi import accel
+
+ROOT = Path(__file__).resolve().parents[2]
+REQUIRED = os.environ.get("OIMI_REQUIRE_ACCEL", "") not in ("", "0")
+"""CI sets it: a build that silently fell back to Python would not show as skipped tests."""
+
+
+def _package(tmp_path: Path, name: str, source: str) -> Path:
+    package = tmp_path / name
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    module = package / "tiny.py"
+    module.write_text(source)
+    return module
+
+
+def test_a_compiled_module_is_found_only_for_the_source_it_was_built_from(tmp_path: Path) -> None:
+    module = _package(tmp_path, "accel_probe", "def twice(x):\n    return 2 * x\n")
+    folder = tmp_path / "compiled"
+    folder.mkdir()
+    finder = accel.CompiledFinder(folder, modules=["accel_probe.tiny"])
+    path = [str(module.parent)]
+    assert finder.find_spec("accel_probe.tiny", path) is None, "nothing built yet"
+    built = accel.compiled_path("accel_probe.tiny", module, folder)
+    built.touch()
+    spec = finder.find_spec("accel_probe.tiny", path)
+    assert spec is not None and spec.origin == str(built)
+    assert isinstance(spec.loader, importlib.machinery.ExtensionFileLoader)
+    assert finder.find_spec("accel_probe.other", path) is None, "not one of its modules"
+    module.write_text("def twice(x):\n    return x + x\n")  # edited since it was built
+    assert finder.find_spec("accel_probe.tiny", path) is None, "an edited module runs as Python"
+
+
+def test_oimi_pure_installs_no_finder(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(accel.PURE_ENV, "1")
+    assert accel.install() is None
+    assert accel.ready() == []
+
+
+def _can_compile() -> bool:
+    try:
+        import Cython  # noqa: F401
+        import setuptools  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not (REQUIRED or _can_compile()), reason="Cython is not installed")
+def test_a_module_is_built_loaded_compiled_and_rebuilt_when_edited(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    module = _package(tmp_path, "accel_built", "def twice(x):\n    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    folder = tmp_path / "compiled"
+    name = "accel_built.tiny"
+    assert accel.build(folder, [name], say=lambda line: None) == [name]
+    assert accel.build(folder, [name], say=lambda line: None) == [], "up to date"
+    finder = accel.CompiledFinder(folder, modules=[name])
+    monkeypatch.setattr(sys, "meta_path", [finder, *sys.meta_path])
+    tiny = importlib.import_module(name)
+    assert tiny.__file__.endswith(accel.SUFFIX) and tiny.twice(21) == 42
+    module.write_text("def twice(x):\n    return x + x\n")
+    assert accel.build(folder, [name], say=lambda line: None) == [name]
+    assert len(list(folder.glob(f"{name}.*"))) == 1, "the older source's build is dropped"
+
+
+def test_python_alone_gives_the_goldens_too() -> None:
+    """The suite runs compiled where the modules were built; Python alone must give the
+    same recordings, byte for byte."""
+    done = subprocess.run(
+        [sys.executable, "-m", "oimi.replay.golden", "--check"],
+        cwd=ROOT,
+        env={**os.environ, accel.PURE_ENV: "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+@pytest.mark.skipif(not (REQUIRED or accel.ready()), reason="the hot modules are not compiled")
+def test_where_they_were_built_the_hot_modules_run_compiled() -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import oimi.scenarios.session.recording, oimi.scenarios.session.runner;"
+            "from oimi import accel; print(len(accel.compiled_modules()))",
+        ],
+        cwd=ROOT,
+        env={k: v for k, v in os.environ.items() if k != accel.PURE_ENV},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.stdout.split() == [str(len(accel.MODULES))], done.stderr
