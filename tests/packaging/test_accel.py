@@ -109,3 +109,17 @@ def test_where_they_were_built_the_hot_modules_run_compiled() -> None:
         timeout=120,
     )
     assert done.stdout.split() == [str(len(accel.MODULES))], done.stderr
+
+
+def test_without_cython_the_build_says_so_and_oimi_runs_as_python(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from oimi.accel.__main__ import main
+
+    monkeypatch.setitem(sys.modules, "Cython", None)  # import Cython raises ImportError
+    monkeypatch.setitem(sys.modules, "Cython.Build", None)
+    assert main(["--dir", str(tmp_path), "--optional"]) == 0  # make env goes on
+    said = capsys.readouterr().err
+    assert "not compiled (ModuleNotFoundError" in said and "runs as pure Python" in said
+    assert main(["--dir", str(tmp_path)]) == 1
+    assert list(tmp_path.iterdir()) == []
