@@ -22,6 +22,8 @@ import os
 import sys
 import tempfile
 import time
+import types
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Final
@@ -88,8 +90,6 @@ class CompiledFinder(importlib.abc.MetaPathFinder):
     def __init__(self, folder: Path, modules: Iterable[str] = MODULES) -> None:
         self.folder = folder
         self.modules = frozenset(modules)
-        self.loaded: set[str] = set()
-        """The modules this finder loaded compiled."""
 
     def find_spec(
         self, fullname: str, path: Sequence[str] | None, target: object = None
@@ -102,9 +102,38 @@ class CompiledFinder(importlib.abc.MetaPathFinder):
         compiled = compiled_path(fullname, source, self.folder)
         if not compiled.is_file():
             return None
-        self.loaded.add(fullname)
-        loader = importlib.machinery.ExtensionFileLoader(fullname, str(compiled))
+        loader = CompiledLoader(fullname, compiled, source)
         return importlib.util.spec_from_file_location(fullname, compiled, loader=loader)
+
+
+class CompiledLoader(importlib.machinery.ExtensionFileLoader):
+    """Loads a compiled module, or its source, with a warning, if the compiled file cannot
+    be loaded (damaged, built for another interpreter): oimi still starts."""
+
+    def __init__(self, name: str, compiled: Path, source: Path) -> None:
+        super().__init__(name, str(compiled))
+        self.source = source
+        self._instead: importlib.machinery.SourceFileLoader | None = None
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType | None:
+        try:
+            return super().create_module(spec)
+        except ImportError as error:
+            warnings.warn(
+                f"{self.path} not loaded ({error}); {self.name} runs as Python"
+                " (make accel builds it again)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            self._instead = importlib.machinery.SourceFileLoader(self.name, str(self.source))
+            spec.origin = str(self.source)  # the module's __file__
+            return None
+
+    def exec_module(self, module: types.ModuleType) -> None:
+        if self._instead is None:
+            super().exec_module(module)
+        else:
+            self._instead.exec_module(module)
 
 
 def install() -> CompiledFinder | None:

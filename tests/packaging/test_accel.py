@@ -28,6 +28,17 @@ def _package(tmp_path: Path, name: str, source: str) -> Path:
     return module
 
 
+def _importable(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str) -> Path:
+    """A package ``name`` with a module ``tiny`` on ``sys.path``; the module's file."""
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return _package(tmp_path, name, "def twice(x):\n    return 2 * x\n")
+
+
+def _finding_first(monkeypatch: pytest.MonkeyPatch, folder: Path, name: str) -> None:
+    finder = accel.CompiledFinder(folder, modules=[name])
+    monkeypatch.setattr(sys, "meta_path", [finder, *sys.meta_path])
+
+
 def test_a_compiled_module_is_found_only_for_the_source_it_was_built_from(tmp_path: Path) -> None:
     module = _package(tmp_path, "accel_probe", "def twice(x):\n    return 2 * x\n")
     folder = tmp_path / "compiled"
@@ -64,14 +75,12 @@ def _can_compile() -> bool:
 def test_a_module_is_built_loaded_compiled_and_rebuilt_when_edited(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    module = _package(tmp_path, "accel_built", "def twice(x):\n    return 2 * x\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
+    module = _importable(tmp_path, monkeypatch, "accel_built")
     folder = tmp_path / "compiled"
     name = "accel_built.tiny"
     assert accel.build(folder, [name], say=lambda line: None) == [name]
     assert accel.build(folder, [name], say=lambda line: None) == [], "up to date"
-    finder = accel.CompiledFinder(folder, modules=[name])
-    monkeypatch.setattr(sys, "meta_path", [finder, *sys.meta_path])
+    _finding_first(monkeypatch, folder, name)
     tiny = importlib.import_module(name)
     assert tiny.__file__.endswith(accel.SUFFIX) and tiny.twice(21) == 42
     module.write_text("def twice(x):\n    return x + x\n")
@@ -123,3 +132,17 @@ def test_without_cython_the_build_says_so_and_oimi_runs_as_python(
     assert "not compiled (ModuleNotFoundError" in said and "runs as pure Python" in said
     assert main(["--dir", str(tmp_path)]) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_compiled_file_that_cannot_be_loaded_leaves_its_source_running(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    module = _importable(tmp_path, monkeypatch, "accel_damaged")
+    folder = tmp_path / "compiled"
+    folder.mkdir()
+    damaged = accel.compiled_path("accel_damaged.tiny", module, folder)
+    damaged.write_bytes(b"not a shared object")
+    _finding_first(monkeypatch, folder, "accel_damaged.tiny")
+    with pytest.warns(RuntimeWarning, match=r"not loaded .*accel_damaged.tiny runs as Python"):
+        tiny = importlib.import_module("accel_damaged.tiny")
+    assert tiny.twice(21) == 42 and tiny.__file__ == str(module)
