@@ -31,17 +31,22 @@ from typing import Final
 MODULES: Final = (
     "oimi.pipeline.loop",
     "oimi.pipeline.sink",
+    "oimi.pipeline.jsontree",
     "oimi.pipeline.mapdeltas",
     "oimi.pipeline.proximity",
     "oimi.pipeline.act.actuator",
+    "oimi.pipeline.act.channels",
     "oimi.pipeline.act.safety",
+    "oimi.pipeline.operator.handler",
     "oimi.pipeline.sense.producer",
     "oimi.pipeline.sense.updates",
     "oimi.pipeline.think.chain",
     "oimi.pipeline.think.condition_compile",
     "oimi.pipeline.think.condition_runtime",
     "oimi.pipeline.think.mapparts",
+    "oimi.pipeline.think.reader",
     "oimi.pipeline.think.rules",
+    "oimi.pipeline.think.stdlib",
     "oimi.scenarios.simulation.bodies",
     "oimi.scenarios.simulation.humans",
     "oimi.scenarios.simulation.sensors",
@@ -50,8 +55,13 @@ MODULES: Final = (
     "oimi.scenarios.session.runner",
     "oimi.recorder.foxglove",
     "oimi.recorder.mcap_sink",
+    "oimi.recorder.scan",
+    "oimi.replay.compare",
+    "oimi.replay.redrive",
 )
-"""The modules compiled: where a recorded session spends most of its time (profiled)."""
+"""The modules compiled: where a recorded session and a redrive spend most of their time
+(profiled). A module whose source is read while oimi runs stays Python:
+``oimi.pipeline.think.library`` is attached to every recording as ``rules/library.py``."""
 PURE_ENV: Final = "OIMI_PURE"
 DIR_ENV: Final = "OIMI_ACCEL_DIR"
 DIRECTIVES: Final = {"annotation_typing": False, "binding": True, "language_level": 3}
@@ -175,9 +185,11 @@ def build(
     folder: Path, modules: Iterable[str] = MODULES, *, say: Callable[[str], None] = print
 ) -> list[str]:
     """Compile each of ``modules`` whose current source has no compiled module in
-    ``folder`` yet; drop compiled modules of older sources. Returns the names compiled.
-    Needs Cython and a C compiler (``ImportError`` or ``CompileError`` otherwise)."""
+    ``folder`` yet; drop compiled modules of older sources. Returns the names compiled; a
+    module Cython cannot translate is said and left as Python. Needs Cython and a C
+    compiler (``ImportError`` or a build error otherwise)."""
     from Cython.Build import cythonize
+    from Cython.Compiler.Errors import CompileError
     from setuptools import Distribution, Extension
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -197,17 +209,18 @@ def build(
     say(f"compiling {len(todo)} module(s) with Cython into {folder} (about 2 s each)")
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="oimi-accel-") as work:
-        extensions = [
-            Extension(name, [str(source)], extra_compile_args=["-w"])  # Cython's C: no advice
-            for name, (source, _) in todo.items()
-        ]
-        compiled = cythonize(
-            extensions,
-            compiler_directives=DIRECTIVES,
-            build_dir=work,
-            nthreads=os.cpu_count() or 1,
-            quiet=True,
-        )
+        compiled = []
+        for name, (source, _) in list(todo.items()):
+            extension = Extension(name, [str(source)], extra_compile_args=["-w"])  # no advice
+            try:
+                compiled += cythonize(
+                    [extension], compiler_directives=DIRECTIVES, build_dir=work, quiet=True
+                )
+            except CompileError:
+                say(f"left as Python: {name} (Cython cannot translate it; see above)")
+                del todo[name]
+        if not todo:
+            return []
         dist = Distribution({"name": "oimi-accel", "ext_modules": compiled})
         command = dist.get_command_obj("build_ext")
         command.build_lib = str(Path(work) / "lib")
