@@ -151,6 +151,38 @@ def test_every_message_validates_against_its_channels_json_schema(
     assert {"/foxglove/scene", "/foxglove/tf", "/foxglove/log"} <= set(checked)
 
 
+def test_foxglove_draws_every_body_where_the_world_state_has_it(session_files: Recorded) -> None:
+    """Each body is drawn in its own frame: every transform puts it where ``/world/state``
+    has it at that time, and every scene entity is locked to a frame the transforms move."""
+    states: dict[int, dict[str, tuple[float, float]]] = {}
+    transforms: list[tuple[int, dict]] = []
+    frames_drawn: set[str] = set()
+    with session_files.mcap.open("rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages():
+            data = json.loads(message.data)
+            if channel.topic == Topic.WORLD_STATE:
+                where = {"robot": _xy(data["robot"])}
+                where |= {f"human/{h['id']}": _xy(h) for h in data["humans"]}
+                where |= {f"object/{o['id']}": _xy(o) for o in data["objects"]}
+                states[message.log_time] = where
+            elif channel.topic == "/foxglove/tf":
+                transforms.append((message.log_time, data))
+            elif channel.topic == "/foxglove/scene":
+                assert all(e["frame_locked"] for e in data["entities"])
+                frames_drawn |= {e["frame_id"] for e in data["entities"]}
+    assert len(transforms) == 40  # every fifth tick of 200
+    moved = set()
+    for time_ns, tf in transforms:
+        where = {t["child_frame_id"]: _xy(t["translation"], "x", "y") for t in tf["transforms"]}
+        assert where == states[time_ns]
+        moved |= set(where)
+    assert frames_drawn and frames_drawn <= moved
+
+
+def _xy(body: dict, x: str = "x_m", y: str = "y_m") -> tuple[float, float]:
+    return body[x], body[y]
+
+
 @pytest.mark.parametrize("topic", list(Topic))
 def test_every_topic_schema_is_self_contained(topic: Topic) -> None:
     """Viewers without ``$ref`` support read them: no reference is left, not even a tagged
