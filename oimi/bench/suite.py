@@ -7,6 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Final
 
+from oimi import accel
 from oimi.bench.measure import Case, in_child
 from oimi.bench.pipeline_cases import bench_conditions, bench_latency
 from oimi.bench.recordings import bench_analyse, bench_analysis_memory, bench_replay
@@ -46,6 +47,15 @@ def run_suite(
             cases.append(case)
             echo(format_row(case))
 
+    compiled = len(accel.ready())
+    echo(
+        f"hot modules compiled: {compiled} of {len(accel.MODULES)}"
+        + (
+            ""
+            if compiled == len(accel.MODULES)
+            else " (make accel compiles them; OIMI_PURE=1: none)"
+        )
+    )
     echo(header())
     with tempfile.TemporaryDirectory() as folder:
         add(bench_run(ticks, repetitions, folder, rerun=False))

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from oimi import accel
 from oimi.cli import main
 
 CASES = {
@@ -65,6 +66,8 @@ def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Pat
     assert analysis["extra"]["ticks"] == 0.05 * 3600 * 50  # the recording really is that long
     printed = capsys.readouterr().out
     assert "| run + MCAP " in printed and "| ↳ floor: its world, no pipeline " in printed
+    compiled = results["machine"]["compiled_modules"]
+    assert f"hot modules compiled: {compiled} of {len(accel.MODULES)}" in printed
 
 
 @pytest.mark.parametrize("flag", ["--ticks", "--repetitions"])
