@@ -201,7 +201,7 @@ def build(
         target = compiled_path(name, source, folder)
         for old in folder.glob(f"{name}.*{SUFFIX}"):
             if old != target:
-                old.unlink()
+                old.unlink(missing_ok=True)  # another build may have dropped it
         if not target.is_file():
             todo[name] = (source, target)
     if not todo:
