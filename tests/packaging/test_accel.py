@@ -153,3 +153,23 @@ def test_a_compiled_file_that_cannot_be_loaded_leaves_its_source_running(
     with pytest.warns(RuntimeWarning, match=r"not loaded .*accel_damaged.tiny runs as Python"):
         tiny = importlib.import_module("accel_damaged.tiny")
     assert tiny.twice(21) == 42 and tiny.__file__ == str(module)
+
+
+@pytest.mark.skipif(not (REQUIRED or accel.ready()), reason="the hot modules are not compiled")
+def test_compiled_and_as_python_a_session_writes_the_same_file(tmp_path: Path) -> None:
+    """Every topic, Foxglove's views included (the goldens hold only oimi's own topics)."""
+    files = []
+    for pure in ("0", "1"):
+        out = tmp_path / f"pure{pure}.mcap"
+        run = ["run", "scenarios/library/busy_playroom.toml", "-o", str(out), "-q"]
+        done = subprocess.run(
+            [sys.executable, "-m", "oimi", *run],
+            cwd=ROOT,
+            env={**os.environ, accel.PURE_ENV: pure},
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stdout + done.stderr
+        files.append(out.read_bytes())
+    assert files[0] == files[1]
