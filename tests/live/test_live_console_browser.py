@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from live_helpers import CHROMIUM, CHROMIUM_FLAGS, require_browser, served
@@ -15,7 +17,7 @@ from oimi.replay.redrive import redrive
 
 require_browser()
 
-from playwright.sync_api import Page, expect, sync_playwright  # noqa: E402
+from playwright.sync_api import Page, WebSocketRoute, expect, sync_playwright  # noqa: E402
 
 
 @pytest.fixture
@@ -128,3 +130,57 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
     ]
     comparison = redrive(recording)
     assert comparison.ok, comparison.divergence
+
+
+def test_a_catalogue_that_arrives_late_leaves_the_options_being_filled(browser_page, tmp_path):
+    """ "+" shows the catalogue it has and asks for a fresh one; a reply that arrives after
+    the therapist chose an activity must not throw them back to the list."""
+    page = browser_page
+    held: list[str | bytes] = []
+    routes: dict[str, Any] = {"hold": False, "passed": 0, "after": 0}
+
+    def route(ws: WebSocketRoute) -> None:
+        server = ws.connect_to_server()
+        routes["page"] = ws
+
+        def from_server(message: str | bytes) -> None:
+            if '"catalogue"' in str(message):
+                if routes["hold"]:
+                    held.append(message)  # the reply to "+"'s fresh list, kept back
+                    return
+                routes["passed"] += 1
+            ws.send(message)
+            routes["after"] += 1
+
+        server.on_message(from_server)
+        ws.on_message(server.send)
+
+    page.route_web_socket("**/ws", route)
+    with served(tmp_path / "late.mcap", "--token", "t0ken") as live:
+        page.goto(f"{live.console}?token=t0ken")
+        expect(page.locator("#scenario")).to_have_text("live_room")
+        _within_5_s(page, lambda: routes["passed"] == 1)  # the catalogue asked for on connecting
+        routes["hold"] = True
+        page.click("#plus")
+        page.click("#catalogue button[data-activity=test_dance]")
+        page.fill("#options [name=tempo]", "slow")
+        expect(page.locator("#picker-add")).to_be_visible()
+        _within_5_s(page, lambda: len(held) == 1)  # "+" asked for a fresh one: kept back
+        routes["hold"] = False
+        routes["page"].send(held.pop())  # now it arrives, late
+        routes["after"] = 0  # the world streams on: two more messages behind it, in order
+        _within_5_s(page, lambda: routes["after"] >= 2)
+        page.wait_for_timeout(200)
+        expect(page.locator("#picker-add")).to_be_visible()
+        expect(page.locator("#options [name=tempo]")).to_have_value("slow")
+        page.click("#picker-add")
+        expect(item(page, "test_dance")).to_be_visible()
+
+
+def _within_5_s(page: Page, done: Callable[[], bool]) -> None:
+    """Let the page run until ``done()`` (a bounded wait over loopback)."""
+    for _ in range(50):
+        if done():
+            return
+        page.wait_for_timeout(100)
+    raise AssertionError("not within 5 s")

@@ -209,7 +209,8 @@ $("clear").onclick = () => command({ cmd: "clear" });
 $("plus").onclick = () => {
   request({ cmd: "list" }, (reply) => {
     if (reply.ok) catalogue = reply.catalogue || [];
-    showCatalogue();
+    // Only while the list is still shown: an activity chosen meanwhile keeps its options.
+    if (!$("catalogue").hidden) showCatalogue();
   });
   $("picker").showModal();
   showCatalogue();
