@@ -3,6 +3,7 @@ against ``oimi serve``: the operator's whole round of thesis 5.1, and the joysti
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from collections.abc import Callable
@@ -175,6 +176,54 @@ def test_a_catalogue_that_arrives_late_leaves_the_options_being_filled(browser_p
         expect(page.locator("#options [name=tempo]")).to_have_value("slow")
         page.click("#picker-add")
         expect(item(page, "test_dance")).to_be_visible()
+
+
+def test_a_late_reply_to_add_leaves_a_picker_reopened_for_another_choice(browser_page, tmp_path):
+    """Add, then Cancel and "+" for another activity before the reply: the reply must not
+    close the new choice's picker (the first activity is still added, and said)."""
+    page = browser_page
+    held: list[str | bytes] = []
+    routes: dict[str, Any] = {"add": None, "after": 0}
+
+    def route(ws: WebSocketRoute) -> None:
+        server = ws.connect_to_server()
+        routes["page"] = ws
+
+        def from_page(message: str | bytes) -> None:
+            body = json.loads(message)
+            if body.get("cmd") == "add" and routes["add"] is None:
+                routes["add"] = body["id"]
+            server.send(message)
+
+        def from_server(message: str | bytes) -> None:
+            first_add = routes["add"] is not None and not held
+            if first_add and json.loads(message).get("id") == routes["add"]:
+                held.append(message)  # the reply to the first add, kept back
+                return
+            ws.send(message)
+            routes["after"] += 1
+
+        server.on_message(from_server)
+        ws.on_message(from_page)
+
+    page.route_web_socket("**/ws", route)
+    with served(tmp_path / "late-add.mcap", "--token", "t0ken") as live:
+        page.goto(f"{live.console}?token=t0ken")
+        expect(page.locator("#scenario")).to_have_text("live_room")
+        page.click("#plus")
+        page.click("#catalogue button[data-activity=example_act]")
+        page.click("#picker-add")
+        _within_5_s(page, lambda: len(held) == 1)
+        page.click("#picker-cancel")
+        page.click("#plus")
+        page.click("#catalogue button[data-activity=test_dance]")
+        routes["page"].send(held.pop())  # the first add's reply arrives, late
+        routes["after"] = 0
+        _within_5_s(page, lambda: routes["after"] >= 2)
+        page.wait_for_timeout(200)
+        expect(page.locator("#picker-add")).to_be_visible()
+        expect(page.locator("#options [name=tempo]")).to_be_visible()
+        expect(item(page, "example_act")).to_be_visible()
 
 
 def _within_5_s(page: Page, done: Callable[[], bool]) -> None:

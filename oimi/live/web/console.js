@@ -260,12 +260,16 @@ function showOptions(info) {
     for (const input of form.querySelectorAll("[data-option]")) {
       options[input.dataset.option] = input.value.trim();
     }
+    const shown = form.firstChild; // this activity's options (a later choice replaces them)
     request({ cmd: "add", activity: info.name, options }, (reply) => {
+      const still = $("picker").open && form.firstChild === shown && !form.hidden;
       if (reply.ok) {
-        $("picker").close();
+        if (still) $("picker").close(); // not a picker reopened for another choice meanwhile
         say(reply.reason, false);
-      } else {
+      } else if (still) {
         $("picker-message").textContent = reply.reason;
+      } else {
+        say(`Refused: ${reply.reason}`, true);
       }
     });
   };
