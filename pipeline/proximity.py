@@ -48,8 +48,12 @@ class Initiator(enum.StrEnum):
 
 def surface_distance(robot: BodyState, human: BodyState) -> float:
     """Surface-to-surface distance, m (negative when the bodies overlap)."""
-    centres = math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m)
-    return centres - robot.radius_m - human.radius_m
+    return surface_gap(math.hypot(human.x_m - robot.x_m, human.y_m - robot.y_m), robot, human)
+
+
+def surface_gap(centres_m: float, robot: BodyState, human: BodyState) -> float:
+    """The surface-to-surface distance of two bodies whose centres are ``centres_m`` apart."""
+    return centres_m - robot.radius_m - human.radius_m
 
 
 _UPPER_BOUNDS_M: Final = tuple(high for _, _, high in ZONES_M[1:-1])
@@ -151,7 +155,7 @@ class ProximityTracker:
             centres = hypot(human.x_m - x, human.y_m - y)
             if not centres >= (closest := centres_m[who]) and not isnan(closest):
                 centres_m[who] = centres
-            distance = centres - robot.radius_m - human.radius_m  # surface_distance's, inline
+            distance = surface_gap(centres, robot, human)
             if distance < closest_m.get(who, math.inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
             zones[zone_of(distance)] += tick_ms

@@ -297,12 +297,6 @@ def _bodies(state: WorldState) -> Iterator[tuple[str, BodyState, _Drawing | None
         yield OBJECT_FRAME.format(thing.id), thing, _object
 
 
-def dynamic_entity_ids(state: WorldState) -> tuple[str, ...]:
-    """The ids :func:`dynamic_scene` draws for a world state, in drawing order (each
-    entity is named for the frame it is drawn in)."""
-    return tuple(frame for frame, _, _ in _bodies(state))
-
-
 def look(state: WorldState) -> tuple[object, ...]:
     """What :func:`dynamic_scene` draws of a world state apart from where the bodies are:
     the scene is sent again only when this changes."""
@@ -335,7 +329,7 @@ def dynamic_scene(
             if (entity := drawn.get(key)) is None:
                 entity = drawn[key] = draw(frame, body, t)
             entities.append(entity)
-    current = set(dynamic_entity_ids(state))
+    current = {entity.id for entity in entities}  # each named for the frame it is drawn in
     deletions = tuple(
         SceneEntityDeletion(timestamp=t, id=old) for old in previous_ids if old not in current
     )
@@ -432,7 +426,6 @@ class Views:
     def __init__(self, scene: SceneGeometry | None, every_n_ticks: int) -> None:
         self.scene = scene
         self.every = every_n_ticks
-        self._ids: tuple[str, ...] = ()
         self._look: tuple[object, ...] | None = None
         self._drawn: dict[tuple[str, str, float], SceneEntity] = {}
         self._static_sent = False
@@ -452,10 +445,10 @@ class Views:
         now = look(state)
         if now != self._look:
             self._look = now
+            drawn_before = self.last_scene.entities if self.last_scene is not None else ()
             self.last_scene = dynamic_scene(
-                state, time_ns, previous_ids=self._ids, drawn=self._drawn
+                state, time_ns, previous_ids=(e.id for e in drawn_before), drawn=self._drawn
             )
-            self._ids = dynamic_entity_ids(state)
             views.append((FoxgloveTopic.SCENE, self.last_scene))
         return views
 

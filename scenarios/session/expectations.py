@@ -172,10 +172,8 @@ class Tracker:
                 return self._verdict(e, f"rule {e.rule} fired {bound} times", ok, f"fired {count}")
             case RuleFired():
                 start, stop = _ms(e.after_s, 0), _ms(e.by_s, end_ms)
-                count = sum(
-                    start is not None and stop is not None and start <= at <= stop
-                    for at in self.fired_at[e.rule]
-                )
+                times = self.fired_at[e.rule] if start is not None and stop is not None else []
+                count = sum(start <= at <= stop for at in times)
                 ok, bound = _within(count, e.at_least, e.at_most)
                 window = f"between {_s(start)} s and {_s(stop)} s"
                 return self._verdict(
@@ -196,21 +194,20 @@ class Tracker:
                     f"{count} episodes",
                 )
             case MinDistance():
-                humans = [e.human] if e.human else list(self.min_distance_m)
-                closest_m = (
-                    self.proximity.closest_m
-                    if e.between is Between.SURFACES
-                    else self.min_distance_m
-                )
+                centres_m = self.min_distance_m
+                humans = [e.human] if e.human else list(centres_m)
+                surfaces = e.between is Between.SURFACES
+                closest_m = self.proximity.closest_m if surfaces else centres_m
                 distances = [closest_m.get(h, math.inf) for h in humans]
-                nan = any(math.isnan(d) for d in distances)
+                # a NaN position fails either measure (surfaces skip it; centres keep it)
+                nan = any(math.isnan(centres_m.get(h, math.inf)) for h in humans)
                 closest = math.nan if nan else min(distances, default=math.inf)
                 measured = math.isfinite(closest) or not humans  # no humans: never closer
                 ok = measured and _finite(e.at_least_m) and closest >= e.at_least_m
                 who = e.human or "every human"
                 seen = f"closest {closest:.3f} m" if humans else "no humans in the room"
-                surfaces = " (surface to surface)" if e.between is Between.SURFACES else ""
-                what = f"distance to {who} >= {e.at_least_m} m{surfaces}"
+                how = " (surface to surface)" if surfaces else ""
+                what = f"distance to {who} >= {e.at_least_m} m{how}"
                 return self._verdict(e, what, ok, seen)
             case MaxSpeed():
                 ok = (

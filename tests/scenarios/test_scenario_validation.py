@@ -15,7 +15,15 @@ from oimi.scenarios import schema
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import LIBRARY_DIR, LoadedScenario, apply_overrides, load_scenario
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.schema import HumanSpec, MaxSpeed, MinDistance, Scenario, Waypoints, unit_of
+from oimi.scenarios.schema import (
+    Between,
+    HumanSpec,
+    MaxSpeed,
+    MinDistance,
+    Scenario,
+    Waypoints,
+    unit_of,
+)
 from oimi.scenarios.session.expectations import Tracker
 from oimi.scenarios.session.runner import Session
 
@@ -360,6 +368,10 @@ def state(robot_x: float, human_x: float, speed: float = 0.0) -> WorldState:
     ("states", "expectation"),
     [
         ([state(1.0, 3.0), state(math.nan, 3.0), state(1.0, 3.0)], MinDistance(at_least_m=0.5)),
+        (
+            [state(1.0, 3.0), state(math.nan, 3.0), state(1.0, 3.0)],
+            MinDistance(at_least_m=0.5, between=Between.SURFACES),
+        ),
         ([state(1.0, math.inf)], MinDistance(human="kid", at_least_m=0.5)),
         ([], MinDistance(human="kid", at_least_m=0.5)),  # never seen: no distance to pass on
         ([state(1.0, 3.0)], MinDistance(at_least_m=math.nan)),
