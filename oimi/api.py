@@ -24,6 +24,7 @@ from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import Script, WorldMap
 from oimi.pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.checks import check_scenario_file
 from oimi.scenarios.extensions import Extension as Extension  # re-exported: the registration API
 from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
@@ -98,6 +99,7 @@ def run(
     allow_outside: bool = False,
     overwrite: bool = True,
     realtime: bool = False,
+    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
     progress: Progress | None = None,
     watch: Callable[[Scenario], Watcher] | None = None,
 ) -> RunOutcome:
@@ -106,8 +108,9 @@ def run(
     expectations as JUnit XML to ``junit``. Every output is checked before anything is
     opened (an existing one is replaced only with ``overwrite``). ``watch`` makes a
     progress display from the scenario as run (after ``overrides``), closed at the end.
-    Ctrl-C stops the run between two ticks (``KeyboardInterrupt``) with the recording
-    finished."""
+    ``world_every_n_ticks``: how often the recording keeps ``/world/state``
+    (``recorder.world_sampling``; 1: every tick). Ctrl-C stops the run between two
+    ticks (``KeyboardInterrupt``) with the recording finished."""
     loaded = (
         scenario
         if isinstance(scenario, LoadedScenario)
@@ -118,7 +121,13 @@ def run(
     check_outputs((mcap, rerun, xml), overwrite=overwrite)
     watcher = None if watch is None else watch(session.scenario)
     pace = console.Pacer(session.tick_ms) if realtime else None
-    with recorded(session, mcap=mcap, rrd=rerun, overwrite=overwrite):
+    with recorded(
+        session,
+        mcap=mcap,
+        rrd=rerun,
+        overwrite=overwrite,
+        world_every_n_ticks=world_every_n_ticks,
+    ):
         try:
             result = session.run(progress=progress or watcher, pace=pace)
         finally:

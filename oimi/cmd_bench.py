@@ -5,24 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from oimi.arg_types import positive_int
 from oimi.bench.suite import FULL_TICKS, QUICK_TICKS, run_suite
-
-
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="short runs (a smoke test for CI)")
     parser.add_argument(
-        "--repetitions", type=_positive, default=3, metavar="N", help="repetitions per case"
+        "--repetitions", type=positive_int, default=3, metavar="N", help="repetitions per case"
     )
     parser.add_argument(
         "--ticks",
-        type=_positive,
+        type=positive_int,
         metavar="N",
         help=f"ticks per run case (default {FULL_TICKS:,}, one hour; --quick {QUICK_TICKS:,})",
     )

@@ -13,9 +13,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import api, console, jsonout
+from oimi.arg_types import positive_int
 from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
 
@@ -35,6 +37,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
+    parser.add_argument(
+        "--world-every",
+        type=positive_int,
+        default=DEFAULT_WORLD_EVERY_N_TICKS,
+        metavar="N",
+        help="record /world/state every N ticks, and at every contact"
+        f" (default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick)",
+    )
     parser.add_argument(
         "--overwrite", action="store_true", help="replace existing output files (default: refuse)"
     )
@@ -56,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
         allow_outside=args.allow_outside_paths,
         overwrite=args.overwrite,
         realtime=args.realtime,
+        world_every_n_ticks=args.world_every,
         watch=None if args.quiet else console.Progress.of,
     )
     result = outcome.result

@@ -114,8 +114,9 @@ class ProximityTracker:
     """Per human: closest surface (and centre) distance, time in each zone, and contact
     episodes.
 
-    Feed it every ``WorldState`` in order (:meth:`update`), then :meth:`finish`;
-    memory is one entry per human plus the episodes found.
+    Feed it every ``WorldState`` in order (:meth:`update`), or a recording's samples of
+    them (a state counts in its zone for the time since the one before), then
+    :meth:`finish`; memory is one entry per human plus the episodes found.
     """
 
     def __init__(self, *, tick_ms: int) -> None:
@@ -135,8 +136,9 @@ class ProximityTracker:
 
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
+        lasted = self.tick_ms if self._previous is None else now - self._previous.time_ms
         self._last_ms = now
-        kinds, closest_m, zone_ms, tick_ms = self.kinds, self.closest_m, self.zone_ms, self.tick_ms
+        kinds, closest_m, zone_ms = self.kinds, self.closest_m, self.zone_ms
         centres_m, x, y, hypot, isnan = (
             self.closest_centres_m,
             robot.x_m,
@@ -158,7 +160,7 @@ class ProximityTracker:
             distance = surface_gap(centres, robot, human)
             if distance < closest_m.get(who, math.inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
-            zones[zone_of(distance)] += tick_ms
+            zones[zone_of(distance)] += lasted
             if distance <= 0.0 or who in contacts:
                 self._touch(who, human, robot, now, distance)
             elif open_ and who in open_ and now - open_[who].last_ms > MERGE_MS:

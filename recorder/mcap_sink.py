@@ -42,6 +42,11 @@ from oimi.recorder.topics import (
     schema_data,
     schema_name,
 )
+from oimi.recorder.world_sampling import (
+    DEFAULT_WORLD_EVERY_N_TICKS,
+    WORLD_EVERY_KEY,
+    WorldSampling,
+)
 
 LIBRARY: Final = f"oimi format {FORMAT_VERSION}, mcap-python {mcap.__version__}"
 """The header's library string: versions only, no time, no host."""
@@ -93,7 +98,8 @@ class McapSink:
     are ``(name, bytes)`` pairs with log and create time 0. ``scene`` draws the
     static arena for Foxglove and is attached as ``oimi/scene.json``.
     ``foxglove_every_n_ticks`` thins the scene and tf channels (0 turns the
-    Foxglove views off).
+    Foxglove views off); ``world_every_n_ticks`` thins ``/world/state`` as
+    :class:`~recorder.world_sampling.WorldSampling` says (1 keeps every tick).
     """
 
     def __init__(
@@ -104,8 +110,10 @@ class McapSink:
         attachments: Sequence[Attachment] = (),
         scene: SceneGeometry | None = None,
         foxglove_every_n_ticks: int = DEFAULT_FOXGLOVE_EVERY_N_TICKS,
+        world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
         chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
     ) -> None:
+        self._sampling = WorldSampling(world_every_n_ticks)
         if foxglove_every_n_ticks < 0:
             raise RecordingError(
                 f"foxglove_every_n_ticks must be >= 0, got {foxglove_every_n_ticks}"
@@ -162,7 +170,11 @@ class McapSink:
         self._sequence[topic] = 0
 
     def _write_metadata(self, metadata: Mapping[str, Mapping[str, str]]) -> None:
-        oimi = {**metadata.get(METADATA_OIMI, {}), FORMAT_VERSION_KEY: str(FORMAT_VERSION)}
+        oimi = {
+            **metadata.get(METADATA_OIMI, {}),
+            FORMAT_VERSION_KEY: str(FORMAT_VERSION),
+            WORLD_EVERY_KEY: str(self._sampling.every_n_ticks),
+        }
         records = {METADATA_OIMI: oimi, **{k: v for k, v in metadata.items() if k != METADATA_OIMI}}
         for name, record in records.items():
             self.add_metadata(name, record)
@@ -187,13 +199,15 @@ class McapSink:
         """Write one event at simulated time ``time_ns`` (and its Foxglove views, if due)."""
         if self._closed:
             raise RecordingError(f"record({topic}) after close()", source=self._name)
-        self._add(topic, time_ns, self._encode(message))
-        if not self._every:
-            return
         if isinstance(message, WorldState):
-            for view_topic, view in self._views.world(message, time_ns):
-                self._add(view_topic, time_ns, self._encode(view))
-        elif isinstance(message, LogEntries):
+            if self._sampling.keep(time_ns, message):
+                self._add(topic, time_ns, self._encode(message))
+            if self._every:
+                for view_topic, view in self._views.world(message, time_ns):
+                    self._add(view_topic, time_ns, self._encode(view))
+            return
+        self._add(topic, time_ns, self._encode(message))
+        if self._every and isinstance(message, LogEntries):
             for log in foxglove.log_messages(message, time_ns):
                 self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
 
@@ -216,11 +230,14 @@ class McapSink:
     # ----------------------------------------------------------- lifecycle
 
     def close(self) -> None:
-        """Write the last chunk and the summary; closes a file it opened. Idempotent."""
+        """Write the session's last world state if it was not kept, the last chunk and the
+        summary; closes a file it opened. Idempotent."""
         if self._closed:
             return
         self._closed = True
         try:
+            if (last := self._sampling.last()) is not None:
+                self._add(Topic.WORLD_STATE, last[0], self._encode(last[1]))
             self._writer.finish()
         finally:
             if self._file is not None:

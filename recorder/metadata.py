@@ -29,6 +29,8 @@ class OimiRecord(_Record):
     """oimi's version."""
     format_version: str | None = None
     """The recording format version (``pipeline.events.FORMAT_VERSION``)."""
+    world_every_n_ticks: str | None = None
+    """Format 4: ``/world/state`` kept every this many ticks (``recorder.world_sampling``)."""
     rule_registry: str | None = None
     function_registry: str | None = None
     recording_id: str | None = None

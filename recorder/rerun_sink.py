@@ -175,7 +175,8 @@ class RerunSink:
     """Logs events to an ``.rrd`` file; a context manager; a ``Sink``.
 
     World entities, trails, speed and distances are logged every
-    ``world_every_n_ticks`` ticks (and on the first world state); texts as they come.
+    ``world_every_n_ticks`` ticks (the first state of each such window of ticks); texts
+    as they come.
     ``zones`` are the safety zones drawn around each person.
     """
 
@@ -215,6 +216,9 @@ class RerunSink:
         self._seconds = 0.0
         self._time_set = False
         self._samples = 0
+        self._window = -1
+        """The last sample's tick // ``world_every_n_ticks``: one sample per window, the
+        first state in it (a recording's states need not fall on its first tick)."""
         self._series: dict[tuple[str, type], _Series] = {}
         self._seen: set[str] = set()
         self._people = palette.PersonColours()
@@ -425,12 +429,13 @@ class RerunSink:
             self._say("robot/audio", text)
         if state.contacts != self._contacts:
             self._contact(state)
-        if self._samples and state.tick % self._every:
+        if state.tick // self._every == self._window:
             if changed:
                 self._buffer("robot/led", rr.SeriesPoints, colors=palette.led_rgb(state.led))
                 self._buffer("robot/led", rr.Scalars, scalars=1.0)
             return
         self._samples += 1
+        self._window = state.tick // self._every
         robot = state.robot
         r = robot.radius_m
         led = palette.led_rgb(state.led)

@@ -19,6 +19,7 @@ from oimi.pipeline.events import Event, Topic, encode
 from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import RecordedMessage, Recording
+from oimi.recorder.world_sampling import recorded_sampling
 
 CONTEXT_MESSAGES: Final = 5
 """How many matched messages a divergence report shows before the difference."""
@@ -118,9 +119,11 @@ def _payload_text(payload: bytes) -> str:
 class Comparator:
     """A sink comparing what a replay emits with a recording, topic by topic, tick by tick.
 
-    ``compared``: the topics read and whose messages must match. The session lasts
-    ``ticks`` ticks when given, else up to the last message read. The recorded
-    inputs of the current tick are available through :meth:`inputs_at`.
+    ``compared``: the topics whose messages must match. The session lasts up to the last
+    message read: the world's states are always read, since a recording keeps the
+    session's last one (:mod:`~recorder.world_sampling`). A compared ``/world/state`` is
+    sampled as the recording says it was. The recorded inputs of the current tick are
+    available through :meth:`inputs_at`.
     """
 
     def __init__(
@@ -128,13 +131,19 @@ class Comparator:
         recording: Recording,
         *,
         compared: Iterable[Topic],
-        ticks: int | None = None,
         context: int = CONTEXT_MESSAGES,
     ) -> None:
         self.recording = recording
         self.topics = tuple(t for t in Topic if t in frozenset(compared))
-        self.ticks = ticks
-        self._stream: Iterator[RecordedMessage] = recording.iter_messages(self.topics)
+        read = frozenset((*self.topics, Topic.WORLD_STATE))
+        self._stream: Iterator[RecordedMessage] = recording.iter_messages(
+            t for t in Topic if t in read
+        )
+        self._sampling = (
+            recorded_sampling(recording.meta.oimi.world_every_n_ticks)
+            if Topic.WORLD_STATE in self.topics
+            else None
+        )
         self._ahead: RecordedMessage | None = None
         self._index = 0
         self._exhausted = False
@@ -173,8 +182,6 @@ class Comparator:
                 f" {tick}, where the readable part ends",
                 source=self.recording.path,
             )
-        if self.ticks is not None:
-            return tick < self.ticks
         return lasted or self._ahead is not None
 
     @property
@@ -193,6 +200,18 @@ class Comparator:
         buffer = self._buffers.get(topic)
         if buffer is None:
             return
+        sampling = self._sampling
+        if topic is Topic.WORLD_STATE and sampling and not sampling.keep(time_ns, message):
+            return  # the recording did not keep it, unless it was the last (finish_tick)
+        self._compare(topic, buffer, time_ns, message)
+
+    def _compare(
+        self,
+        topic: Topic,
+        buffer: deque[tuple[int, RecordedMessage]],
+        time_ns: int,
+        message: Event,
+    ) -> None:
         payload = encode(message)
         if not buffer or buffer[0][1].tick != message.tick:
             self._diverge(
@@ -233,7 +252,13 @@ class Comparator:
         self._recent.append((topic.value, time_ns, payload))
 
     def finish_tick(self, tick: int) -> None:
-        """Every recorded message up to ``tick`` must have been matched by now."""
+        """Every recorded message up to ``tick`` must have been matched by now (a world
+        state not kept is compared when the recording has it: the session's last)."""
+        held = self._sampling and self._sampling.held
+        if held and held[1].tick == tick:
+            world = self._buffers[Topic.WORLD_STATE]
+            if world and world[0][1].tick == tick:
+                self._compare(Topic.WORLD_STATE, world, *held)
         left = [b[0] for b in self._buffers.values() if b and b[0][1].tick <= tick]
         if left:
             _, message = min(left, key=lambda entry: entry[0])

@@ -45,6 +45,7 @@ from oimi.pipeline.events import (
 from oimi.pipeline.messages import ActuatorCommand, AudioCommand, LedCommand, MoveCommand
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder.reader import open_recording
+from oimi.recorder.world_sampling import WorldSampling
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.runner import Session, library_scenarios
 
@@ -135,10 +136,12 @@ class Projection:
         self.digest = hashlib.sha256()
         self.unfired = 0
         self._runs: dict[str, _Line] = {}
+        self._sampling = WorldSampling()
+        """The world states a recording keeps: those the digest and the counts take."""
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
-        digest_update(self.digest, topic.value, time_ns, encode(message))
-        self.counts[topic.value] += 1
+        if topic is not Topic.WORLD_STATE or self._sampling.keep(time_ns, message):
+            self._digest(topic, time_ns, message)
         t, tick = message.time_ms, message.tick
         match message:
             case RuleDecisions():
@@ -212,6 +215,10 @@ class Projection:
             case _:
                 pass  # sensor updates, the map: counted and digested only
 
+    def _digest(self, topic: Topic, time_ns: int, message: Event) -> None:
+        digest_update(self.digest, topic.value, time_ns, encode(message))
+        self.counts[topic.value] += 1
+
     def _add(self, time_ms: int, tick: int, text: str) -> None:
         self.lines.append(_Line(time_ms, text, tick))
 
@@ -225,7 +232,11 @@ class Projection:
         self.lines.append(line)
 
     def text(self, *, header: Sequence[str], footer: Sequence[str] = ()) -> str:
-        """The golden file: header, counts, digest, the projected lines, the footer."""
+        """The golden file: header, counts, digest, the projected lines, the footer (the
+        session's last world state, if not kept, is digested here, as a recording writes
+        it at its close)."""
+        if (last := self._sampling.last()) is not None:
+            self._digest(Topic.WORLD_STATE, *last)
         out = [*header]
         out += [f"messages {topic} {count}" for topic, count in self.counts.items()]
         out.append(f"decisions-not-fired {self.unfired}")

@@ -1,8 +1,8 @@
 """Redrive: the recorded inputs fed to a rebuilt pipeline, its outputs compared (open loop).
 
 No world is simulated: the pipeline is ticked from tick 0 to the recording's
-last tick with the sensor updates, operator commands and joystick input
-recorded at each tick (for as many ticks as the recording has world states), and
+last tick (that of its last world state) with the sensor updates, operator commands
+and joystick input recorded at each tick, and
 every message it emits (inputs echoed, map, rule
 decisions and chain, progress, actuator commands, operator state, log) must
 equal the recorded one, byte for byte.
@@ -22,12 +22,6 @@ REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
 """What the pipeline emits (every topic but the world's state)."""
 
 
-def recorded_ticks(recording: Recording) -> int | None:
-    """How many ticks the session lasted: the world's state is recorded once per tick
-    (None when the file has no usable summary: the messages read decide then)."""
-    return recording.summary.get(Topic.WORLD_STATE.value) or None
-
-
 def redrive(path: str | os.PathLike[str]) -> Comparison:
     """Redrive a recording (``RecordingError`` when it cannot be read or rebuilt)."""
     return redrive_recording(open_recording(path))
@@ -38,7 +32,7 @@ def redrive_recording(recording: Recording) -> Comparison:
     check_replayable(recording)
     with rebuilt_pipeline(recording) as built:
         notes = rebuild_notes(recording, built)
-        comparator = Comparator(recording, compared=REDRIVE_TOPICS, ticks=recorded_ticks(recording))
+        comparator = Comparator(recording, compared=REDRIVE_TOPICS)
         built.sink.add(comparator)
         pipeline = built.pipeline
         assert set(INPUT_TOPICS) <= set(REDRIVE_TOPICS)

@@ -15,6 +15,7 @@ from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from oimi.recorder.outputs import OutputError, check_output
 from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.info import SESSION_RECORD, SessionInfo, TickCounter
 from oimi.scenarios.session.interrupts import interrupts_held
@@ -160,6 +161,7 @@ def recorded(
     rrd: Path | None,
     overwrite: bool = True,
     chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
+    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
     info: SessionInfo | None = None,
     final_info: Callable[[], SessionInfo] | None = None,
     sinks: Sequence[ClosingSink] = (),
@@ -173,7 +175,8 @@ def recorded(
     The sinks open before the first tick, with the session's metadata and
     attachments at the start of the file; Ctrl-C or an error still closes them, and
     a second Ctrl-C while they close is ignored. ``chunk_size_bytes`` bounds what a
-    killed session loses (the open chunk). ``info`` makes it a live session's
+    killed session loses (the open chunk); ``world_every_n_ticks`` how often the MCAP
+    keeps ``/world/state`` (``recorder.world_sampling``). ``info`` makes it a live session's
     recording: its own recording id, and a ``session`` record written at the start
     and again at the end with the true ``ticks`` and ``duration_s`` (and the fields of
     ``final_info()`` when given: the console may change them). ``sinks`` are
@@ -208,6 +211,7 @@ def recorded(
                     attachments=session.attachments(),
                     scene=scene,
                     chunk_size_bytes=chunk_size_bytes,
+                    world_every_n_ticks=world_every_n_ticks,
                 )
                 sink: _Sink = mcap_sink
             else:

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 from test_cli_run import oimi
 
 from oimi.cli import COMMANDS, build_parser
@@ -27,9 +28,10 @@ def one_json(stdout: str) -> dict:
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
-    """One `oimi run --json` of blink: the recording and the JSON summary."""
+    """One `oimi run --json` of blink, a minute long (more than one chunk): the recording
+    and the JSON summary."""
     path = tmp_path_factory.mktemp("run") / "blink.mcap"
-    done = oimi("run", SCENARIO, "-o", path, "--json")
+    done = oimi("run", SCENARIO, "-o", path, "--json", "--param", "duration_s=60")
     assert done.returncode == 0, done.stderr
     return path, one_json(done.stdout)
 
@@ -71,15 +73,20 @@ def test_info_shows_scenario_seed_duration_topics_and_attachments(recorded) -> N
     info = one_json(oimi("info", path, "--json").stdout)
     assert info["complete"] is True and info["recovery"] is None
     assert info["ticks"] == run["summary"]["ticks"]
-    assert info["topics"]["/world/state"] == run["summary"]["ticks"]
+    # every second tick and the last, 2999
+    assert info["topics"]["/world/state"] == run["summary"]["ticks"] // 2 + 1
     assert info["live"] is False and info["session"] is None
     assert "rules/library.py" in info["attachments"]
 
 
 def test_info_on_a_cut_file_says_it_is_damaged_and_how_far_it_reads(recorded, tmp_path) -> None:
     path, run = recorded
+    with path.open("rb") as stream:
+        chunks = make_reader(stream).get_summary().chunk_indexes  # type: ignore[union-attr]
+    assert len(chunks) >= 2
+    middle_of_last = chunks[-1].chunk_start_offset + chunks[-1].chunk_length // 2
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 2 // 3])
+    cut.write_bytes(path.read_bytes()[:middle_of_last])
     done = oimi("info", cut)
     assert done.returncode == 0, done.stderr
     assert "DAMAGED or partial" in done.stdout and "(up to the damage)" in done.stdout

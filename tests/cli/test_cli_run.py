@@ -86,3 +86,19 @@ def test_demo_rejects_an_unknown_scenario_with_the_choices(tmp_path: Path) -> No
     done = oimi("demo", "--out", tmp_path, "--scenario", "nope")
     assert done.returncode == 2
     assert "no library scenario 'nope'" in done.stderr and "greeting" in done.stderr
+
+
+def test_world_every_sets_how_often_the_recording_keeps_the_worlds_state(tmp_path: Path) -> None:
+    from oimi.recorder.reader import open_recording
+
+    every = tmp_path / "every.mcap"
+    done = oimi("run", "-q", LIBRARY / "greeting.toml", "-o", every, "--world-every", "1")
+    assert done.returncode == 0, done.stdout + done.stderr
+    recording = open_recording(every)
+    ticks = [m.tick for m in recording.iter_messages(["/world/state"])]
+    assert ticks == list(range(1500)) and recording.meta.oimi.world_every_n_ticks == "1"
+    done = oimi(
+        "run", "-q", LIBRARY / "greeting.toml", "-o", tmp_path / "no.mcap", "--world-every", "0"
+    )
+    assert done.returncode == 2 and "--world-every: must be at least 1, got 0" in done.stderr
+    assert not (tmp_path / "no.mcap").exists()

@@ -31,6 +31,9 @@ ATTACHMENTS = [("greeting.toml", b'name = "greeting"\n'), ("notes.txt", b"hello"
 
 
 def write(target, events=None, **options) -> None:
+    """The synthetic session (or ``events``) through a sink keeping every world state
+    unless told otherwise (the sampling has its own tests)."""
+    options.setdefault("world_every_n_ticks", 1)
     options.setdefault("metadata", METADATA)
     options.setdefault("attachments", ATTACHMENTS)
     options.setdefault("scene", SCENE)
@@ -137,7 +140,11 @@ def test_sequence_numbers_count_from_zero_per_channel(recorded: Path) -> None:
 def test_metadata_and_attachments_round_trip(recorded: Path) -> None:
     recording = open_recording(recorded)
     assert recording.metadata == {
-        "oimi": {"format_version": str(FORMAT_VERSION), "recording_id": "greeting-7"},
+        "oimi": {
+            "format_version": str(FORMAT_VERSION),
+            "recording_id": "greeting-7",
+            "world_every_n_ticks": "1",
+        },
         "scenario": {"name": "greeting", "seed": "7"},
     }
     assert list(recording.metadata) == ["oimi", "scenario"]

@@ -34,7 +34,9 @@ def records(data: bytes) -> list[tuple[int, int, int]]:
 @pytest.fixture
 def whole(tmp_path: Path) -> bytes:
     path = tmp_path / "whole.mcap"
-    with McapSink(path, metadata=METADATA, attachments=ATTACHMENTS, scene=SCENE) as sink:
+    with McapSink(
+        path, metadata=METADATA, attachments=ATTACHMENTS, scene=SCENE, world_every_n_ticks=1
+    ) as sink:
         for topic, time_ns, event in session(20):
             sink.record(topic, time_ns, event)
     return path.read_bytes()

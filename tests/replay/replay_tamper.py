@@ -1,4 +1,5 @@
-"""Rewriting a recording with one thing changed: for the replay tests' tampered files."""
+"""Recording a scenario, and rewriting a recording with one thing changed: for the replay
+tests' tampered files."""
 
 from __future__ import annotations
 
@@ -8,6 +9,9 @@ from pathlib import Path
 from mcap.records import Attachment, Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session.recording import recorded
+from oimi.scenarios.session.runner import Session
 
 SHORT = Path(__file__).resolve().parent / "replay_short.toml"
 """A six-second scenario with a script and a generator, joystick, touch and operator input."""
@@ -68,3 +72,11 @@ def rewrite(
                         record.create_time, record.log_time, record.name, record.media_type, data
                     )
         writer.finish()
+
+
+def record(scenario: Path, target: Path) -> Path:
+    """Run ``scenario`` recorded to ``target``."""
+    session = Session(load_scenario(scenario))
+    with recorded(session, mcap=target, rrd=None):
+        session.run()
+    return target
