@@ -176,11 +176,13 @@ class Appended(
     added: list[_Reading]
 
 
-def _patch_of(row: type[State]) -> type[msgspec.Struct]:
-    """The type of ``row``'s change in a delta: its ``id`` and the fields that changed, a
-    list either whole or :class:`Appended` (a whole row is a change of every field)."""
-    fields: list[tuple[str, Any] | tuple[str, Any, Any]] = [("id", str)]
-    for field in msgspec.structs.fields(row):
+def _patch_of(part: type[State]) -> type[msgspec.Struct]:
+    """The type of a row's or a section's change in a delta: a row's ``id`` and the fields
+    that changed, a list either whole or :class:`Appended` (a whole one is a change of every
+    field)."""
+    keyed = "id" in part.__struct_fields__
+    fields: list[tuple[str, Any] | tuple[str, Any, Any]] = [("id", str)] if keyed else []
+    for field in msgspec.structs.fields(part):
         if field.name == "id":
             continue
         kind = field.type
@@ -188,7 +190,7 @@ def _patch_of(row: type[State]) -> type[msgspec.Struct]:
             kind = kind | Appended[get_args(kind)[0]]  # type: ignore[index]
         fields.append((field.name, kind | msgspec.UnsetType, msgspec.UNSET))
     return msgspec.defstruct(
-        f"{row.__name__}Patch", fields, kw_only=True, forbid_unknown_fields=True
+        f"{part.__name__}Patch", fields, kw_only=True, forbid_unknown_fields=True
     )
 
 
@@ -196,6 +198,11 @@ ROW_PATCHES: Final[dict[str, type[msgspec.Struct]]] = {
     m.field: _patch_of(m.struct) for m in MAP_LISTS
 }
 """Each table's row change in a delta (``HumanPatch``...): fields left out are unchanged."""
+SECTION_PATCHES: Final[dict[str, type[msgspec.Struct]]] = {
+    "scriptinfo": _patch_of(ScriptInfo),
+    "robotstatus": _patch_of(RobotStatus),
+}
+"""The map's Struct sections' change in a delta (format 5; whole before), as a row's."""
 
 
 class MapDelta(Event, omit_defaults=True):
@@ -204,7 +211,8 @@ class MapDelta(Event, omit_defaults=True):
 
     One Struct for both, told apart by ``keyframe``, so the topic keeps one schema: a
     keyframe has every section and row, whole; a delta only the sections that changed (an
-    empty ``Raw``, left out of the JSON: unchanged), the rows that appeared (whole) or
+    empty ``Raw``, left out of the JSON: unchanged; ``scriptinfo`` and ``robotstatus`` as a
+    :data:`SECTION_PATCHES` change, the others whole), the rows that appeared (whole) or
     changed (a :data:`ROW_PATCHES` row: the id and only the fields that changed; a register
     that took readings as :class:`Appended`), in the map's order, and, in ``removed``, the
     ``Class/id`` (``Human/ada``) of rows forgotten. A delta's row is a change when the map
@@ -230,15 +238,15 @@ class MapDelta(Event, omit_defaults=True):
     removed: tuple[str, ...] = ()
     """``Class/id`` of the rows forgotten since the previous message (deltas only)."""
     RAW_TYPES: ClassVar[dict[str, object]] = {
-        "scriptinfo": ScriptInfo,
+        "scriptinfo": SECTION_PATCHES["scriptinfo"],
         "lastupdatetime": int,
-        "robotstatus": RobotStatus,
+        "robotstatus": SECTION_PATCHES["robotstatus"],
         **{table: tuple[patch, ...] for table, patch in ROW_PATCHES.items()},  # type: ignore[valid-type]
         "variables": dict[str, str],
         "aliases": dict[str, str],
     }
-    """The type each raw field holds (as ``WorldMap``'s; a table as a tuple of its rows'
-    changes, of which a whole row is one)."""
+    """The type each raw field holds (as ``WorldMap``'s; a Struct section as its change and a
+    table as a tuple of its rows' changes, of which a whole section or row is one)."""
 
 
 class MapChange(Message):

@@ -23,7 +23,7 @@ import copy
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.events import ROW_PATCHES, Appended, MapDelta
+from oimi.pipeline.events import ROW_PATCHES, SECTION_PATCHES, Appended, MapDelta
 from oimi.pipeline.messages import MAP_LISTS, WorldMap
 
 TABLES: Final = tuple(m.field for m in MAP_LISTS)
@@ -33,11 +33,15 @@ SECTIONS: Final = tuple(f for f in WorldMap.__struct_fields__ if f not in TABLES
 _CLASS: Final = {m.field: m.name for m in MAP_LISTS}
 _FIELD: Final = {m.name: m.field for m in MAP_LISTS}
 _DECODERS: Final[dict[str, msgspec.json.Decoder[Any]]] = {
-    name: msgspec.json.Decoder(MapDelta.RAW_TYPES[name]) for name in SECTIONS
+    f.name: msgspec.json.Decoder(f.type)
+    for f in msgspec.structs.fields(WorldMap)
+    if f.name in SECTIONS
 } | {m.field: msgspec.json.Decoder(m.struct) for m in MAP_LISTS}
-"""Each section's and each table's row's decoder."""
-_PATCH_DECODERS: Final = {t: msgspec.json.Decoder(p) for t, p in ROW_PATCHES.items()}
-"""Each table's row change's decoder."""
+"""Each section's and each table's row's decoder (whole, as in a keyframe)."""
+_PATCH_DECODERS: Final = {
+    part: msgspec.json.Decoder(patch) for part, patch in (ROW_PATCHES | SECTION_PATCHES).items()
+}
+"""Each table's row change's and each Struct section's change's decoder."""
 _encode: Final = msgspec.json.Encoder().encode
 _UNSET: Final[Any] = object()
 
@@ -94,40 +98,43 @@ class MapDeltas:
 
     def after(self, world_map: WorldMap, *, tick: int, time_ms: int) -> MapDelta | None:
         """The ``/map`` message for the map after ``tick``; None when it did not change."""
-        changed: dict[str, Any] = {}
-        sections = self._sections
+        sections: dict[str, tuple[Any, Any]] = {}
+        """The sections that changed: (their copy as last published, the live one)."""
+        kept_sections = self._sections
         for name in SECTIONS:
             live = getattr(world_map, name)
-            kept = sections[name]  # a dict's key order shows in its JSON: compared too
+            kept = kept_sections[name]  # a dict's key order shows in its JSON: compared too
             if kept == live and (type(live) is not dict or list(kept) == list(live)):
                 continue
-            sections[name] = _copy(live)
-            changed[name] = msgspec.Raw(_encode(live))
+            kept_sections[name] = _copy(live)
+            sections[name] = kept, live
         keyframe = self._keyframe_ms is None or time_ms - self._keyframe_ms >= self.keyframe_ms
+        tables: dict[str, tuple[msgspec.Raw, ...]] = {}
         removed: list[str] = []
         for table in TABLES:
             live_rows: list[Any] = getattr(world_map, table)
             if live_rows == self._rows[table]:
                 continue
             rows, gone, ordered = self._table(table, live_rows)
-            changed[table] = rows
+            tables[table] = rows
             removed += (f"{_CLASS[table]}/{i}" for i in gone)
             keyframe = keyframe or not ordered
-        if not changed:
+        if not sections and not tables:
             return None
         if not keyframe:
-            return MapDelta(tick=tick, time_ms=time_ms, removed=tuple(removed), **changed)
+            return MapDelta(
+                tick=tick,
+                time_ms=time_ms,
+                removed=tuple(removed),
+                **{name: _section(name, *change) for name, change in sections.items()},
+                **tables,
+            )
         self._keyframe_ms = time_ms
         return MapDelta(
             tick=tick,
             time_ms=time_ms,
             keyframe=True,
-            **{
-                name: changed[name]
-                if name in changed
-                else msgspec.Raw(_encode(getattr(world_map, name)))
-                for name in SECTIONS
-            },  # the changed sections were encoded above
+            **{name: msgspec.Raw(_encode(getattr(world_map, name))) for name in SECTIONS},
             **{t: tuple(msgspec.Raw(_encode(r)) for r in getattr(world_map, t)) for t in TABLES},
         )
 
@@ -155,10 +162,17 @@ class MapDeltas:
         return tuple(rows), gone, unique and expected == ids
 
 
+def _section(name: str, kept: Any, live: Any) -> msgspec.Raw:
+    """A changed section in a delta: a Struct section as its change, another whole."""
+    whole = name not in SECTION_PATCHES or kept is _UNSET
+    return msgspec.Raw(_encode(live if whole else _patch(kept, live)))
+
+
 def _patch(old: Any, new: Any) -> dict[str, Any]:
-    """A row's change from ``old`` to ``new`` (same id): the fields that differ, a list
-    that kept a run of its old items at its start as what it dropped and added."""
-    patch: dict[str, Any] = {"id": new.id}
+    """A row's (same id) or a section's change from ``old`` to ``new``: the fields that
+    differ, a list that kept a run of its old items at its start as what it dropped and
+    added."""
+    patch: dict[str, Any] = {"id": new.id} if "id" in new.__struct_fields__ else {}
     olds, news = msgspec.structs.astuple(old), msgspec.structs.astuple(new)
     for name, before, after in zip(new.__struct_fields__, olds, news, strict=True):
         if before == after:
@@ -184,7 +198,8 @@ def _dropped(before: list[Any], after: list[Any]) -> int | None:
 
 
 def _applied(row: Any, patch: Any) -> Any:
-    """``row`` (left unchanged) with a :data:`~pipeline.events.ROW_PATCHES` change."""
+    """``row`` (left unchanged) with a :data:`~pipeline.events.ROW_PATCHES` change, or a
+    section with a :data:`~pipeline.events.SECTION_PATCHES` one."""
     fields = {}
     for name in row.__struct_fields__:
         value = getattr(patch, name)
@@ -193,9 +208,11 @@ def _applied(row: Any, patch: Any) -> Any:
         if type(value) is Appended:
             register = getattr(row, name)
             if not 0 <= value.dropped <= len(register):
+                owner = (
+                    f"{type(row).__name__}/{row.id}" if hasattr(row, "id") else type(row).__name__
+                )
                 raise ValueError(
-                    f"drops {value.dropped} of the {len(register)} items of"
-                    f" {type(row).__name__}/{row.id}'s {name}"
+                    f"drops {value.dropped} of the {len(register)} items of {owner}'s {name}"
                 )
             value = register[value.dropped :] + value.added
         fields[name] = value
@@ -224,8 +241,13 @@ def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
         gone.setdefault(_FIELD[name], set()).add(ident)
     fields: dict[str, Any] = {}
     for name in SECTIONS:
-        data = getattr(delta, name)
-        fields[name] = _DECODERS[name].decode(data) if data else getattr(world_map, name)
+        data, kept = getattr(delta, name), getattr(world_map, name)
+        if not data:
+            fields[name] = kept
+        elif name in SECTION_PATCHES:
+            fields[name] = _patched(kept, _PATCH_DECODERS[name].decode(data), delta.tick)
+        else:
+            fields[name] = _DECODERS[name].decode(data)
     for table in TABLES:
         rows: list[Any] = getattr(world_map, table)
         changed = _changed_rows(table, rows, getattr(delta, table), delta.tick)
@@ -252,8 +274,13 @@ def _changed_rows(
         if row is None:
             changed[patch.id] = _DECODERS[table].decode(raw)
             continue
-        try:
-            changed[patch.id] = _applied(row, patch)
-        except ValueError as error:
-            raise ValueError(f"the delta of tick {tick} {error}") from None
+        changed[patch.id] = _patched(row, patch, tick)
     return changed
+
+
+def _patched(part: Any, patch: Any, tick: int) -> Any:
+    """:func:`_applied`, its error naming the delta's tick."""
+    try:
+        return _applied(part, patch)
+    except ValueError as error:
+        raise ValueError(f"the delta of tick {tick} {error}") from None

@@ -18,13 +18,14 @@ from typing import Final, NamedTuple
 
 import msgspec
 
-FORMAT_VERSION: Final = 4
+FORMAT_VERSION: Final = 5
 """Version of the recorded message layout; bumped on any incompatible change."""
 
-READ_FORMAT_VERSIONS: Final = (2, 3, 4)
+READ_FORMAT_VERSIONS: Final = (2, 3, 4, 5)
 """The versions a recording may have to be read (2 wrote a ``/map`` delta's changed rows
-whole, which read as changes of every field; 2 and 3 kept ``/world/state`` at every tick,
-4 samples it: ``recorder.world_sampling``); replays need ``FORMAT_VERSION``."""
+whole, and 2 to 4 its changed ``scriptinfo`` and ``robotstatus``, which read as changes of
+every field; 2 and 3 kept ``/world/state`` at every tick, 4 samples it:
+``recorder.world_sampling``, 2 to 4 at micrometres); replays need ``FORMAT_VERSION``."""
 
 REGISTER_CAPACITY: Final = 16
 """Default capacity of an appendable (circular) register in the map."""

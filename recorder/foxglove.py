@@ -223,8 +223,8 @@ def stamp(time_ns: int) -> Time:
 
 
 def yaw(theta_rad: float) -> Quaternion:
-    """The rotation by ``theta_rad`` about z (its components rounded to 6 decimals, as the
-    world state's numbers are: a drawing needs no more, and the file stays smaller)."""
+    """The rotation by ``theta_rad`` about z (its components rounded to 6 decimals: a
+    drawing needs no more, and the file stays smaller)."""
     return _yaw(theta_rad + 0.0)  # -0.0 as 0.0: the cache must not tell them apart
 
 

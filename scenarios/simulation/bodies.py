@@ -24,11 +24,12 @@ from oimi.scenarios.simulation.humans import STILL, HumanDriver
 from pymunk._chipmunk import ffi as _ffi
 from pymunk._chipmunk import lib as _chipmunk
 
-STATE_DECIMALS: Final = 6
-"""``/world/state``'s resolution: micrometres and microradians (per second for speeds).
-The physics runs at full precision; the bits below this are numerical noise that
-compresses badly (a fifth of a recording's bytes). Speeds are cut towards zero, so the
-record never shows a speed the robot did not reach."""
+STATE_DECIMALS: Final = 3
+"""``/world/state``'s resolution: millimetres and milliradians (per second for speeds),
+finer than anything measured in a room (format 5; micrometres before). The physics runs at
+full precision; the digits below this are what a recording's positions cost most (they
+compress badly). Speeds are cut towards zero, so the record never shows a speed the robot
+did not reach."""
 
 
 class Motion(NamedTuple):

@@ -12,6 +12,7 @@ from oimi.analysis.metrics import session_metrics
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.runner import Session
 from oimi.scenarios.simulation.humans import PACE
+from oimi.scenarios.simulation.world import CONTACT_TOLERANCE_M
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 
@@ -44,10 +45,12 @@ def test_a_child_walking_into_a_standing_robot_initiates_the_contact(contact_mca
     assert contacts.height == 1
     (contact,) = contacts.rows(named=True)
     assert contact["initiator"] == "person"
-    # 0.5 m/s times the child's seeded pace; 2.45 m of gap closed at that speed
+    # 0.5 m/s times the child's seeded pace; 2.45 m of gap closed at that speed, but for the
+    # last CONTACT_TOLERANCE_M, within which the world already counts a touch; to a tick
     speed = contact["person_speed_mps"]
     assert 0.5 * PACE[0] - 1e-6 <= speed <= 0.5 * PACE[1] + 1e-6
-    assert contact["started_ms"] == pytest.approx(2.45 / speed * 1000, abs=60)
+    closed_m = 2.45 - CONTACT_TOLERANCE_M
+    assert contact["started_ms"] == pytest.approx(closed_m / speed * 1000, abs=30)
     assert contact["robot_speed_mps"] == pytest.approx(0.0, abs=0.02)
     assert contact["closing_speed_mps"] == pytest.approx(speed, abs=0.02)
     assert summary["robot_initiated_contacts"] == 0

@@ -12,9 +12,11 @@ from oimi.pipeline.messages import (
     Camera,
     GoalEvent,
     Human,
+    LedStatus,
     Object,
     Obstacle,
     Pose,
+    RobotStatus,
     WorldMap,
 )
 
@@ -33,6 +35,9 @@ mutation = st.one_of(
     st.tuples(st.just("time"), st.just(""), IDS),
     st.tuples(st.just("variable"), st.just(""), IDS),
     st.tuples(st.just("goal"), st.just(""), IDS),
+    st.tuples(st.just("battery"), st.just(""), IDS),
+    st.tuples(st.just("led"), st.just(""), IDS),
+    st.tuples(st.just("clear"), st.just(""), IDS),
     st.tuples(st.just("block"), st.just(""), IDS),
     st.tuples(st.just("publish"), st.just(""), IDS),
     st.tuples(st.just("publish"), st.just(""), IDS),
@@ -65,6 +70,15 @@ def mutate(world: WorldMap, step: tuple[str, str, str], n: int) -> None:
             world.variables.pop(ident, None) if n % 3 == 0 else world.variables.update({ident: "1"})
         case "goal":
             world.robotstatus.goalreached.append(GoalEvent(goalid=ident, timestamp=n))
+        case "battery":
+            world.robotstatus.batterytimeleft = n
+        case "led":
+            world.robotstatus.led.append(
+                LedStatus(r=n / 9, g=0.0, b=0.0, frequency=0, duration=n, startingtime=n)
+            )
+            del world.robotstatus.led[:-3]  # a circular register of 3
+        case "clear":
+            world.robotstatus.goalreached.clear()
         case "block":
             world.scriptinfo.blockid = f"blk{n}"
 
@@ -207,6 +221,30 @@ def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_
     assert apply_delta(apply_delta(None, first), delta) == world
 
 
+def test_a_changed_robot_status_is_written_as_its_change_not_whole() -> None:
+    """Format 5: ``robotstatus`` (a second's clock, registers of 16) changes twice a second."""
+    leds = [
+        LedStatus(r=1.0, g=0.0, b=0.0, frequency=0, duration=1000, startingtime=n)
+        for n in range(16)
+    ]
+    world = WorldMap(robotstatus=RobotStatus(batterytimeleft=9000, led=leds))
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    assert first is not None and b'"startingtime":15' in bytes(first.robotstatus)
+    world.robotstatus.batterytimeleft = 8000
+    world.robotstatus.led = [
+        *leds[1:],
+        LedStatus(r=0.5, g=0.0, b=0.0, frequency=0, duration=1000, startingtime=16),
+    ]
+    delta = deltas.after(world, tick=1, time_ms=1000)
+    assert delta is not None and not delta.keyframe
+    assert bytes(delta.robotstatus) == (
+        b'{"batterytimeleft":8000,"led":{"dropped":1,"added":[{"r":0.5,"g":0.0,"b":0.0,'
+        b'"frequency":0,"duration":1000,"startingtime":16}]}}'
+    )
+    assert apply_delta(apply_delta(None, first), delta) == world
+
+
 def test_a_change_dropping_more_readings_than_the_register_has_is_refused() -> None:
     world = WorldMap(humans=[Human(id="a", creationtime=0)])
     first = MapDeltas(keyframe_ms=5000).after(world, tick=0, time_ms=0)
@@ -215,4 +253,12 @@ def test_a_change_dropping_more_readings_than_the_register_has_is_refused() -> N
         tick=1, time_ms=20, humans=(msgspec.Raw(b'{"id":"a","poses":{"dropped":2,"added":[]}}'),)
     )
     with pytest.raises(ValueError, match="tick 1 drops 2 of the 0 items of Human/a's poses"):
+        apply_delta(apply_delta(None, first), bad)
+
+
+def test_a_section_change_dropping_more_readings_than_it_has_is_refused() -> None:
+    first = MapDeltas(keyframe_ms=5000).after(WorldMap(), tick=0, time_ms=0)
+    assert first is not None
+    bad = MapDelta(tick=1, time_ms=20, robotstatus=msgspec.Raw(b'{"led":{"dropped":1,"added":[]}}'))
+    with pytest.raises(ValueError, match="tick 1 drops 1 of the 0 items of RobotStatus's led"):
         apply_delta(apply_delta(None, first), bad)
