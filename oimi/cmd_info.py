@@ -69,6 +69,7 @@ def describe(recording: Recording) -> dict[str, Any]:
         else None,
         "ticks": ticks,
         "duration_s": ticks / tick_hz,
+        "world_every_n_ticks": meta.oimi.world_every,
         "variation": meta.variation,
         "topics": dict(recording.summary),
         "messages": sum(recording.summary.values()),
@@ -99,6 +100,9 @@ def format_info(info: dict[str, Any]) -> str:
         f"duration    {info['duration_s']:.2f} s, {info['ticks']:,} ticks at {info['tick_hz']} Hz"
         + ("" if info["complete"] else " (up to the damage)")
     )
+    every = info["world_every_n_ticks"]
+    sampled = f"every {every} ticks, at every contact and at the last tick"
+    lines.append(f"world state {'every tick' if every == 1 else sampled if every else '?'}")
     if info["session"] is not None:
         for field in SESSION_FIELDS:
             lines.append(f"{field:<12}{info['session'][field] or '-'}")

@@ -35,6 +35,12 @@ class OimiRecord(_Record):
     function_registry: str | None = None
     recording_id: str | None = None
 
+    @property
+    def world_every(self) -> int | None:
+        """``world_every_n_ticks`` as a number (1 when not written: every tick, before
+        format 4), or None when it does not read."""
+        return 1 if self.world_every_n_ticks is None else _integer(self.world_every_n_ticks)
+
 
 class ScenarioRecord(_Record):
     """``scenario``: the scenario run (its file is attached as ``scenario/FILE``)."""

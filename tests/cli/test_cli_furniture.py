@@ -70,7 +70,9 @@ def test_info_shows_scenario_seed_duration_topics_and_attachments(recorded) -> N
     assert "scenario    blink (blink.toml), seed 0" in done.stdout
     assert f"{run['summary']['ticks']:,} ticks" in done.stdout
     assert "/world/state" in done.stdout and "scenario/blink.toml" in done.stdout
+    assert "world state every 2 ticks, at every contact and at the last tick" in done.stdout
     info = one_json(oimi("info", path, "--json").stdout)
+    assert info["world_every_n_ticks"] == 2
     assert info["complete"] is True and info["recovery"] is None
     assert info["ticks"] == run["summary"]["ticks"]
     # every second tick and the last, 2999

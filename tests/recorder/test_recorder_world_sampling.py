@@ -42,7 +42,7 @@ def test_the_sink_writes_them_in_order_and_the_last_at_close(tmp_path: Path) -> 
     recording = open_recording(path)
     written = [(m.tick, m.time_ns) for m in recording.iter_messages([Topic.WORLD_STATE])]
     assert written == [(t, t * TICK_NS) for t in (0, 2, 3, 4, 5, 6, 8, 9)]
-    assert recording.meta.oimi.world_every_n_ticks == "2"
+    assert recording.meta.oimi.world_every_n_ticks == "2" and recording.meta.oimi.world_every == 2
     assert recording.summary[Topic.WORLD_STATE] == 8
 
 
@@ -75,3 +75,10 @@ def test_time_in_each_zone_read_from_the_samples_is_the_sessions() -> None:
             sampled.update(state)
     assert sampled.zone_ms == every.zone_ms
     assert sum(every.zone_ms["child1"].values()) == 11 * 20
+
+
+def test_the_sampling_reads_as_every_tick_before_format_4_and_none_when_unreadable() -> None:
+    from oimi.recorder.metadata import OimiRecord
+
+    assert OimiRecord().world_every == 1
+    assert OimiRecord(world_every_n_ticks="x").world_every is None
