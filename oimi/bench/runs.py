@@ -140,6 +140,10 @@ def _in_turn(repetitions: int, *calls: tuple[Any, ...]) -> list[list[Any]]:
     return [[result for _, result in times] for times in timings]
 
 
+FORMAT_1_MB_PER_MIN: Final = 0.60
+"""busy_playroom's MCAP per simulated minute in recording format 1 (issue 20's baseline:
+the recording is to be half of it)."""
+
 FLOORS: Final = {
     "McapSink": "floor: its events -> MCAP sink",
     "RerunSink": "floor: its events -> Rerun sink",
@@ -198,6 +202,17 @@ def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list
                     target="ratio: share of the run's time",
                 )
             )
+    if not rerun:
+        rows.append(
+            Case(
+                name="recording per simulated minute",
+                value=case.extra["mcap_mb_per_min"],
+                unit="MB/min",
+                target=f"<= {FORMAT_1_MB_PER_MIN / 2:.2f}, half of format 1's"
+                f" {FORMAT_1_MB_PER_MIN:.2f}",
+                extra={"messages_per_tick": case.extra["messages_per_tick"]},
+            )
+        )
     return rows
 
 

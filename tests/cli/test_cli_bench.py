@@ -13,6 +13,7 @@ from oimi.cli import main
 CASES = {
     "run + MCAP",
     "run + MCAP + Rerun",
+    "recording per simulated minute",
     "replay redrive",
     "analyse (load into polars)",
     "MCAP writer: foxglove-sdk",
@@ -51,6 +52,9 @@ def test_the_quick_bench_measures_every_case_and_writes_bench_json(tmp_path: Pat
         assert extra["reference_messages_per_tick"] == 6
         assert extra["floor_wrote_the_runs_messages"] == extra["floor_world_matched_the_runs"] == 1
     run = by_name["run + MCAP"]
+    size = by_name["recording per simulated minute"]
+    assert size["value"] == run["extra"]["mcap_mb_per_min"] > 0
+    assert size["target"] == "<= 0.30, half of format 1's 0.60"
     assert results["headline"]["ratio"] == run["ratio"] == run["value"] / run["against_value"]
     assert by_name["analyse (load into polars)"]["against"].startswith("baseline")
     writer = by_name["MCAP writer: foxglove-sdk"]
