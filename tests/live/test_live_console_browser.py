@@ -226,6 +226,56 @@ def test_a_late_reply_to_add_leaves_a_picker_reopened_for_another_choice(browser
         expect(item(page, "example_act")).to_be_visible()
 
 
+def test_a_late_reply_to_the_session_record_leaves_a_record_reopened_meanwhile(
+    browser_page, tmp_path
+):
+    """Save, then Cancel and open the record again to type more before the reply: the
+    reply must not close it nor overwrite what is being typed (what was saved is shown)."""
+    page = browser_page
+    held: list[str | bytes] = []
+    routes: dict[str, Any] = {"save": None, "after": 0}
+
+    def route(ws: WebSocketRoute) -> None:
+        server = ws.connect_to_server()
+        routes["page"] = ws
+
+        def from_page(message: str | bytes) -> None:
+            body = json.loads(message)
+            if body.get("cmd") == "session" and routes["save"] is None:
+                routes["save"] = body["id"]
+            server.send(message)
+
+        def from_server(message: str | bytes) -> None:
+            first_save = routes["save"] is not None and not held
+            if first_save and json.loads(message).get("id") == routes["save"]:
+                held.append(message)  # the reply to the first save, kept back
+                return
+            ws.send(message)
+            routes["after"] += 1
+
+        server.on_message(from_server)
+        ws.on_message(from_page)
+
+    page.route_web_socket("**/ws", route)
+    with served(tmp_path / "late-record.mcap", "--token", "t0ken") as live:
+        page.goto(f"{live.console}?token=t0ken")
+        expect(page.locator("#scenario")).to_have_text("live_room")
+        page.click("#session")
+        page.fill("#field-child", "C07")
+        page.click("#record-save")
+        _within_5_s(page, lambda: len(held) == 1)
+        page.click("#record-cancel")
+        page.click("#session")
+        page.fill("#field-notes", "tired today")
+        routes["page"].send(held.pop())  # the first save's reply arrives, late
+        routes["after"] = 0
+        _within_5_s(page, lambda: routes["after"] >= 2)
+        page.wait_for_timeout(200)
+        expect(page.locator("#record")).to_be_visible()
+        expect(page.locator("#field-notes")).to_have_value("tired today")
+        expect(page.locator("#session-summary")).to_have_text("C07")
+
+
 def _within_5_s(page: Page, done: Callable[[], bool]) -> None:
     """Let the page run until ``done()`` (a bounded wait over loopback)."""
     for _ in range(50):

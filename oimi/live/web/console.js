@@ -339,10 +339,17 @@ const FIELDS = ["child", "therapist", "notes"];
 
 function showFields(fields) {
   for (const name of FIELDS) $(`field-${name}`).value = fields[name] || "";
+  showSummary(fields);
+}
+
+function showSummary(fields) {
   $("session-summary").textContent = [fields.child, fields.therapist].filter(Boolean).join(" · ");
 }
 
+let recordOpened = 0; // times the record was opened: a reply knows if it is still the same
+
 $("session").onclick = () => {
+  recordOpened += 1;
   $("record-message").textContent = "";
   $("record").showModal();
 };
@@ -350,13 +357,22 @@ $("record-cancel").onclick = () => $("record").close();
 $("record-save").onclick = () => {
   const body = { cmd: "session" };
   for (const name of FIELDS) body[name] = $(`field-${name}`).value.trim();
+  const opened = recordOpened;
   const sent = request(body, (reply) => {
+    // Not the record reopened meanwhile: what is being typed there stays, open.
+    const still = $("record").open && opened === recordOpened;
     if (reply.ok) {
-      showFields(reply.session || body);
-      $("record").close();
+      if (still) {
+        showFields(reply.session || body);
+        $("record").close();
+      } else {
+        showSummary(reply.session || body);
+      }
       say(reply.reason, false);
-    } else {
+    } else if (still) {
       $("record-message").textContent = reply.reason;
+    } else {
+      say(`Refused: ${reply.reason}`, true);
     }
   });
   if (!sent) $("record-message").textContent = "not connected";
