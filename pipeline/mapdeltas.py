@@ -20,6 +20,7 @@ back a float).
 from __future__ import annotations
 
 import copy
+import enum
 from typing import Any, Final
 
 import msgspec
@@ -72,11 +73,15 @@ def _copy(value: Any) -> Any:
         return twin
     if kind is tuple and _SHARED.issuperset(map(type, value)):
         return value
+    if isinstance(value, enum.Enum):  # a member is its own copy (deepcopy returns it)
+        _SHARED.add(kind)
+        return value
     return copy.deepcopy(value)
 
 
 _SHARED: Final[set[type]] = {str, int, float, bool, type(None), bytes}
-"""Types whose values never change in place (frozen structs join when first met)."""
+"""Types whose values never change in place (frozen structs and enums join when first
+met)."""
 
 
 class MapDeltas:

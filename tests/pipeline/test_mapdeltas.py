@@ -9,6 +9,8 @@ from hypothesis import strategies as st
 from oimi.pipeline.events import MapDelta
 from oimi.pipeline.mapdeltas import SECTIONS, TABLES, MapDeltas, apply_delta
 from oimi.pipeline.messages import (
+    ActivityStatus,
+    ActivityTracking,
     Camera,
     GoalEvent,
     Human,
@@ -199,6 +201,18 @@ def test_a_registers_readings_are_frozen_so_the_kept_copy_may_share_them() -> No
     world.robotstatus.goalreached.append(GoalEvent(goalid="g", timestamp=40))  # in place
     assert deltas.after(world, tick=2, time_ms=40) is not None
     assert deltas.after(world, tick=3, time_ms=60) is None
+
+
+def test_an_activitys_status_changed_in_place_is_a_change() -> None:
+    """The copy shares enum members (each its own copy) but not the mutable row holding one."""
+    world = WorldMap(robotstatus=RobotStatus(activities=[ActivityTracking(activityname="a")]))
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    assert first is not None
+    world.robotstatus.activities[0].status = ActivityStatus.RUNNING  # in place
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert delta is not None and b'"status":"running"' in bytes(delta.robotstatus)
+    assert apply_delta(apply_delta(None, first), delta) == world
 
 
 def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_dropped() -> None:
