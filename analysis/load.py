@@ -169,7 +169,8 @@ def _explode(frame: pl.DataFrame, column: str) -> pl.DataFrame:
 
 
 def _flatten_world(frame: pl.DataFrame) -> pl.DataFrame:
-    """``/world/state`` per tick: the robot's fields as ``robot_*``, the LED as r/g/b."""
+    """``/world/state`` per recorded state: the robot's fields as ``robot_*``, the LED as
+    r/g/b."""
     robot = pl.col("robot")
     fields = [f.name for f in frame.schema["robot"].fields]  # type: ignore[union-attr]
     return frame.with_columns(

@@ -1,7 +1,7 @@
 """Peak memory of analysing a long session: a synthetic recording of any length, analysed in a
 fresh process whose peak resident memory is read back (for ``oimi bench``).
 
-The recording has what drives analysis memory: one ``/world/state`` per tick with three
+The recording has what drives analysis memory: ``/world/state`` (sampled as a run's) with three
 people (one bumping into the robot every minute), rule decisions every 5 ticks with a rule
 switching on and off, and a ``/safety`` intervention every minute.
 """

@@ -265,8 +265,8 @@ def _streamed(data: SessionData) -> Streamed:
 
 
 def distances(data: SessionData) -> pl.DataFrame:
-    """Per sampled tick and human: surface-to-surface distance to the robot, m (every tick of
-    a short session; evenly thinned to ``analysis.stream.MAX_SAMPLES`` ticks beyond)."""
+    """Per recorded world state and human: surface-to-surface distance to the robot, m (every
+    state of a short session; evenly thinned to ``analysis.stream.MAX_SAMPLES`` beyond)."""
     samples = _streamed(data).samples.frame()
     return samples.filter(pl.col("id") != "robot").select(
         "time_ms",
@@ -279,7 +279,8 @@ def distances(data: SessionData) -> pl.DataFrame:
 
 def proximity(data: SessionData) -> pl.DataFrame:
     """Per human: closest surface distance (and when), contact episodes, time in each zone
-    (every tick counted, ``pipeline.proximity.ZONES_M``)."""
+    (each recorded state counted for the time since the one before,
+    ``pipeline.proximity.ZONES_M``)."""
     streamed = _streamed(data)
     tracker = streamed.proximity
     rows = [
