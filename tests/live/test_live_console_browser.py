@@ -3,10 +3,11 @@ against ``oimi serve``: the operator's whole round of thesis 5.1, and the joysti
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +47,15 @@ def add(page: Page, activity: str, **options: str) -> None:
         page.fill(f"#options [name={name}]", value)
     page.click("#picker-add")
     expect(page.locator(f"#selected li[data-name={activity}]")).to_be_visible()
+
+
+@contextlib.contextmanager
+def console_open(page: Page, recording: Path) -> Iterator[None]:
+    """``oimi serve`` recording to ``recording``, its console open in ``page``."""
+    with served(recording, "--token", "t0ken") as live:
+        page.goto(f"{live.console}?token=t0ken")
+        expect(page.locator("#scenario")).to_have_text("live_room")
+        yield
 
 
 def item(page: Page, activity: str):
@@ -157,9 +167,7 @@ def test_a_catalogue_that_arrives_late_leaves_the_options_being_filled(browser_p
         ws.on_message(server.send)
 
     page.route_web_socket("**/ws", route)
-    with served(tmp_path / "late.mcap", "--token", "t0ken") as live:
-        page.goto(f"{live.console}?token=t0ken")
-        expect(page.locator("#scenario")).to_have_text("live_room")
+    with console_open(page, tmp_path / "late.mcap"):
         _within_5_s(page, lambda: routes["passed"] == 1)  # the catalogue asked for on connecting
         routes["hold"] = True
         page.click("#plus")
@@ -178,49 +186,62 @@ def test_a_catalogue_that_arrives_late_leaves_the_options_being_filled(browser_p
         expect(item(page, "test_dance")).to_be_visible()
 
 
-def test_a_late_reply_to_add_leaves_a_picker_reopened_for_another_choice(browser_page, tmp_path):
-    """Add, then Cancel and "+" for another activity before the reply: the reply must not
-    close the new choice's picker (the first activity is still added, and said)."""
-    page = browser_page
-    held: list[str | bytes] = []
-    routes: dict[str, Any] = {"add": None, "after": 0}
+class FirstReplyHeld:
+    """Routes the console's WebSocket and keeps back the server's reply to the first
+    request of ``cmd`` until :meth:`release` (then counts the messages that follow)."""
 
-    def route(ws: WebSocketRoute) -> None:
+    def __init__(self, page: Page, cmd: str) -> None:
+        self.cmd = cmd
+        self.request_id: int | None = None
+        self.held: list[str | bytes] = []
+        self.after = 0
+        self._page_side: WebSocketRoute | None = None
+        page.route_web_socket("**/ws", self._route)
+
+    def _route(self, ws: WebSocketRoute) -> None:
         server = ws.connect_to_server()
-        routes["page"] = ws
+        self._page_side = ws
 
         def from_page(message: str | bytes) -> None:
             body = json.loads(message)
-            if body.get("cmd") == "add" and routes["add"] is None:
-                routes["add"] = body["id"]
+            if body.get("cmd") == self.cmd and self.request_id is None:
+                self.request_id = body["id"]
             server.send(message)
 
         def from_server(message: str | bytes) -> None:
-            first_add = routes["add"] is not None and not held
-            if first_add and json.loads(message).get("id") == routes["add"]:
-                held.append(message)  # the reply to the first add, kept back
+            first = self.request_id is not None and not self.held
+            if first and json.loads(message).get("id") == self.request_id:
+                self.held.append(message)  # the reply to the first request, kept back
                 return
             ws.send(message)
-            routes["after"] += 1
+            self.after += 1
 
         server.on_message(from_server)
         ws.on_message(from_page)
 
-    page.route_web_socket("**/ws", route)
-    with served(tmp_path / "late-add.mcap", "--token", "t0ken") as live:
-        page.goto(f"{live.console}?token=t0ken")
-        expect(page.locator("#scenario")).to_have_text("live_room")
+    def release(self, page: Page) -> None:
+        """Send the held reply, late, and let two more messages follow it."""
+        assert self._page_side is not None
+        self._page_side.send(self.held.pop())
+        self.after = 0
+        _within_5_s(page, lambda: self.after >= 2)
+        page.wait_for_timeout(200)
+
+
+def test_a_late_reply_to_add_leaves_a_picker_reopened_for_another_choice(browser_page, tmp_path):
+    """Add, then Cancel and "+" for another activity before the reply: the reply must not
+    close the new choice's picker (the first activity is still added, and said)."""
+    page = browser_page
+    reply = FirstReplyHeld(page, "add")
+    with console_open(page, tmp_path / "late-add.mcap"):
         page.click("#plus")
         page.click("#catalogue button[data-activity=example_act]")
         page.click("#picker-add")
-        _within_5_s(page, lambda: len(held) == 1)
+        _within_5_s(page, lambda: len(reply.held) == 1)
         page.click("#picker-cancel")
         page.click("#plus")
         page.click("#catalogue button[data-activity=test_dance]")
-        routes["page"].send(held.pop())  # the first add's reply arrives, late
-        routes["after"] = 0
-        _within_5_s(page, lambda: routes["after"] >= 2)
-        page.wait_for_timeout(200)
+        reply.release(page)  # the first add's reply arrives, late
         expect(page.locator("#picker-add")).to_be_visible()
         expect(page.locator("#options [name=tempo]")).to_be_visible()
         expect(item(page, "example_act")).to_be_visible()
@@ -232,45 +253,16 @@ def test_a_late_reply_to_the_session_record_leaves_a_record_reopened_meanwhile(
     """Save, then Cancel and open the record again to type more before the reply: the
     reply must not close it nor overwrite what is being typed (what was saved is shown)."""
     page = browser_page
-    held: list[str | bytes] = []
-    routes: dict[str, Any] = {"save": None, "after": 0}
-
-    def route(ws: WebSocketRoute) -> None:
-        server = ws.connect_to_server()
-        routes["page"] = ws
-
-        def from_page(message: str | bytes) -> None:
-            body = json.loads(message)
-            if body.get("cmd") == "session" and routes["save"] is None:
-                routes["save"] = body["id"]
-            server.send(message)
-
-        def from_server(message: str | bytes) -> None:
-            first_save = routes["save"] is not None and not held
-            if first_save and json.loads(message).get("id") == routes["save"]:
-                held.append(message)  # the reply to the first save, kept back
-                return
-            ws.send(message)
-            routes["after"] += 1
-
-        server.on_message(from_server)
-        ws.on_message(from_page)
-
-    page.route_web_socket("**/ws", route)
-    with served(tmp_path / "late-record.mcap", "--token", "t0ken") as live:
-        page.goto(f"{live.console}?token=t0ken")
-        expect(page.locator("#scenario")).to_have_text("live_room")
+    reply = FirstReplyHeld(page, "session")
+    with console_open(page, tmp_path / "late-record.mcap"):
         page.click("#session")
         page.fill("#field-child", "C07")
         page.click("#record-save")
-        _within_5_s(page, lambda: len(held) == 1)
+        _within_5_s(page, lambda: len(reply.held) == 1)
         page.click("#record-cancel")
         page.click("#session")
         page.fill("#field-notes", "tired today")
-        routes["page"].send(held.pop())  # the first save's reply arrives, late
-        routes["after"] = 0
-        _within_5_s(page, lambda: routes["after"] >= 2)
-        page.wait_for_timeout(200)
+        reply.release(page)  # the first save's reply arrives, late
         expect(page.locator("#record")).to_be_visible()
         expect(page.locator("#field-notes")).to_have_value("tired today")
         expect(page.locator("#session-summary")).to_have_text("C07")
