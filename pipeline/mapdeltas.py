@@ -168,9 +168,9 @@ class MapDeltas:
 
 
 def _section(name: str, kept: Any, live: Any) -> msgspec.Raw:
-    """A changed section in a delta: a Struct section as its change, another whole."""
-    whole = name not in SECTION_PATCHES or kept is _UNSET
-    return msgspec.Raw(_encode(live if whole else _patch(kept, live)))
+    """A changed section in a delta (after a keyframe: ``kept`` is its copy as last
+    published): a Struct section as its change, another whole."""
+    return msgspec.Raw(_encode(_patch(kept, live) if name in SECTION_PATCHES else live))
 
 
 def _patch(old: Any, new: Any) -> dict[str, Any]:

@@ -132,12 +132,10 @@ class ProximityTracker:
         self._open: dict[str, _Open] = {}
         self._previous: WorldState | None = None
         """The state before the one being read: where a contact's speeds are taken."""
-        self._last_ms = 0
 
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
         lasted = self.tick_ms if self._previous is None else now - self._previous.time_ms
-        self._last_ms = now
         kinds, closest_m, zone_ms = self.kinds, self.closest_m, self.zone_ms
         centres_m, x, y, hypot, isnan = (
             self.closest_centres_m,

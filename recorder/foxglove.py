@@ -455,7 +455,7 @@ class Views:
 
 def body_transforms(state: WorldState, time_ns: int) -> FrameTransforms:
     """``world -> robot``, ``world -> human/<id>``, ``world -> object/<id>``: each body's
-    pose in the arena (its rotation rounded to the micro-unit, as the state's numbers are)."""
+    pose in the arena (its rotation's components rounded to 6 decimals: :func:`yaw`)."""
     t = stamp(time_ns)
     return FrameTransforms(
         transforms=tuple(

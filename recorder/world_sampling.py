@@ -15,6 +15,7 @@ from typing import Final
 
 from oimi.pipeline.events import WorldState
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import OimiRecord
 
 DEFAULT_WORLD_EVERY_N_TICKS: Final = 2
 """``/world/state`` every second tick: 25 Hz at the default 50 Hz tick rate."""
@@ -51,11 +52,12 @@ class WorldSampling:
         return held
 
 
-def recorded_sampling(every_n_ticks: str | None) -> WorldSampling | None:
-    """The sampling a recording's ``oimi`` record states (None before format 4: every tick
-    kept; ``RecordingError`` for a value that is not a positive integer)."""
-    if every_n_ticks is None:
-        return None
-    if not every_n_ticks.isdigit():
-        raise RecordingError(f"metadata: {WORLD_EVERY_KEY} is not a number: {every_n_ticks!r}")
-    return WorldSampling(int(every_n_ticks))
+def recorded_sampling(record: OimiRecord) -> WorldSampling:
+    """The sampling a recording's ``oimi`` record states (every tick before format 4;
+    ``RecordingError`` for a value that is not a positive integer)."""
+    every = record.world_every
+    if every is None:
+        raise RecordingError(
+            f"metadata: {WORLD_EVERY_KEY} is not a number: {record.world_every_n_ticks!r}"
+        )
+    return WorldSampling(every)

@@ -122,7 +122,8 @@ class Comparator:
     ``compared``: the topics whose messages must match. The session lasts up to the last
     message read: the world's states are always read, since a recording keeps the
     session's last one (:mod:`~recorder.world_sampling`). A compared ``/world/state`` is
-    sampled as the recording says it was. The recorded inputs of the current tick are
+    sampled as the recording says it was (a state it has at a tick is always compared:
+    the session's last). The recorded inputs of the current tick are
     available through :meth:`inputs_at`.
     """
 
@@ -140,9 +141,7 @@ class Comparator:
             t for t in Topic if t in read
         )
         self._sampling = (
-            recorded_sampling(recording.meta.oimi.world_every_n_ticks)
-            if Topic.WORLD_STATE in self.topics
-            else None
+            recorded_sampling(recording.meta.oimi) if Topic.WORLD_STATE in self.topics else None
         )
         self._ahead: RecordedMessage | None = None
         self._index = 0
@@ -200,18 +199,12 @@ class Comparator:
         buffer = self._buffers.get(topic)
         if buffer is None:
             return
-        sampling = self._sampling
-        if topic is Topic.WORLD_STATE and sampling and not sampling.keep(time_ns, message):
-            return  # the recording did not keep it, unless it was the last (finish_tick)
-        self._compare(topic, buffer, time_ns, message)
-
-    def _compare(
-        self,
-        topic: Topic,
-        buffer: deque[tuple[int, RecordedMessage]],
-        time_ns: int,
-        message: Event,
-    ) -> None:
+        if (
+            topic is Topic.WORLD_STATE
+            and not self._sampling.keep(time_ns, message)  # type: ignore[union-attr]
+            and not (buffer and buffer[0][1].tick == message.tick)
+        ):
+            return  # not kept, and not the session's last, which the recording keeps too
         payload = encode(message)
         if not buffer or buffer[0][1].tick != message.tick:
             self._diverge(
@@ -252,13 +245,7 @@ class Comparator:
         self._recent.append((topic.value, time_ns, payload))
 
     def finish_tick(self, tick: int) -> None:
-        """Every recorded message up to ``tick`` must have been matched by now (a world
-        state not kept is compared when the recording has it: the session's last)."""
-        held = self._sampling and self._sampling.held
-        if held and held[1].tick == tick:
-            world = self._buffers[Topic.WORLD_STATE]
-            if world and world[0][1].tick == tick:
-                self._compare(Topic.WORLD_STATE, world, *held)
+        """Every recorded message up to ``tick`` must have been matched by now."""
         left = [b[0] for b in self._buffers.values() if b and b[0][1].tick <= tick]
         if left:
             _, message = min(left, key=lambda entry: entry[0])

@@ -7,7 +7,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from oimi.accel import MODULES, accel_dir, build
+from oimi.accel import MODULES, accel_dir, build, ready
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -33,7 +33,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             return 0
         return 1
-    print(f"oimi.accel: {len(MODULES)} modules compiled in {folder}", file=sys.stderr)
+    compiled = len(ready(folder))
+    print(f"oimi.accel: {compiled} of {len(MODULES)} modules compiled in {folder}", file=sys.stderr)
     return 0
 
 

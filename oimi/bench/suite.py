@@ -71,5 +71,12 @@ def run_suite(
         add([bench_memory(short_ticks, max(ticks, 2 * short_ticks), folder)])
         hours = QUICK_ANALYSIS_HOURS if quick else ANALYSIS_HOURS
         add([bench_analysis_memory(hours, Path(folder))])
-    write_results(out, cases, quick=quick, ticks=ticks, repetitions=repetitions)
+    write_results(
+        out,
+        cases,
+        quick=quick,
+        ticks=ticks,
+        repetitions=repetitions,
+        compiled_modules=compiled,
+    )
     return cases

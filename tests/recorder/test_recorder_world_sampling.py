@@ -11,6 +11,7 @@ from oimi.pipeline.events import Topic
 from oimi.pipeline.proximity import ProximityTracker
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.mcap_sink import McapSink
+from oimi.recorder.metadata import OimiRecord
 from oimi.recorder.reader import open_recording
 from oimi.recorder.world_sampling import WorldSampling, recorded_sampling
 from recorder_synthetic import TICK_NS, world_state
@@ -59,9 +60,9 @@ def test_a_sampling_below_one_or_unreadable_is_refused() -> None:
     with pytest.raises(RecordingError, match="world_every_n_ticks must be >= 1, got 0"):
         WorldSampling(0)
     with pytest.raises(RecordingError, match="world_every_n_ticks is not a number: 'two'"):
-        recorded_sampling("two")
-    assert recorded_sampling(None) is None, "before format 4: every tick"
-    assert recorded_sampling("5").every_n_ticks == 5  # type: ignore[union-attr]
+        recorded_sampling(OimiRecord(world_every_n_ticks="two"))
+    assert recorded_sampling(OimiRecord()).every_n_ticks == 1, "before format 4: every tick"
+    assert recorded_sampling(OimiRecord(world_every_n_ticks="5")).every_n_ticks == 5
 
 
 def test_time_in_each_zone_read_from_the_samples_is_the_sessions() -> None:
@@ -78,7 +79,5 @@ def test_time_in_each_zone_read_from_the_samples_is_the_sessions() -> None:
 
 
 def test_the_sampling_reads_as_every_tick_before_format_4_and_none_when_unreadable() -> None:
-    from oimi.recorder.metadata import OimiRecord
-
     assert OimiRecord().world_every == 1
     assert OimiRecord(world_every_n_ticks="x").world_every is None
