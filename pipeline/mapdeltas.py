@@ -4,10 +4,11 @@
 of ``WorldMap`` and each row of each listed class, by id) and, after a tick, compares the
 live map with them by value (struct equality: one C call per unchanged table, no JSON
 encoded or decoded to find what changed). Only the parts that differ are encoded (into the
-:class:`~pipeline.events.MapDelta`, as ``msgspec.Raw``: the sink writes them as they are)
-and copied; a row that was there before is written as its change (its id and the fields
-that differ; a register that took readings as the readings added and how many it
-dropped, not its whole history). :func:`apply_delta` is the one function that rebuilds
+:class:`~pipeline.events.MapDelta`, as ``msgspec.Raw``: the sink writes them as they are);
+a row that was there before is written as its change (its id and the fields that differ;
+a register that took readings as the readings added and how many it dropped, not its
+whole history), and that change is what its kept copy takes (the readings it kept are
+not copied again). :func:`apply_delta` is the one function that rebuilds
 full maps from a keyframe and the deltas after it.
 
 A recorded part is the live part's JSON at its change, so a rebuilt map equals the loop's
@@ -103,16 +104,19 @@ class MapDeltas:
 
     def after(self, world_map: WorldMap, *, tick: int, time_ms: int) -> MapDelta | None:
         """The ``/map`` message for the map after ``tick``; None when it did not change."""
-        sections: dict[str, tuple[Any, Any]] = {}
-        """The sections that changed: (their copy as last published, the live one)."""
+        sections: dict[str, Any] = {}
+        """The sections that changed, as a delta writes them (a Struct section as its change)."""
         kept_sections = self._sections
         for name in SECTIONS:
             live = getattr(world_map, name)
             kept = kept_sections[name]  # a dict's key order shows in its JSON: compared too
             if kept == live and (type(live) is not dict or list(kept) == list(live)):
                 continue
-            kept_sections[name] = _copy(live)
-            sections[name] = kept, live
+            if name in SECTION_PATCHES and kept is not _UNSET:
+                sections[name] = _take(kept, _patch(kept, live))
+            else:
+                kept_sections[name] = _copy(live)
+                sections[name] = live
         keyframe = self._keyframe_ms is None or time_ms - self._keyframe_ms >= self.keyframe_ms
         tables: dict[str, tuple[msgspec.Raw, ...]] = {}
         removed: list[str] = []
@@ -131,7 +135,7 @@ class MapDeltas:
                 tick=tick,
                 time_ms=time_ms,
                 removed=tuple(removed),
-                **{name: _section(name, *change) for name, change in sections.items()},
+                **{name: msgspec.Raw(_encode(change)) for name, change in sections.items()},
                 **tables,
             )
         self._keyframe_ms = time_ms
@@ -154,9 +158,11 @@ class MapDeltas:
         fresh: dict[str, Any] = {}
         for row in live:
             old = kept.get(row.id)
-            if old is None or old != row:
-                rows.append(msgspec.Raw(_encode(row if old is None else _patch(old, row))))
+            if old is None:
+                rows.append(msgspec.Raw(_encode(row)))
                 old = _copy(row)
+            elif old != row:
+                rows.append(msgspec.Raw(_encode(_take(old, _patch(old, row)))))
             fresh[row.id] = old
         ids = [row.id for row in live]
         gone = [i for i in kept if i not in fresh]
@@ -165,12 +171,6 @@ class MapDeltas:
         unique = len(fresh) == len(ids)
         self._rows[table] = [fresh[i] for i in ids] if unique else [_copy(r) for r in live]
         return tuple(rows), gone, unique and expected == ids
-
-
-def _section(name: str, kept: Any, live: Any) -> msgspec.Raw:
-    """A changed section in a delta (after a keyframe: ``kept`` is its copy as last
-    published): a Struct section as its change, another whole."""
-    return msgspec.Raw(_encode(_patch(kept, live) if name in SECTION_PATCHES else live))
 
 
 def _patch(old: Any, new: Any) -> dict[str, Any]:
@@ -187,6 +187,18 @@ def _patch(old: Any, new: Any) -> dict[str, Any]:
             if dropped is not None:
                 after = Appended(dropped=dropped, added=after[len(before) - dropped :])
         patch[name] = after
+    return patch
+
+
+def _take(kept: Any, patch: dict[str, Any]) -> dict[str, Any]:
+    """Bring the kept copy of a row or section up to date with its change ``patch`` (from
+    :func:`_patch`) and return the change: the fields that changed are copied, a register
+    keeps the readings it kept (they are copies already) and copies those added."""
+    for name, value in patch.items():
+        if type(value) is Appended:
+            setattr(kept, name, getattr(kept, name)[value.dropped :] + _copy(value.added))
+        elif name != "id":
+            setattr(kept, name, _copy(value))
     return patch
 
 

@@ -3,8 +3,9 @@
 Two uses: a rule is skipped when every part its condition reads encodes as it did at
 its last evaluation (``rules.Memo``), and a body's changes are found by comparing the
 map's parts before and after it (only the parts that differ are decoded). Encodings
-are msgpack, exact to the bit for numbers and twice as fast as JSON; diffs go through
-JSON so that they read as the recorded map does (``NaN`` is ``null``).
+are msgpack, exact to the bit for numbers and twice as fast as JSON; a difference is
+one when its values' JSON differs, so that diffs read as the recorded map does (``NaN``
+is ``null``: two non-finite numbers make no change).
 """
 
 from __future__ import annotations
@@ -93,24 +94,25 @@ def map_changes(before: dict[str, bytes], after: dict[str, bytes]) -> tuple[MapC
         change
         for name in FIELDS
         if name in before and before[name] != after[name]
-        for change in diff(_as_json(before[name]), _as_json(after[name]), name)
+        for change in diff(_decode(before[name]), _decode(after[name]), name)
     )
 
 
-def _as_json(encoded: bytes) -> Any:
-    """An encoded part as the map's JSON decodes it."""
-    return msgspec.json.decode(msgspec.json.encode(msgspec.msgpack.decode(encoded)))
+_decode: Final = msgspec.msgpack.Decoder().decode
 
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
-    """The leaves that differ between two builtin trees, as compact ``MapChange``s (a list
-    whose length changed is one change; a missing key reads as ``null``)."""
+    """The leaves whose JSON differs between two builtin trees, as compact ``MapChange``s
+    (a list whose length changed is one change; a missing key reads as ``null``)."""
     for where, a, b in differences(old, new, path, whole_lists=True):
-        a, b = (None if a is ABSENT else a), (None if b is ABSENT else b)
+        a, b = _json(None if a is ABSENT else a), _json(None if b is ABSENT else b)
         if a != b:
-            yield MapChange(path=where, old=_text(a), new=_text(b))
+            yield MapChange(path=where, old=_cut(a), new=_cut(b))
 
 
-def _text(value: Any) -> str:
-    text = msgspec.json.encode(value).decode()
-    return text if len(text) <= MAX_CHANGE_TEXT else text[: MAX_CHANGE_TEXT - 1] + "…"
+_json: Final = msgspec.json.Encoder().encode
+
+
+def _cut(text: bytes) -> str:
+    cut = text.decode()
+    return cut if len(cut) <= MAX_CHANGE_TEXT else cut[: MAX_CHANGE_TEXT - 1] + "…"

@@ -122,6 +122,19 @@ def test_diff_reports_leaves_only() -> None:
     assert [(c.path, c.old, c.new) for c in changes] == [("b.c[1]", "2", "3"), ("d", "null", '"x"')]
 
 
+def test_diff_reads_values_as_the_recorded_json_does() -> None:
+    """A non-finite number is ``null`` in the map's JSON: NaN to NaN (or to infinity) is
+    no change; a number becoming NaN is one. A long value is cut, after comparing it whole."""
+    nan, inf = float("nan"), float("inf")
+    old = {"x": nan, "y": inf, "z": 1.5, "long": ["a" * 200, 1]}
+    new = {"x": nan, "y": -inf, "z": nan, "long": ["a" * 200, 2]}
+    changes = [(c.path, c.old, c.new) for c in diff(old, new)]
+    assert changes[0] == ("z", "1.5", "null")
+    assert [c[0] for c in changes] == ["z", "long[1]"]
+    cut = list(diff({"v": "a" * 200 + "b"}, {"v": "a" * 200 + "c"}))
+    assert len(cut) == 1 and cut[0].old == cut[0].new and cut[0].old.endswith("…")
+
+
 # ------------------------------------------------------------ one state per rule (issue 16)
 
 STATES = ("absent", "active", "held", "removed")
