@@ -124,6 +124,7 @@ class Recording:
         attachments: dict[str, bytes],
         summary: dict[str, int],
         recovery: RecoveryReport | None,
+        end_ns: int | None = None,
     ) -> None:
         self.path = path
         self.metadata = metadata
@@ -136,6 +137,9 @@ class Recording:
         """Message count per topic (every channel, Foxglove's included), in channel order."""
         self.recovery = recovery
         """Set when the file is damaged: what could be read (updated by ``iter_messages``)."""
+        self.end_ns = end_ns
+        """The last message's log time, from the summary's statistics (None without a
+        usable summary): where the session ends, without reading its messages."""
 
     @property
     def format_version(self) -> int:
@@ -268,6 +272,9 @@ def _read_indexed(stream: IO[bytes], path: str) -> Recording | None:
             attachments=_attachments(stream, summary.attachment_indexes),
             summary={c.topic: counts.get(c.id, 0) for c in summary.channels.values()},
             recovery=None,
+            end_ns=summary.statistics.message_end_time
+            if summary.statistics.message_count
+            else None,
         )
     except (*_READ_ERRORS, OSError):
         return None

@@ -119,9 +119,11 @@ def _payload_text(payload: bytes) -> str:
 class Comparator:
     """A sink comparing what a replay emits with a recording, topic by topic, tick by tick.
 
-    ``compared``: the topics whose messages must match. The session lasts up to the last
-    message read: the world's states are always read, since a recording keeps the
-    session's last one (:mod:`~recorder.world_sampling`). A compared ``/world/state`` is
+    ``compared``: the topics whose messages must match. The session lasts up to
+    ``last_tick`` when it is given (and the world's states are not compared: they are then
+    not read), else up to the last message read: the world's states are always read, since
+    a recording keeps the session's last one (:mod:`~recorder.world_sampling`). A compared
+    ``/world/state`` is
     sampled as the recording says it was (a state it has at a tick is always compared:
     the session's last). The recorded inputs of the current tick are
     available through :meth:`inputs_at`.
@@ -133,10 +135,14 @@ class Comparator:
         *,
         compared: Iterable[Topic],
         context: int = CONTEXT_MESSAGES,
+        last_tick: int | None = None,
     ) -> None:
         self.recording = recording
         self.topics = tuple(t for t in Topic if t in frozenset(compared))
-        read = frozenset((*self.topics, Topic.WORLD_STATE))
+        self._last_tick = None if Topic.WORLD_STATE in self.topics else last_tick
+        read = set(self.topics)
+        if self._last_tick is None:  # the session ends with the last world state read
+            read.add(Topic.WORLD_STATE)
         self._stream: Iterator[RecordedMessage] = recording.iter_messages(
             t for t in Topic if t in read
         )
@@ -181,6 +187,8 @@ class Comparator:
                 f" {tick}, where the readable part ends",
                 source=self.recording.path,
             )
+        if self._last_tick is not None:
+            return tick <= self._last_tick
         return lasted or self._ahead is not None
 
     @property

@@ -1,7 +1,8 @@
 """Redrive: the recorded inputs fed to a rebuilt pipeline, its outputs compared (open loop).
 
 No world is simulated: the pipeline is ticked from tick 0 to the recording's
-last tick (that of its last world state) with the sensor updates, operator commands
+last tick (that of its last world state, the last message: read from the summary when the
+file has one, so the world's states are not read) with the sensor updates, operator commands
 and joystick input recorded at each tick, and
 every message it emits (inputs echoed, map, rule
 decisions and chain, progress, actuator commands, operator state, log) must
@@ -32,9 +33,13 @@ def redrive_recording(recording: Recording) -> Comparison:
     check_replayable(recording)
     with rebuilt_pipeline(recording) as built:
         notes = rebuild_notes(recording, built)
-        comparator = Comparator(recording, compared=REDRIVE_TOPICS)
-        built.sink.add(comparator)
         pipeline = built.pipeline
+        comparator = Comparator(
+            recording,
+            compared=REDRIVE_TOPICS,
+            last_tick=_last_tick(recording, pipeline.config.tick_ms),
+        )
+        built.sink.add(comparator)
         assert set(INPUT_TOPICS) <= set(REDRIVE_TOPICS)
 
         def step(tick: int) -> None:
@@ -51,3 +56,11 @@ def redrive_recording(recording: Recording) -> Comparison:
             )
 
         return compare_ticks(comparator, step, mode="redrive", notes=notes)
+
+
+def _last_tick(recording: Recording, tick_ms: int) -> int | None:
+    """The session's last tick from the summary: the tick of the last message, which is
+    the session's last world state (None: no summary, or no world state to end on)."""
+    if recording.end_ns is None or not recording.summary.get(Topic.WORLD_STATE.value):
+        return None
+    return recording.end_ns // (tick_ms * 1_000_000)
