@@ -111,7 +111,7 @@ class Actuator:
     @property
     def done(self) -> bool:
         """The current block is consumed (True when there is none)."""
-        return self._block is None or all(cursor.done for cursor in self._cursors.values())
+        return self._block is None or all([cursor.done for cursor in self._cursors.values()])
 
     @property
     def progress(self) -> tuple[int, int, int]:
@@ -119,7 +119,8 @@ class Actuator:
         ``subled``, ``subaout``); a finished channel gives its item count."""
         if self._block is None:
             return (0, 0, 0)
-        move, led, audio = (self._cursors[channel].index for channel in CHANNEL_ORDER)
+        cursors = self._cursors
+        move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
         return (move, led, audio)
 
     @property

@@ -91,6 +91,5 @@ class ChannelCursor:
     @property
     def index(self) -> int:
         """The item being executed (waiting or acting); the item count once done."""
-        if self.done:
-            return self._count
-        return self._events[self._next].item
+        events, at = self._events, self._next
+        return self._count if at >= len(events) else events[at].item

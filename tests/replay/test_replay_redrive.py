@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import msgspec
@@ -11,7 +10,7 @@ import pytest
 from oimi.pipeline.events import Topic
 from oimi.pipeline.messages import FORMAT_VERSION
 from oimi.recorder.errors import RecordingError
-from oimi.recorder.reader import RecordedMessage, open_recording
+from oimi.recorder.reader import open_recording
 from oimi.replay.compare import (
     Comparator,
     Comparison,
@@ -20,7 +19,7 @@ from oimi.replay.compare import (
     first_difference,
     format_report,
 )
-from oimi.replay.redrive import REDRIVE_TOPICS, redrive, redrive_recording
+from oimi.replay.redrive import REDRIVE_TOPICS, redrive
 from oimi.replay.rerun import rerun
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.activities import ACTIVITIES
@@ -63,32 +62,6 @@ def test_a_fresh_recording_redrives_clean_with_every_output_topic_compared(
     for topic in (*OUTPUT_TOPICS, Topic.JOYSTICK, Topic.SENSOR_UPDATES):
         assert comparison.compared[topic.value] > 0, topic
     assert Topic.WORLD_STATE.value not in comparison.compared
-
-
-@pytest.mark.parametrize("summary", [True, False])
-def test_redrive_lasts_to_the_last_world_state_reading_them_only_without_a_summary(
-    recording: Path, summary: bool, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The session ends with its last world state (the recording's last message): the
-    summary says when, so the world's states (half of the messages) are not read; without
-    a summary they are, for their ticks."""
-    opened = open_recording(recording)
-    assert opened.end_ns == 299 * 20_000_000
-    assert max(ticks_of(recording, Topic.MAP)) < 299, "the last tick has no map message"
-    if not summary:
-        opened.end_ns = None
-    read: list[Topic] = []
-    iter_messages = type(opened).iter_messages
-
-    def reading(self: object, topics: Iterable[Topic]) -> Iterator[RecordedMessage]:
-        topics = list(topics)
-        read.extend(topics)
-        return iter_messages(self, topics)
-
-    monkeypatch.setattr(type(opened), "iter_messages", reading)
-    comparison = redrive_recording(opened)
-    assert comparison.ok and comparison.ticks == 300
-    assert (Topic.WORLD_STATE in read) is not summary
 
 
 def test_redrive_builds_no_world_and_a_session_the_same_pipeline(
