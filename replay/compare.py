@@ -121,11 +121,10 @@ class Comparator:
 
     ``compared``: the topics whose messages must match. The session lasts up to
     ``last_tick`` when it is given (and the world's states are not compared: they are then
-    not read), else up to the last message read: the world's states are always read, since
+    not read), else up to the last message read: the world's states are then read, since
     a recording keeps the session's last one (:mod:`~recorder.world_sampling`). A compared
-    ``/world/state`` is
-    sampled as the recording says it was (a state it has at a tick is always compared:
-    the session's last). The recorded inputs of the current tick are
+    ``/world/state`` is sampled as the recording says it was (a state it has at a tick is
+    always compared: the session's last). The recorded inputs of the current tick are
     available through :meth:`inputs_at`.
     """
 

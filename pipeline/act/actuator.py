@@ -111,7 +111,7 @@ class Actuator:
     @property
     def done(self) -> bool:
         """The current block is consumed (True when there is none)."""
-        return self._block is None or all([cursor.done for cursor in self._cursors.values()])
+        return self._block is None or all(cursor.done for cursor in self._cursors.values())
 
     @property
     def progress(self) -> tuple[int, int, int]:
