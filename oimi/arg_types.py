@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
+
 
 def positive_int(text: str) -> int:
     """An integer of at least 1."""
@@ -14,3 +16,15 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
+
+
+def add_world_every_argument(parser: argparse.ArgumentParser) -> None:
+    """``--world-every N``: how often a recording keeps ``/world/state`` (``args.world_every``)."""
+    parser.add_argument(
+        "--world-every",
+        type=positive_int,
+        default=DEFAULT_WORLD_EVERY_N_TICKS,
+        metavar="N",
+        help="record /world/state every N ticks, and at every contact"
+        f" (default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick)",
+    )

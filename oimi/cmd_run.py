@@ -13,11 +13,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from oimi import api, console, jsonout
-from oimi.arg_types import positive_int
+from oimi.arg_types import add_world_every_argument
 from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
-from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
 
@@ -37,14 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--realtime", action="store_true", help="pace to the wall clock")
     parser.add_argument("--junit", type=Path, help="write the expectations as JUnit XML")
     parser.add_argument("--no-record", action="store_true", help="do not write an MCAP file")
-    parser.add_argument(
-        "--world-every",
-        type=positive_int,
-        default=DEFAULT_WORLD_EVERY_N_TICKS,
-        metavar="N",
-        help="record /world/state every N ticks, and at every contact"
-        f" (default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick)",
-    )
+    add_world_every_argument(parser)
     parser.add_argument(
         "--overwrite", action="store_true", help="replace existing output files (default: refuse)"
     )

@@ -124,6 +124,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
                 seed_range=seed_range,
                 allow_outside_paths=args.allow_outside_paths,
                 extensions=extensions_of(args),
+                world_every_n_ticks=args.world_every,
             )
         else:
             scenarios += scenario_files([path], base=Path.cwd())
@@ -136,6 +137,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
             out_dir=out_dir,
             allow_outside_paths=args.allow_outside_paths,
             extensions=extensions_of(args),
+            world_every_n_ticks=args.world_every,
         )
     check_unique(tasks)
     return tasks

@@ -27,6 +27,7 @@ from typing import Any
 import msgspec
 
 from oimi.analysis.metrics import run_name
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import (
     TomlLocator,
@@ -84,6 +85,8 @@ class Task(msgspec.Struct, frozen=True, kw_only=True):
     """Scripts may be outside the scenario's folder and the library (``--allow-outside-paths``)."""
     extensions: tuple[str, ...] = ()
     """``--extension`` modules (names, or absolute paths) loaded besides the scenario's own."""
+    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS
+    """How often the recording keeps ``/world/state`` (``--world-every``)."""
 
     @property
     def mcap(self) -> Path:
@@ -214,6 +217,7 @@ def expand(
     out_dir: Path,
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
+    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
     each combination once, so bad files or overrides fail here, before anything runs."""
@@ -233,6 +237,7 @@ def expand(
                         out_dir=str(out_dir),
                         allow_outside_paths=allow_outside_paths,
                         extensions=tuple(extensions),
+                        world_every_n_ticks=world_every_n_ticks,
                     )
                 )
     return tasks
@@ -248,6 +253,7 @@ def expand_spec(
     seed_range: range | None = None,
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
+    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
     groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds."""
@@ -281,6 +287,7 @@ def expand_spec(
             out_dir=out_dir,
             allow_outside_paths=allow_outside_paths,
             extensions=extensions,
+            world_every_n_ticks=world_every_n_ticks,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))

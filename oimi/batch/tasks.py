@@ -56,7 +56,7 @@ def run_task(task: Task) -> ResultRow:
             seed=task.seed,
             overrides=dict(task.overrides),
         )
-        with recorded(session, mcap=part, rrd=None):
+        with recorded(session, mcap=part, rrd=None, world_every_n_ticks=task.world_every_n_ticks):
             result = session.run()
         os.replace(part, mcap)
         row = ResultRow(task=task, result=result, recording=mcap.name)

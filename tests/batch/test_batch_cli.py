@@ -122,6 +122,28 @@ def test_a_finished_run_of_other_inputs_is_not_taken_for_this_one(tmp_path: Path
     assert finished_row(task) is None
 
 
+def test_world_every_sets_each_runs_sampling_and_a_resume_with_another_runs_again(
+    tmp_path: Path, capsys
+) -> None:
+    """``--world-every 1`` keeps every tick's world state (the default every second tick);
+    a resume asking for another sampling does not take the runs recorded with the first."""
+    out = tmp_path / "out"
+    argv = ["batch", str(write_scenario(tmp_path, "alpha")), "--out", str(out), "-q"]
+    assert main([*argv, "--world-every", "1"]) == 0
+    recording = open_recording(out / "alpha-s1.mcap")
+    ticks = [m.tick for m in recording.iter_messages(["/world/state"])]
+    assert recording.meta.oimi.world_every == 1 and ticks == list(range(len(ticks)))
+    capsys.readouterr()
+    assert main([*argv, "--resume"]) == 0
+    assert "resuming" not in capsys.readouterr().err
+    ticks = [m.tick for m in open_recording(out / "alpha-s1.mcap").iter_messages(["/world/state"])]
+    assert ticks[:3] == [0, 2, 4]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--world-every", "0"])
+    assert exit_info.value.code == 2
+    assert "--world-every: must be at least 1" in capsys.readouterr().err
+
+
 def test_a_bad_param_is_bad_input_before_any_run(tmp_path: Path, capsys) -> None:
     argv = batch(tmp_path, "out", "--param", "robot.max_speed=0.3")
     assert main(argv) == 2
