@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from oimi.arg_types import add_world_every_argument
 from oimi.cmd_check import add_outside_paths_argument
 from oimi.cmd_run import print_result
 from oimi.live.app import Served, live_session, serve
@@ -54,6 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration-s", type=float, help="stop after this much session time (default: Ctrl-C)"
     )
+    add_world_every_argument(parser)
     add_outside_paths_argument(parser)
     add_session_arguments(parser)
     add_foxglove_argument(parser)

@@ -98,6 +98,7 @@ def serve(
                 rrd=args.rrd,
                 overwrite=args.overwrite,
                 chunk_size_bytes=LIVE_CHUNK_BYTES,
+                world_every_n_ticks=args.world_every,
                 info=info,
                 final_info=lambda: server.info,
                 sinks=foxglove_sinks(args, session),

@@ -41,6 +41,18 @@ def live(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     return path, done.stdout
 
 
+def test_world_every_sets_the_live_recordings_sampling(tmp_path: Path) -> None:
+    path = tmp_path / "every.mcap"
+    done = oimi(
+        "serve", GREETING, "--no-tcp", "--no-console", "--duration-s", "0.4", "-o", path,
+        "--world-every", "1",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    recording = open_recording(path)
+    world = [m.tick for m in recording.iter_messages(["/world/state"])]
+    assert recording.meta.oimi.world_every == 1 and world == list(range(20))
+
+
 def test_the_summary_reports_expectations_as_not_applicable(live) -> None:
     _, output = live
     assert "expectations: not applicable to a live session" in output
