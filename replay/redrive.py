@@ -1,12 +1,11 @@
 """Redrive: the recorded inputs fed to a rebuilt pipeline, its outputs compared (open loop).
 
-No world is simulated: the pipeline is ticked from tick 0 to the recording's
-last tick (that of its last world state, the last message: read from the summary when the
-file has one, so the world's states are not read) with the sensor updates, operator commands
-and joystick input recorded at each tick, and
-every message it emits (inputs echoed, map, rule
-decisions and chain, progress, actuator commands, operator state, log) must
-equal the recorded one, byte for byte.
+No world is simulated: the pipeline is ticked from tick 0 to the recording's last tick
+(that of its last world state, the last message: read from the summary when the file has
+one, so the world's states are not read) with the sensor updates, operator commands and
+joystick input recorded at each tick, and every message it emits (inputs echoed, map, rule
+decisions and chain, progress, actuator commands, operator state, log) must equal the
+recorded one, byte for byte.
 """
 
 from __future__ import annotations
