@@ -8,14 +8,16 @@ from oimi.bench.measure import Case, beside, interleaved, per_second
 
 
 def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> list[Case]:
-    """Redrive beside its floor: reading and decoding every message of the recording."""
+    """Redrive beside its floor: reading and decoding the messages it compares (every topic
+    but ``/world/state``, which redrive does not read)."""
     from oimi.recorder.reader import open_recording
-    from oimi.replay.redrive import redrive
+    from oimi.replay.redrive import REDRIVE_TOPICS, redrive
 
-    def decode_all() -> int:
-        return sum(1 for m in open_recording(recording).iter_messages() if m.decoded())
+    def decode_compared() -> int:
+        messages = open_recording(recording).iter_messages(REDRIVE_TOPICS)
+        return sum(1 for m in messages if m.decoded())
 
-    cases, floors = interleaved(repetitions, lambda: redrive(recording), decode_all)
+    cases, floors = interleaved(repetitions, lambda: redrive(recording), decode_compared)
     ticks = cases[0][1].ticks
     rate = per_second(ticks, cases)
     return [
@@ -23,7 +25,7 @@ def bench_replay(recording: Path, repetitions: int, run_ticks_per_s: float) -> l
             "replay redrive",
             rate,
             "ticks/s",
-            "floor: read and decode every message",
+            "floor: read and decode the messages it compares",
             per_second(ticks, floors),
             target=f">= 3x the run ({3 * run_ticks_per_s:,.0f} ticks/s)",
             extra={"run_ticks_per_s": run_ticks_per_s, "vs_run": rate / run_ticks_per_s},
