@@ -99,6 +99,8 @@ class Pipeline:
         self.handler = handler
         self.sink = sink
         self._started = False
+        self._requested: tuple[ActuatorOutputs | None, Velocity] = (None, Velocity())
+        """The last outputs supervised and their velocity (a quiet tick hands on the same)."""
         self._map_deltas = MapDeltas(keyframe_ms=config.map_keyframe_ms)
         self._last_place: tuple[str, str, str, str] = ("", "", "", "")
         self._last_operator = b""
@@ -261,7 +263,10 @@ class Pipeline:
         """The safety supervisor's pass over the body's velocity, on the tick's final map
         (below every source of motion; no rule or script reaches it)."""
         outputs = step.outputs
-        requested = Velocity(outputs.v_x, outputs.v_y, outputs.v_theta)
+        last, requested = self._requested
+        if outputs is not last:
+            requested = Velocity(outputs.v_x, outputs.v_y, outputs.v_theta)
+            self._requested = (outputs, requested)
         verdict, event = self.safety.supervise(
             requested,
             self.map,

@@ -304,8 +304,8 @@ def look(state: WorldState) -> tuple[object, ...]:
         state.led,
         state.audio,
         state.robot.radius_m,
-        tuple((h.id, h.kind, h.radius_m) for h in state.humans),
-        tuple((o.id, o.radius_m) for o in state.objects),
+        tuple([(h.id, h.kind, h.radius_m) for h in state.humans]),
+        tuple([(o.id, o.radius_m) for o in state.objects]),
     )
 
 
@@ -459,14 +459,16 @@ def body_transforms(state: WorldState, time_ns: int) -> FrameTransforms:
     t = stamp(time_ns)
     return FrameTransforms(
         transforms=tuple(
-            FrameTransform(
-                timestamp=t,
-                parent_frame_id=WORLD_FRAME,
-                child_frame_id=frame,
-                translation=Vector3(x=body.x_m, y=body.y_m, z=0.0),
-                rotation=yaw(body.theta_rad),
-            )
-            for frame, body, _ in _bodies(state)
+            [
+                FrameTransform(
+                    timestamp=t,
+                    parent_frame_id=WORLD_FRAME,
+                    child_frame_id=frame,
+                    translation=Vector3(x=body.x_m, y=body.y_m, z=0.0),
+                    rotation=yaw(body.theta_rad),
+                )
+                for frame, body, _ in _bodies(state)
+            ]
         )
     )
 

@@ -85,11 +85,13 @@ class Tracker:
             return
         match message:
             case RuleDecisions():
-                fired = [d.rule for d in message.decisions if d.fired]
-                self.fired.update(fired)
-                for rule in fired:
-                    if (times := self.fired_at.get(rule)) is not None:
-                        times.append(message.time_ms)
+                counts, at = self.fired, self.fired_at
+                for decision in message.decisions:
+                    if decision.fired:
+                        rule = decision.rule
+                        counts[rule] += 1
+                        if (times := at.get(rule)) is not None:
+                            times.append(message.time_ms)
             case ReaderProgress():
                 self._progress(message)
             case SafetyIntervention():

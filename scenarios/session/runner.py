@@ -210,7 +210,10 @@ class Session:
                     self.world.apply_event(event)
         updates: list[MapUpdate] = self.sensors.sample(self.world, tick=tick, time_ms=time_ms)
         self.outputs = self.pipeline.tick(
-            tick=tick, updates=updates, commands=[*scheduled, *commands], joystick=joystick
+            tick=tick,
+            updates=updates,
+            commands=[*scheduled, *commands] if commands else scheduled,
+            joystick=joystick,
         )
         self.world.led, self.world.audio = self.outputs.led, self.outputs.audio
         self.sink.record(
