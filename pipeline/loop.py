@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import msgspec
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
-from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.limits import RobotLimits
 from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor
 from oimi.pipeline.events import (
     ActuatorCommands,
@@ -99,8 +99,6 @@ class Pipeline:
         self.handler = handler
         self.sink = sink
         self._started = False
-        self._requested: tuple[ActuatorOutputs | None, Velocity] = (None, Velocity())
-        """The last outputs supervised and their velocity (a quiet tick hands on the same)."""
         self._map_deltas = MapDeltas(keyframe_ms=config.map_keyframe_ms)
         self._last_place: tuple[str, str, str, str] = ("", "", "", "")
         self._last_operator = b""
@@ -262,11 +260,7 @@ class Pipeline:
     def _supervise(self, step: ActuatorStep, emitter: _Emitter) -> ActuatorOutputs:
         """The safety supervisor's pass over the body's velocity, on the tick's final map
         (below every source of motion; no rule or script reaches it)."""
-        outputs = step.outputs
-        last, requested = self._requested
-        if outputs is not last:
-            requested = Velocity(outputs.v_x, outputs.v_y, outputs.v_theta)
-            self._requested = (outputs, requested)
+        outputs, requested = step.outputs, self.actuator.velocity
         verdict, event = self.safety.supervise(
             requested,
             self.map,

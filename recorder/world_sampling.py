@@ -30,7 +30,7 @@ class WorldSampling:
         if every_n_ticks < 1:
             raise RecordingError(f"world_every_n_ticks must be >= 1, got {every_n_ticks}")
         self.every_n_ticks = every_n_ticks
-        self.held: tuple[int, WorldState] | None = None
+        self._held: tuple[int, WorldState] | None = None
         """The last state seen and not kept, with its log time: the session's last state
         if no other follows (:meth:`last`)."""
         self._touching: tuple[str, ...] = ()
@@ -40,15 +40,15 @@ class WorldSampling:
         contacts, touching = state.contacts, self._touching
         self._touching = contacts
         if not state.tick % self.every_n_ticks or contacts or touching:
-            self.held = None
+            self._held = None
             return True
-        self.held = (time_ns, state)
+        self._held = (time_ns, state)
         return False
 
     def last(self) -> tuple[int, WorldState] | None:
         """The session's last state when it was not kept (the recording writes it at its
         close), once."""
-        held, self.held = self.held, None
+        held, self._held = self._held, None
         return held
 
 

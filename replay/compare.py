@@ -120,8 +120,8 @@ class Comparator:
     """A sink comparing what a replay emits with a recording, topic by topic, tick by tick.
 
     ``compared``: the topics whose messages must match. The session lasts up to
-    ``last_tick`` when it is given (and the world's states are not compared: they are then
-    not read), else up to the last message read: the world's states are then read, since
+    ``last_tick`` when it is given (then only the compared topics are read), else up to the
+    last message read: the world's states are then read too, since
     a recording keeps the session's last one (:mod:`~recorder.world_sampling`). A compared
     ``/world/state`` is sampled as the recording says it was (a state it has at a tick is
     always compared: the session's last). The recorded inputs of the current tick are
@@ -138,9 +138,9 @@ class Comparator:
     ) -> None:
         self.recording = recording
         self.topics = tuple(t for t in Topic if t in frozenset(compared))
-        self._last_tick = None if Topic.WORLD_STATE in self.topics else last_tick
+        self._last_tick = last_tick
         read = set(self.topics)
-        if self._last_tick is None:  # the session ends with the last world state read
+        if last_tick is None:  # the session ends with the last world state read
             read.add(Topic.WORLD_STATE)
         self._stream: Iterator[RecordedMessage] = recording.iter_messages(
             t for t in Topic if t in read

@@ -124,6 +124,12 @@ class Actuator:
         return (move, led, audio)
 
     @property
+    def velocity(self) -> Velocity:
+        """The body-frame velocity the last step's outputs ask for (``v_x``, ``v_y``,
+        ``v_theta``; the same object while it does not change)."""
+        return self._velocity
+
+    @property
     def engaged(self) -> bool:
         """The operator holds the safety lock: the joystick drives."""
         return self._lock

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
-from oimi.pipeline.act.limits import RobotLimits
+from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.events import Source
 from oimi.pipeline.messages import (
     AudioCommand,
@@ -361,3 +361,15 @@ def test_same_inputs_give_identical_steps_and_stay_within_limits(block):
     assert end_ms <= done_at < end_ms + TICK_MS
     assert steps[-1].outputs.led == (0.0, 0.0, 0.0)
     assert steps[-1].outputs.audio == ""
+
+
+@settings(max_examples=30, deadline=None)
+@given(blocks, st.integers(min_value=0, max_value=59))
+def test_the_velocity_is_what_each_steps_outputs_ask_for_a_hold_included(block, hold_at):
+    """The loop hands the supervisor ``Actuator.velocity`` as the step's request."""
+    actuator = started(block)
+    for tick in range(60):
+        out = actuator.step(now_ms=tick * TICK_MS).outputs
+        assert tuple(actuator.velocity) == (out.v_x, out.v_y, out.v_theta)
+        if tick == hold_at:  # the supervisor let less through: the next ramp starts there
+            actuator.hold(Velocity(out.v_x / 2, 0.0, out.v_theta))
