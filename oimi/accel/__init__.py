@@ -8,11 +8,13 @@ loads it only for that source: an edited module runs as Python until it is built
 never stale. ``OIMI_PURE=1`` runs everything as Python (a profiler then sees every
 function). The code is compiled without C types (``annotation_typing=False``): every
 operation keeps Python's semantics, so a session gives the same messages, bit for bit,
-compiled or not (the goldens are checked both ways).
+compiled or not (the goldens are checked both ways). The classes :data:`EXTENSION_TYPES`
+lists become extension types (:mod:`.declarations`): their attributes are C fields.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.abc
@@ -62,6 +64,36 @@ MODULES: Final = (
 """The modules compiled: where a recorded session and a redrive spend most of their time
 (profiled). A module whose source is read while oimi runs stays Python:
 ``oimi.pipeline.think.library`` is attached to every recording as ``rules/library.py``."""
+EXTENSION_TYPES: Final[dict[str, tuple[str, ...]]] = {
+    "oimi.pipeline.loop": ("Pipeline", "_Emitter"),
+    "oimi.pipeline.sink": ("FanOut",),
+    "oimi.pipeline.mapdeltas": ("MapDeltas",),
+    "oimi.pipeline.proximity": ("ProximityTracker",),
+    "oimi.pipeline.act.actuator": ("Actuator",),
+    "oimi.pipeline.act.channels": ("ChannelCursor",),
+    "oimi.pipeline.act.safety": ("SafetySupervisor", "Interventions"),
+    "oimi.pipeline.operator.handler": ("GeneratorHandler",),
+    "oimi.pipeline.sense.producer": ("MapProducer", "_Index"),
+    "oimi.pipeline.think.chain": ("RuleChain",),
+    "oimi.pipeline.think.condition_runtime": ("Run", "Condition"),
+    "oimi.pipeline.think.mapparts": ("MapParts",),
+    "oimi.pipeline.think.reader": ("ReadOutcome", "BlockReader"),
+    "oimi.pipeline.think.rules": ("Memo",),
+    "oimi.scenarios.simulation.bodies": ("Mover", "Robot", "Human", "Thing", "BodyReader"),
+    "oimi.scenarios.simulation.humans": ("HumanDriver",),
+    "oimi.scenarios.simulation.sensors": ("Schedule", "_Sensor", "Sensors"),
+    "oimi.scenarios.simulation.world": ("World",),
+    "oimi.scenarios.session.expectations": ("Tracker",),
+    "oimi.scenarios.session.runner": ("Session",),
+    "oimi.recorder.foxglove": ("Views",),
+    "oimi.recorder.mcap_sink": ("McapSink", "_MessageWriter"),
+    "oimi.recorder.scan": ("_Body", "ChunkScan"),
+    "oimi.replay.compare": ("Comparator",),
+}
+"""The classes each compiled module builds as extension types (:mod:`.declarations`): their
+methods reach ``self``'s attributes directly. Compiled, their instances take no attribute
+their methods do not assign and the classes cannot be patched; nobody subclasses them
+(not the rule, generator or behaviour classes users extend)."""
 PURE_ENV: Final = "OIMI_PURE"
 DIR_ENV: Final = "OIMI_ACCEL_DIR"
 DIRECTIVES: Final = {"annotation_typing": False, "binding": True, "language_level": 3}
@@ -80,9 +112,20 @@ def accel_dir() -> Path:
 
 
 def compiled_path(name: str, source: Path, folder: Path) -> Path:
-    """The compiled module for ``name`` built from ``source`` exactly as it is now."""
-    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:24]
+    """The compiled module for ``name`` built from ``source`` exactly as it is now (and
+    with the extension types :data:`EXTENSION_TYPES` lists for it)."""
+    text = source.read_bytes()
+    if classes := EXTENSION_TYPES.get(name):
+        text += "\0extension types: {}\0".format(" ".join(classes)).encode() + _declarer()
+    digest = hashlib.sha256(text).hexdigest()[:24]
     return folder / f"{name}.{digest}{SUFFIX}"
+
+
+@functools.cache
+def _declarer() -> bytes:
+    """The source of :mod:`.declarations` (a module with extension types is built again
+    when the way its declarations are derived changes)."""
+    return Path(__file__).with_name("declarations.py").read_bytes()
 
 
 def source_of(name: str, path: Sequence[str] | None = None) -> Path | None:
@@ -209,12 +252,17 @@ def build(
     say(f"compiling {len(todo)} module(s) with Cython into {folder} (about 2 s each)")
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="oimi-accel-") as work:
+        include = _declarations_by_name(todo, Path(work) / "include")
         compiled = []
         for name, (source, _) in list(todo.items()):
             extension = Extension(name, [str(source)], extra_compile_args=["-w"])  # no advice
             try:
                 compiled += cythonize(
-                    [extension], compiler_directives=DIRECTIVES, build_dir=work, quiet=True
+                    [extension],
+                    compiler_directives=DIRECTIVES,
+                    build_dir=work,
+                    include_path=[str(include)],
+                    quiet=True,
                 )
             except CompileError:
                 say(f"left as Python: {name} (Cython cannot translate it; see above)")
@@ -237,3 +285,17 @@ def build(
             built.replace(target)
     say(f"compiled {len(todo)} module(s) in {time.monotonic() - started:.0f} s")
     return list(todo)
+
+
+def _declarations_by_name(todo: dict[str, tuple[Path, Path]], include: Path) -> Path:
+    """Write each module's declarations (:data:`EXTENSION_TYPES`) as
+    ``include/oimi/.../module.pxd``: Cython looks them up by the module's full name, which
+    the source tree does not spell (the package ``oimi`` maps onto the top folders)."""
+    from oimi.accel.declarations import declarations
+
+    for name, (source, _) in todo.items():
+        if classes := EXTENSION_TYPES.get(name):
+            target = include.joinpath(*name.split(".")).with_suffix(".pxd")
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(declarations(source.read_text(), classes, filename=str(source)))
+    return include

@@ -1,11 +1,13 @@
 """The compiled hot modules: loaded only for the source they were built from, the same
-results as Python (the goldens both ways), and really used where they were built."""
+results as Python (the goldens both ways), and really used where they were built; their
+extension types: declared from the classes' source, built as such."""
 
 from __future__ import annotations
 
 import importlib
 import importlib.machinery
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -13,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from oimi import accel
+from oimi.accel.declarations import DeclarationError, declarations
 
 ROOT = Path(__file__).resolve().parents[2]
 REQUIRED = os.environ.get("OIMI_REQUIRE_ACCEL", "") not in ("", "0")
@@ -173,3 +176,137 @@ def test_compiled_and_as_python_a_session_writes_the_same_file(tmp_path: Path) -
         assert done.returncode == 0, done.stdout + done.stderr
         files.append(out.read_bytes())
     assert files[0] == files[1]
+
+
+# ------------------------------------------------------------------ extension types
+
+SOURCE = """
+class Base:
+    def __init__(self):
+        self.a = 1
+        self.b: int = 2
+
+class Counter(Base):
+    kind = "counter"
+
+    def __init__(self):
+        super().__init__()
+        self.count, (self.first, *self.rest) = 0, (1, 2, 3)
+        self.a = 5  # the base's: not declared again
+
+    def add(self, key):
+        self.count += 1
+        self.seen[key] = 1  # not an assignment of `seen`
+        self.item().value = 2  # nor of `item`
+        self.table.row = 3  # nor of `table`
+
+class Loose:
+    pass
+
+class Other(Loose, Base):
+    pass
+"""
+
+TYPED = """
+class Base:
+    def __init__(self):
+        self.a = 1
+
+class Counter(Base):
+    kind = "counter"
+
+    def __init__(self):
+        super().__init__()
+        self.count, self.seen, self.a = 0, {}, 5
+
+    def add(self, key):
+        self.count += 1
+        self.seen[key] = 1
+
+class Loose:
+    pass
+"""
+
+
+def test_each_attribute_a_class_assigns_on_self_is_declared_once() -> None:
+    assert declarations(SOURCE, ["Base", "Counter"]) == (
+        "cdef class Base:\n"
+        "    cdef public object a, b\n"
+        "cdef class Counter(Base):\n"
+        "    cdef public object count, first, rest\n"
+    )
+    assert declarations(SOURCE, ["Loose"]) == "cdef class Loose:\n    pass\n"
+
+
+@pytest.mark.parametrize(
+    ("classes", "says"),
+    [
+        (["Missing"], "no class Missing"),
+        (["Counter"], "class Counter(Base): an extension type derives"),  # its base not listed
+        (["Counter", "Base"], "class Counter(Base)"),  # listed after it
+        (["Loose", "Base", "Other"], "class Other(Loose, Base)"),  # two bases
+    ],
+)
+def test_a_class_that_cannot_be_an_extension_type_is_refused(classes, says) -> None:
+    with pytest.raises(DeclarationError, match=r"^x\.py:(\d+: )?.*" + re.escape(says)):
+        declarations(SOURCE, classes, filename="x.py")
+
+
+def test_every_listed_class_can_be_declared_from_its_source() -> None:
+    for module, classes in accel.EXTENSION_TYPES.items():
+        assert module in accel.MODULES, f"{module} is not compiled"
+        source = accel.source_of(module)
+        assert source is not None
+        text = declarations(source.read_text(), classes, filename=str(source))
+        assert text.count("cdef class") == len(classes)
+
+
+@pytest.mark.skipif(not (REQUIRED or _can_compile()), reason="Cython is not installed")
+def test_a_listed_class_is_built_as_an_extension_type(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    package = tmp_path / "accel_typed"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "tiny.py").write_text(TYPED)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    name = "accel_typed.tiny"
+    folder = tmp_path / "compiled"
+    assert accel.build(folder, [name], say=lambda line: None) == [name]
+    plain = accel.compiled_path(name, package / "tiny.py", folder)
+    monkeypatch.setitem(accel.EXTENSION_TYPES, name, ("Base", "Counter"))
+    typed = accel.compiled_path(name, package / "tiny.py", folder)
+    assert typed != plain, "the list of extension types is part of what a build is for"
+    assert accel.build(folder, [name], say=lambda line: None) == [name]
+    monkeypatch.setattr(sys, "meta_path", [accel.CompiledFinder(folder, [name]), *sys.meta_path])
+    tiny = importlib.import_module(name)
+    assert tiny.__file__ == str(typed)
+    counter = tiny.Counter()
+    counter.add("k")
+    assert (counter.count, counter.a, counter.seen, counter.kind) == (1, 5, {"k": 1}, "counter")
+    assert tiny.Counter.__dictoffset__ == 0, "its instances have no __dict__"
+    with pytest.raises(AttributeError):
+        counter.undeclared = 1
+    assert hasattr(tiny.Loose(), "__dict__"), "an unlisted class stays a Python class"
+
+
+@pytest.mark.skipif(not (REQUIRED or accel.ready()), reason="the hot modules are not compiled")
+def test_where_they_were_built_the_listed_classes_are_extension_types() -> None:
+    probe = (
+        "import importlib; from oimi import accel\n"
+        "for module, classes in accel.EXTENSION_TYPES.items():\n"
+        "    m = importlib.import_module(module)\n"
+        "    for c in classes:\n"
+        "        print(module, c, getattr(m, c).__dictoffset__)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=ROOT,
+        env={k: v for k, v in os.environ.items() if k != accel.PURE_ENV},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    lines = done.stdout.splitlines()
+    assert len(lines) == sum(map(len, accel.EXTENSION_TYPES.values())), done.stderr
+    assert [line for line in lines if not line.endswith(" 0")] == [], "not extension types"

@@ -22,10 +22,10 @@ from oimi.replay.compare import (
 from oimi.replay.redrive import REDRIVE_TOPICS, redrive
 from oimi.replay.rerun import rerun
 from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session import runner
 from oimi.scenarios.session.activities import ACTIVITIES
 from oimi.scenarios.session.build import build_pipeline
 from oimi.scenarios.session.runner import Session
-from oimi.scenarios.simulation.world import World
 from replay_tamper import SHORT, record, rewrite
 
 from oimi.cli import main
@@ -79,7 +79,7 @@ def test_redrive_builds_no_world_and_a_session_the_same_pipeline(
     def no_world(*args: object, **kwargs: object) -> None:
         raise AssertionError("redrive built a world")
 
-    monkeypatch.setattr(World, "__init__", no_world)
+    monkeypatch.setattr(runner, "World", no_world)  # where a session builds one
     with pytest.raises(AssertionError, match="built a world"):
         Session(loaded)
     result = redrive(recording)

@@ -11,8 +11,7 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 
 from oimi.pipeline.messages import Policy
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.simulation.sensors import Sensors
-from oimi.scenarios.simulation.world import World
+from oimi.scenarios.session import runner
 
 from oimi.cli import main
 from oimi.live.inputs import Pad
@@ -104,8 +103,8 @@ def test_the_bridge_builds_the_pipeline_without_a_simulated_world(monkeypatch):
     def no_world(*args: object, **kwargs: object) -> None:
         raise AssertionError("the bridge built a simulated world")
 
-    monkeypatch.setattr(World, "__init__", no_world)
-    monkeypatch.setattr(Sensors, "__init__", no_world)
+    monkeypatch.setattr(runner, "World", no_world)  # where a session builds one
+    monkeypatch.setattr(runner, "Sensors", no_world)
     session = BridgeSession(load_scenario(ROOM), _NoDds())  # type: ignore[arg-type]
     assert isinstance(session.world, RemoteBody) and session.world is session.body
     assert session.sensors is session.remote_sensors

@@ -14,8 +14,7 @@ pytest.importorskip("rosbags", reason="the ros2 extra (rosbags) is not installed
 from mcap.reader import make_reader
 from oimi.pipeline.events import JoystickInput, SensorUpdates, Topic
 from oimi.recorder.reader import open_recording
-from oimi.scenarios.simulation.sensors import Sensors
-from oimi.scenarios.simulation.world import World
+from oimi.scenarios.session import runner
 from rosbags.highlevel import AnyReader
 
 from oimi.cli import main
@@ -91,8 +90,8 @@ def test_driving_the_pipeline_over_the_bag_gives_the_session_again(exported, tmp
     def no_world(*args: object, **kwargs: object) -> None:
         raise AssertionError("a simulated world was built for the bag")
 
-    monkeypatch.setattr(World, "__init__", no_world)
-    monkeypatch.setattr(Sensors, "__init__", no_world)
+    monkeypatch.setattr(runner, "World", no_world)  # where a session builds one
+    monkeypatch.setattr(runner, "Sensors", no_world)
     again = tmp_path / "again.mcap"
     code = main(["replay", str(bag), "--scenario", str(SCENARIO), "-o", str(again)])
     assert code == 0

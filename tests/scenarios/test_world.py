@@ -16,7 +16,7 @@ from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import BehaviourEvent, Leave, Scenario, Stand
 from oimi.scenarios.simulation.bodies import STATE_DECIMALS, rounded, wrap_angle
-from oimi.scenarios.simulation.humans import PACE
+from oimi.scenarios.simulation.humans import PACE, HumanDriver
 from oimi.scenarios.simulation.world import World, stream_rng
 
 STOP = ActuatorOutputs()
@@ -264,15 +264,22 @@ def test_each_human_body_moves_at_the_velocity_its_driver_asked_for_every_tick()
     timeline = '{ at_s = 2.0, kind = "stand" }, { at_s = 4.0, kind = "leave" }]'
     w = world(WANDERERS.replace("pause_s = 0.3 }]", f"pause_s = 0.3 }}, {timeline}"), seed=5)
     asked: dict[str, tuple[float, float]] = {}
-    for human in w.humans:
-        driver = human.driver
-        original = driver.velocity
 
-        def spy(*args, _who=human.spec.id, _original=original):
-            asked[_who] = velocity = _original(*args)
+    class Spy:
+        """A human's driver, what its ``velocity`` answers noted (the rest passed through)."""
+
+        def __init__(self, driver: HumanDriver, who: str) -> None:
+            self.driver, self.who = driver, who
+
+        def __getattr__(self, name: str) -> object:
+            return getattr(self.driver, name)
+
+        def velocity(self, *args: object) -> tuple[float, float]:
+            asked[self.who] = velocity = self.driver.velocity(*args)
             return velocity
 
-        driver.velocity = spy  # type: ignore[method-assign]
+    for human in w.humans:
+        human.driver = Spy(human.driver, human.spec.id)
     kinds_seen = set()
     for tick in range(600):
         if tick == 450:
