@@ -4,6 +4,7 @@ extension types: declared from the classes' source, built as such."""
 
 from __future__ import annotations
 
+import ast
 import importlib
 import importlib.machinery
 import os
@@ -15,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from oimi import accel
-from oimi.accel.declarations import DeclarationError, declarations
+from oimi.accel.declarations import DeclarationError, assigned_attributes, declarations
 
 ROOT = Path(__file__).resolve().parents[2]
 REQUIRED = os.environ.get("OIMI_REQUIRE_ACCEL", "") not in ("", "0")
@@ -310,3 +311,41 @@ def test_where_they_were_built_the_listed_classes_are_extension_types() -> None:
     lines = done.stdout.splitlines()
     assert len(lines) == sum(map(len, accel.EXTENSION_TYPES.values())), done.stderr
     assert [line for line in lines if not line.endswith(" 0")] == [], "not extension types"
+
+
+def test_no_subclass_of_an_extension_type_shadows_one_of_its_attributes() -> None:
+    """A class-level name (a constant, a method, a property) in a Python subclass with the
+    name of an attribute its extension-type base declares would split the attribute in two:
+    Python would read the subclass's, the compiled base its own field."""
+    declared: dict[str, set[str]] = {}
+    for module, classes in accel.EXTENSION_TYPES.items():
+        source = accel.source_of(module)
+        assert source is not None
+        tree = ast.parse(source.read_text())
+        tops = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+        for name in classes:
+            declared[name] = set(assigned_attributes(tops[name]))
+    subclasses = 0
+    for path in ROOT.glob("**/*.py"):
+        if {".venv", "build", "tests"} & set(path.relative_to(ROOT).parts):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.ClassDef):
+                continue
+            bases = {ast.unparse(b).rpartition(".")[2] for b in node.bases} & declared.keys()
+            if not bases or node.name in declared:
+                continue
+            subclasses += 1
+            names = {name for statement in node.body for name in _class_level_names(statement)}
+            clashes = names & set().union(*(declared[b] for b in bases))
+            assert not clashes, f"{path}: {node.name} shadows {sorted(clashes)}"
+    assert subclasses >= 3, "LiveSession, SimSession, SafetyEpisodes at least"
+
+
+def _class_level_names(statement: ast.stmt) -> list[str]:
+    if isinstance(statement, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+        return [statement.name]
+    targets = statement.targets if isinstance(statement, ast.Assign) else []
+    if isinstance(statement, ast.AnnAssign | ast.AugAssign):
+        targets = [statement.target]
+    return [t.id for t in targets if isinstance(t, ast.Name)]
