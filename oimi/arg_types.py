@@ -18,13 +18,16 @@ def positive_int(text: str) -> int:
     return value
 
 
-def add_world_every_argument(parser: argparse.ArgumentParser) -> None:
-    """``--world-every N``: how often a recording keeps ``/world/state`` (``args.world_every``)."""
+def add_world_every_argument(parser: argparse.ArgumentParser, *, spec_files: bool = False) -> None:
+    """``--world-every N``: how often a recording keeps ``/world/state`` (``args.world_every``;
+    with ``spec_files``, None when not given: a batch spec's groups then say)."""
+    default = f"default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick"
     parser.add_argument(
         "--world-every",
         type=positive_int,
-        default=DEFAULT_WORLD_EVERY_N_TICKS,
+        default=None if spec_files else DEFAULT_WORLD_EVERY_N_TICKS,
         metavar="N",
-        help="record /world/state every N ticks, and at every contact"
-        f" (default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick)",
+        help="record /world/state every N ticks, and at every contact ("
+        + (f"a spec file's world_every_n_ticks, else {default}" if spec_files else default)
+        + ")",
     )

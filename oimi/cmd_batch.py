@@ -62,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ray", action="store_true", help="run on Ray (a local instance)")
     parser.add_argument("--ray-address", metavar="ADDR", help="run on this Ray cluster")
     parser.add_argument("--resume", action="store_true", help="skip runs already finished in --out")
-    add_world_every_argument(parser)
+    add_world_every_argument(parser, spec_files=True)
     add_outside_paths_argument(parser)
     parser.add_argument("--replay", type=Path, metavar="DIR", help="redrive every recording in DIR")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

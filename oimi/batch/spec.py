@@ -22,7 +22,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import msgspec
 
@@ -52,6 +52,8 @@ class RunGroup(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=
     """Number of seeds: the scenario's own seed and the ones after it."""
     seed_range: str | None = None
     """``"A:B"``: seeds A to B-1 (instead of ``seeds``)."""
+    world_every_n_ticks: Annotated[int, msgspec.Meta(ge=1)] | None = None
+    """How often each run's recording keeps ``/world/state`` (default every second tick)."""
 
 
 class BatchSpec(RunGroup, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -65,6 +67,7 @@ class BatchSpec(RunGroup, frozen=True, forbid_unknown_fields=True, kw_only=True)
             params=self.params,
             seeds=self.seeds,
             seed_range=self.seed_range,
+            world_every_n_ticks=self.world_every_n_ticks,
         )
         return ([top] if self.scenarios else []) + list(self.runs)
 
@@ -253,10 +256,11 @@ def expand_spec(
     seed_range: range | None = None,
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
-    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
+    world_every_n_ticks: int | None = None,
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
-    groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds."""
+    groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds,
+    ``world_every_n_ticks`` their sampling of the world's state."""
     tasks: list[Task] = []
     for group in spec.groups():
         if group.seeds is not None and group.seed_range is not None:
@@ -287,7 +291,9 @@ def expand_spec(
             out_dir=out_dir,
             allow_outside_paths=allow_outside_paths,
             extensions=extensions,
-            world_every_n_ticks=world_every_n_ticks,
+            world_every_n_ticks=world_every_n_ticks
+            or group.world_every_n_ticks
+            or DEFAULT_WORLD_EVERY_N_TICKS,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))

@@ -8,6 +8,7 @@ import pytest
 from batch_scenarios import write_scenario
 from oimi.analysis.metrics import run_name
 from oimi.recorder.metadata import RecordingMetadata
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.errors import ScenarioError
 
 from oimi.batch.spec import (
@@ -99,13 +100,20 @@ def test_a_bad_override_fails_before_anything_runs(tmp_path: Path) -> None:
         )
 
 
-def test_spec_file_groups_expand_with_paths_relative_to_the_spec(tmp_path: Path) -> None:
+def _alpha_beta_spec(tmp_path: Path, text: str) -> Path:
+    """Scenarios ``alpha.toml`` and ``beta.toml`` and a spec file ``text`` beside them."""
     write_scenario(tmp_path, "alpha")
     write_scenario(tmp_path, "beta")
     spec = tmp_path / "spec.toml"
-    spec.write_text(
+    spec.write_text(text)
+    return spec
+
+
+def test_spec_file_groups_expand_with_paths_relative_to_the_spec(tmp_path: Path) -> None:
+    spec = _alpha_beta_spec(
+        tmp_path,
         'scenarios = ["alpha.toml"]\nseeds = 2\n[params]\n"robot.max_speed_mps" = [0.3, 0.4]\n\n'
-        '[[runs]]\nscenarios = ["beta.toml"]\nseed_range = "5:6"\n'
+        '[[runs]]\nscenarios = ["beta.toml"]\nseed_range = "5:6"\n',
     )
     tasks = expand_spec(load_spec(spec), source=spec, out_dir=tmp_path / "out")
     assert [t.name for t in tasks] == [
@@ -169,3 +177,27 @@ def test_params_split_at_the_first_equals_sign() -> None:
     assert parse_param("name= a=b ") == ("name", "a=b")
     with pytest.raises(SpecError, match="expected KEY=VALUE"):
         parse_param("robot.max_speed_mps")
+
+
+def test_each_group_of_a_spec_may_set_its_world_sampling(tmp_path: Path) -> None:
+    spec = _alpha_beta_spec(
+        tmp_path,
+        'scenarios = ["alpha.toml"]\nworld_every_n_ticks = 5\n\n'
+        '[[runs]]\nscenarios = ["beta.toml"]\nworld_every_n_ticks = 1\n\n'
+        '[[runs]]\nscenarios = ["beta.toml"]\nseed_range = "7:8"\n',
+    )
+    tasks = expand_spec(load_spec(spec), source=spec, out_dir=tmp_path)
+    assert [(t.name, t.world_every_n_ticks) for t in tasks] == [
+        ("alpha-s1", 5),
+        ("beta-s1", 1),
+        ("beta-s7", DEFAULT_WORLD_EVERY_N_TICKS),
+    ]
+    given = expand_spec(load_spec(spec), source=spec, out_dir=tmp_path, world_every_n_ticks=3)
+    assert {t.world_every_n_ticks for t in given} == {3}, "--world-every replaces them all"
+
+
+def test_a_spec_sampling_below_one_tick_is_an_error_at_its_line(tmp_path: Path) -> None:
+    spec = tmp_path / "spec.toml"
+    spec.write_text('scenarios = ["alpha.toml"]\n\n[[runs]]\nworld_every_n_ticks = 0\n')
+    with pytest.raises(SpecError, match=r"spec.toml:4:\d+: Expected `int` >= 1"):
+        load_spec(spec)
