@@ -30,6 +30,8 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Final
 
+from oimi.accel.declarations import DeclarationError, declarations
+
 MODULES: Final = (
     "oimi.pipeline.loop",
     "oimi.pipeline.sink",
@@ -92,8 +94,9 @@ EXTENSION_TYPES: Final[dict[str, tuple[str, ...]]] = {
 }
 """The classes each compiled module builds as extension types (:mod:`.declarations`): their
 methods reach ``self``'s attributes directly. Compiled, their instances take no attribute
-their methods do not assign and the classes cannot be patched; nobody subclasses them
-(not the rule, generator or behaviour classes users extend)."""
+their methods do not assign and the classes cannot be patched. None is a class users
+extend (rules, generators, behaviours); a subclass here must not give a class-level name
+(constant, method, property) to one of their attributes (tests/packaging checks)."""
 PURE_ENV: Final = "OIMI_PURE"
 DIR_ENV: Final = "OIMI_ACCEL_DIR"
 DIRECTIVES: Final = {"annotation_typing": False, "binding": True, "language_level": 3}
@@ -252,10 +255,16 @@ def build(
     say(f"compiling {len(todo)} module(s) with Cython into {folder} (about 2 s each)")
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="oimi-accel-") as work:
-        include = _declarations_by_name(todo, Path(work) / "include")
+        include = Path(work) / "include"
         compiled = []
         for name, (source, _) in list(todo.items()):
             extension = Extension(name, [str(source)], extra_compile_args=["-w"])  # no advice
+            try:
+                _declare(name, source, include)
+            except DeclarationError as error:
+                say(f"left as Python: {name} ({error})")
+                del todo[name]
+                continue
             try:
                 compiled += cythonize(
                     [extension],
@@ -287,15 +296,11 @@ def build(
     return list(todo)
 
 
-def _declarations_by_name(todo: dict[str, tuple[Path, Path]], include: Path) -> Path:
-    """Write each module's declarations (:data:`EXTENSION_TYPES`) as
+def _declare(name: str, source: Path, include: Path) -> None:
+    """Write the module's declarations (:data:`EXTENSION_TYPES`), if it has any, as
     ``include/oimi/.../module.pxd``: Cython looks them up by the module's full name, which
     the source tree does not spell (the package ``oimi`` maps onto the top folders)."""
-    from oimi.accel.declarations import declarations
-
-    for name, (source, _) in todo.items():
-        if classes := EXTENSION_TYPES.get(name):
-            target = include.joinpath(*name.split(".")).with_suffix(".pxd")
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_text(declarations(source.read_text(), classes, filename=str(source)))
-    return include
+    if classes := EXTENSION_TYPES.get(name):
+        target = include.joinpath(*name.split(".")).with_suffix(".pxd")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(declarations(source.read_text(), classes, filename=str(source)))

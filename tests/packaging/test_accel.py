@@ -289,6 +289,10 @@ def test_a_listed_class_is_built_as_an_extension_type(
     with pytest.raises(AttributeError):
         counter.undeclared = 1
     assert hasattr(tiny.Loose(), "__dict__"), "an unlisted class stays a Python class"
+    monkeypatch.setitem(accel.EXTENSION_TYPES, name, ("Base", "Counter", "Gone"))
+    said: list[str] = []
+    assert accel.build(folder, [name], say=said.append) == [], "a class renamed: left as Python"
+    assert said[-1].startswith(f"left as Python: {name} (") and "no class Gone" in said[-1]
 
 
 @pytest.mark.skipif(not (REQUIRED or accel.ready()), reason="the hot modules are not compiled")
