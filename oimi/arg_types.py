@@ -22,12 +22,12 @@ def add_world_every_argument(parser: argparse.ArgumentParser, *, spec_files: boo
     """``--world-every N``: how often a recording keeps ``/world/state`` (``args.world_every``;
     with ``spec_files``, None when not given: a batch spec's groups then say)."""
     default = f"default {DEFAULT_WORLD_EVERY_N_TICKS}; 1: every tick"
+    if spec_files:
+        default = f"a spec file's world_every_n_ticks, else {default}"
     parser.add_argument(
         "--world-every",
         type=positive_int,
         default=None if spec_files else DEFAULT_WORLD_EVERY_N_TICKS,
         metavar="N",
-        help="record /world/state every N ticks, and at every contact ("
-        + (f"a spec file's world_every_n_ticks, else {default}" if spec_files else default)
-        + ")",
+        help=f"record /world/state every N ticks, and at every contact ({default})",
     )

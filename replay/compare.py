@@ -206,14 +206,15 @@ class Comparator:
         buffer = self._buffers.get(topic)
         if buffer is None:
             return
+        recorded_here = bool(buffer) and buffer[0][1].tick == message.tick
         if (
             topic is Topic.WORLD_STATE
             and not self._sampling.keep(time_ns, message)  # type: ignore[union-attr]
-            and not (buffer and buffer[0][1].tick == message.tick)
+            and not recorded_here
         ):
             return  # not kept, and not the session's last, which the recording keeps too
         payload = encode(message)
-        if not buffer or buffer[0][1].tick != message.tick:
+        if not recorded_here:
             self._diverge(
                 DivergenceKind.EXTRA,
                 topic,

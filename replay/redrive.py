@@ -15,7 +15,7 @@ from typing import Final
 
 from oimi.pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
 from oimi.recorder.reader import Recording, open_recording
-from oimi.replay.compare import Comparator, Comparison, compare_ticks
+from oimi.replay.compare import NS_PER_MS, Comparator, Comparison, compare_ticks
 from oimi.replay.rebuild import check_replayable, rebuild_notes, rebuilt_pipeline
 
 REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
@@ -62,4 +62,4 @@ def _last_tick(recording: Recording, tick_ms: int) -> int | None:
     the session's last world state (None: no summary, or no world state to end on)."""
     if recording.end_ns is None or not recording.summary.get(Topic.WORLD_STATE.value):
         return None
-    return recording.end_ns // (tick_ms * 1_000_000)
+    return recording.end_ns // (tick_ms * NS_PER_MS)

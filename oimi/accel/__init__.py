@@ -73,7 +73,7 @@ EXTENSION_TYPES: Final[dict[str, tuple[str, ...]]] = {
     "oimi.pipeline.proximity": ("ProximityTracker",),
     "oimi.pipeline.act.actuator": ("Actuator",),
     "oimi.pipeline.act.channels": ("ChannelCursor",),
-    "oimi.pipeline.act.safety": ("SafetySupervisor", "Interventions"),
+    "oimi.pipeline.act.safety": ("SafetySupervisor",),
     "oimi.pipeline.operator.handler": ("GeneratorHandler",),
     "oimi.pipeline.sense.producer": ("MapProducer", "_Index"),
     "oimi.pipeline.think.chain": ("RuleChain",),

@@ -39,7 +39,6 @@ from oimi.batch.spec import (
 from oimi.batch.tasks import ResultRow, finished_row, run_task
 from oimi.extension_args import extensions_of
 from oimi.recorder.outputs import check_output
-from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"
@@ -138,7 +137,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
             out_dir=out_dir,
             allow_outside_paths=args.allow_outside_paths,
             extensions=extensions_of(args),
-            world_every_n_ticks=args.world_every or DEFAULT_WORLD_EVERY_N_TICKS,
+            world_every_n_ticks=args.world_every,
         )
     check_unique(tasks)
     return tasks

@@ -220,10 +220,11 @@ def expand(
     out_dir: Path,
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
-    world_every_n_ticks: int = DEFAULT_WORLD_EVERY_N_TICKS,
+    world_every_n_ticks: int | None = None,
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
-    each combination once, so bad files or overrides fail here, before anything runs."""
+    each combination once, so bad files or overrides fail here, before anything runs.
+    ``world_every_n_ticks``: None for the default sampling (every second tick)."""
     tasks: list[Task] = []
     combos = grid(params)
     for path in scenarios:
@@ -240,7 +241,7 @@ def expand(
                         out_dir=str(out_dir),
                         allow_outside_paths=allow_outside_paths,
                         extensions=tuple(extensions),
-                        world_every_n_ticks=world_every_n_ticks,
+                        world_every_n_ticks=world_every_n_ticks or DEFAULT_WORLD_EVERY_N_TICKS,
                     )
                 )
     return tasks
@@ -291,9 +292,7 @@ def expand_spec(
             out_dir=out_dir,
             allow_outside_paths=allow_outside_paths,
             extensions=extensions,
-            world_every_n_ticks=world_every_n_ticks
-            or group.world_every_n_ticks
-            or DEFAULT_WORLD_EVERY_N_TICKS,
+            world_every_n_ticks=world_every_n_ticks or group.world_every_n_ticks,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))
