@@ -91,5 +91,4 @@ class ChannelCursor:
     @property
     def index(self) -> int:
         """The item being executed (waiting or acting); the item count once done."""
-        events, at = self._events, self._next
-        return self._count if at >= len(events) else events[at].item
+        return self._count if self.done else self._events[self._next].item
