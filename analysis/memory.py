@@ -25,6 +25,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.pipeline.think import rulecodes
 from oimi.recorder.mcap_sink import McapSink
 
@@ -48,7 +49,7 @@ def write_safety(sink: McapSink, time_ms: int, **fields: object) -> None:
     event = msgspec.convert(
         {"tick": time_ms // TICK_MS, "time_ms": time_ms, **fields}, SafetyIntervention
     )
-    sink.record(Topic.SAFETY, time_ms * 1_000_000, event)
+    sink.record(Topic.SAFETY, time_ms * NS_PER_MS, event)
 
 
 def synthetic_recording(path: Path, *, minutes: float) -> int:
@@ -70,7 +71,7 @@ def synthetic_recording(path: Path, *, minutes: float) -> int:
             state = WorldState(
                 tick=tick, time_ms=now, robot=robot, humans=humans, contacts=touching
             )
-            sink.record(Topic.WORLD_STATE, now * 1_000_000, state)
+            sink.record(Topic.WORLD_STATE, now * NS_PER_MS, state)
             if tick % 5 == 0:
                 decisions = tuple(
                     RuleDecision(rule=name, rulecode=code, fired=fired)
@@ -81,7 +82,7 @@ def synthetic_recording(path: Path, *, minutes: float) -> int:
                     )
                 )
                 message = RuleDecisions(tick=tick, time_ms=now, decisions=decisions)
-                sink.record(Topic.RULE_DECISIONS, now * 1_000_000, message)
+                sink.record(Topic.RULE_DECISIONS, now * NS_PER_MS, message)
             if now % 60_000 == 30_000:
                 for offset, phase_name in ((0, "start"), (2_000, "end")):
                     write_safety(

@@ -41,7 +41,7 @@ from oimi.pipeline.messages import (
 from oimi.pipeline.operator.handler import GeneratorHandler, PushScripts, StopActivities
 from oimi.pipeline.registries import Registries
 from oimi.pipeline.sense.producer import MapProducer
-from oimi.pipeline.sink import Sink
+from oimi.pipeline.sink import NS_PER_MS, Sink
 from oimi.pipeline.think.chain import RuleChain
 from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
 
@@ -330,7 +330,7 @@ class _Emitter:
         self.sink = sink
         self.tick = tick
         self.time_ms = time_ms
-        self.time_ns = time_ms * 1_000_000
+        self.time_ns = time_ms * NS_PER_MS
         self.logs: list[LogEntry] = []
         self.replies: list[OperatorReply] = []
         """The replies to this tick's operator commands, for ``/operator/state``."""

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Final, Protocol
 
 from oimi.pipeline.events import Event, Topic
+
+NS_PER_MS: Final = 1_000_000
+"""Nanoseconds in a millisecond: an event's ``time_ns`` is its tick's ``time_ms`` times this."""
 
 
 class Sink(Protocol):

@@ -17,6 +17,7 @@ from typing import Any, Final
 import msgspec
 from oimi.pipeline.events import Event, Topic, encode
 from oimi.pipeline.jsontree import ABSENT, differences
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import RecordedMessage, Recording
 from oimi.recorder.world_sampling import recorded_sampling
@@ -25,7 +26,6 @@ CONTEXT_MESSAGES: Final = 5
 """How many matched messages a divergence report shows before the difference."""
 VALUE_CHARS: Final = 300
 """Longest value text in a report; longer values are cut with an ellipsis."""
-NS_PER_MS: Final = 1_000_000
 
 
 class DivergenceKind(enum.StrEnum):

@@ -14,8 +14,9 @@ import os
 from typing import Final
 
 from oimi.pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.reader import Recording, open_recording
-from oimi.replay.compare import NS_PER_MS, Comparator, Comparison, compare_ticks
+from oimi.replay.compare import Comparator, Comparison, compare_ticks
 from oimi.replay.rebuild import check_replayable, rebuild_notes, rebuilt_pipeline
 
 REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)

@@ -44,6 +44,7 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.messages import MoveCommand, ScriptInfo
 from oimi.pipeline.operator.commands import OperatorCommand
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
@@ -100,8 +101,8 @@ def _converted(source: Path) -> Iterator[tuple[int, RosTopic, object]]:
     held: tuple[int, Pad] | None = None  # a locked pad state and when it was last sent
     for message in recording.iter_messages():
         t = message.time_ns
-        while held is not None and held[0] + JOY_REPEAT_MS * 1_000_000 < t:
-            held = (held[0] + JOY_REPEAT_MS * 1_000_000, held[1])
+        while held is not None and held[0] + JOY_REPEAT_MS * NS_PER_MS < t:
+            held = (held[0] + JOY_REPEAT_MS * NS_PER_MS, held[1])
             yield held[0], topics.JOY, joy_of(held[1], time_ns=held[0])
         event = message.decoded()
         match event:
@@ -215,7 +216,7 @@ def read_inputs(bag: Path, *, tick_ms: int) -> tuple[dict[int, _Inputs], int, bo
     """The bag's inputs by tick, the number of ticks, and whether it holds operator
     commands. Raises ``BagError`` naming the bag (and the message) that cannot be read."""
     by_tick: dict[int, _Inputs] = defaultdict(_Inputs)
-    tick_ns = tick_ms * 1_000_000
+    tick_ns = tick_ms * NS_PER_MS
     has_commands = False
     last = -1
     try:

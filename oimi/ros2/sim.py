@@ -23,6 +23,7 @@ from oimi.pipeline.events import JoystickInput
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.pipeline.operator.commands import OperatorCommand
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.metadata import RecordingMetadata, Ros2Record
 from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
@@ -128,7 +129,7 @@ class SimSession(Session):
         super().step(tick, commands=commands, joystick=joystick)
         self._odometry.write(
             odometry(
-                time_ns=time_ms * 1_000_000,
+                time_ns=time_ms * NS_PER_MS,
                 pose=self.world.robot_pose(),
                 velocity=self.world.robot_body_velocity(),
             )

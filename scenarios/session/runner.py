@@ -22,7 +22,7 @@ from oimi.pipeline.events import (
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.pipeline.operator.commands import Add, GetReady, OperatorCommand, Start
 from oimi.pipeline.registries import Registries
-from oimi.pipeline.sink import Sink
+from oimi.pipeline.sink import NS_PER_MS, Sink
 from oimi.recorder.metadata import (
     RecordingMetadata,
 )
@@ -217,7 +217,7 @@ class Session:
         )
         self.world.led, self.world.audio = self.outputs.led, self.outputs.audio
         self.sink.record(
-            Topic.WORLD_STATE, time_ms * 1_000_000, self.world.state(tick=tick, time_ms=time_ms)
+            Topic.WORLD_STATE, time_ms * NS_PER_MS, self.world.state(tick=tick, time_ms=time_ms)
         )
 
     def command(self, command: OperatorCommand) -> OperatorCommand:
