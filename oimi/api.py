@@ -118,7 +118,8 @@ def run(
     )
     session = Session(loaded, seed=seed, overrides=overrides)
     mcap, rerun, xml = (None if p is None else Path(p) for p in (output, rrd, junit))
-    check_outputs((mcap, rerun, xml), overwrite=overwrite)
+    inputs = (loaded.source, *(p for p in loaded.activity_paths if p is not None))
+    check_outputs((mcap, rerun, xml), overwrite=overwrite, inputs=inputs)
     watcher = None if watch is None else watch(session.scenario)
     pace = console.Pacer(session.tick_ms) if realtime else None
     with recorded(

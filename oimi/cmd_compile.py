@@ -1,6 +1,8 @@
 """Compile a script (the DSL of thesis section 4.4) to the thesis's Script JSON.
 
 Writes the JSON to stdout, or atomically to ``-o OUT.json`` (nothing is written on error).
+Like every command's output file, ``OUT.json`` is refused (exit 2, naming it) when it exists,
+unless ``--overwrite``, and always when it is the script being compiled.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from oimi.cmd_check import report, report_error
 from oimi.extension_args import toolkit_of
 from oimi.pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import compile_condition
-from oimi.recorder.outputs import check_output, output_error
+from oimi.recorder.outputs import check_output, check_replace, output_error
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
@@ -26,12 +28,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o", "--output", metavar="OUT", help="JSON file to write (default: stdout)"
     )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an existing OUT (default: refuse; never the SCRIPT itself)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     source = Path(args.script)
     if args.output is not None:
         check_output(args.output, beside=True)  # written beside it, renamed into place
+        check_replace(args.output, inputs=(source,), overwrite=args.overwrite)
     try:
         data = source.read_bytes()
     except OSError as error:
@@ -61,7 +69,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def write_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary file beside ``path``, then rename it over ``path``."""
+    """Write ``text`` to a temporary file beside ``path`` (its missing folders made), then
+    rename it over ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     umask = os.umask(0)
     os.umask(umask)

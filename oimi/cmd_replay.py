@@ -2,10 +2,12 @@
 
 Exit 0 when every message matches (with the count compared per topic), 1 at the
 first divergence (topic, tick, field, both values, the messages before it),
-2 when the recording cannot be read or rebuilt (another format version, damage).
+2 when the recording cannot be read or rebuilt (another format version, damage), or is a
+live session's and --mode rerun was asked (its outside inputs replay only in redrive).
 A rosbag2 folder is not compared: the --scenario's pipeline is driven over its map
-updates and joystick (docs/ros2.md) and recorded, and a summary printed. The work is
-``oimi/replaying.py``'s.
+updates and joystick (docs/ros2.md) and recorded, and a summary printed; as with
+``oimi run``, exit 0 when every expectation holds, 1 when one fails. Expectations about
+people are not judged (a bag has no people). The work is ``oimi/replaying.py``'s.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
 from oimi.live_options import add_foxglove_argument
-from oimi.replaying import MODES, drive_rosbag, replay
+from oimi.replaying import MODES, NOT_JUDGED, drive_rosbag, replay
 from oimi.ros2.network import missing_extra
 
 
@@ -45,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rosbag.add_argument("--scenario", type=Path, help="the scenario whose pipeline is driven")
     rosbag.add_argument("-o", "--output", type=Path, help="record the drive (default: out/)")
     rosbag.add_argument("--seed", type=int, help="override the scenario's seed")
+    rosbag.add_argument(
+        "--overwrite", action="store_true", help="replace an existing output file (default: refuse)"
+    )
     jsonout.add_json_argument(parser)
 
 
@@ -80,6 +85,8 @@ def _argument_problem(args: argparse.Namespace) -> str:
         return ""
     if args.scenario is not None or args.output is not None or args.seed is not None:
         return "--scenario, -o and --seed are for a rosbag2 folder"
+    if args.overwrite:
+        return "--overwrite is for a rosbag2 folder's -o (a replay writes no file)"
     if extensions_of(args):
         return (
             "a recording replays with the extensions attached to it;"
@@ -95,23 +102,27 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
         output=args.output,
         seed=args.seed,
         extensions=tuple(extensions_of(args)),
+        overwrite=args.overwrite,
     )
     for note in driven.notes:
         print(f"note: {note}", file=sys.stderr)
     print(f"rosbag2 {args.recording}: {driven.ticks} ticks driven")
     print_result(driven.result)
+    if driven.not_judged:
+        print(f"not judged ({NOT_JUDGED}): {'; '.join(driven.not_judged)}")
     print(f"recording: {driven.output}")
     jsonout.emit(
         args,
         {
             "command": "replay",
-            "ok": True,
+            "ok": driven.result.ok,
             "mode": "rosbag2",
             "recording": str(args.recording),
             "ticks": driven.ticks,
             "notes": driven.notes,
             **jsonout.result_summary(driven.result),
+            "not_judged": [{"name": name, "why": NOT_JUDGED} for name in driven.not_judged],
             "output": str(driven.output),
         },
     )
-    return 0
+    return 0 if driven.result.ok else 1

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Final
 
 from oimi import api, console, jsonout
 from oimi.arg_types import add_world_every_argument
@@ -19,6 +20,9 @@ from oimi.cmd_check import add_outside_paths_argument
 from oimi.extension_args import extensions_of
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
+
+MAX_ERRORS_SHOWN: Final = 5
+"""Errors the summary lists (the rest are on ``/log``)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -114,6 +118,10 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
         f"  safety supervisor: {s.safety_interventions} interventions, "
         f"{s.protective_stops} protective stops"
     )
+    for error in s.errors[:MAX_ERRORS_SHOWN]:
+        print(f"  ERROR at {error}")
+    if len(s.errors) > MAX_ERRORS_SHOWN:
+        print(f"  ... {len(s.errors) - MAX_ERRORS_SHOWN} more errors on /log")
     for verdict in result.verdicts:
         mark = "PASS" if verdict.ok else "FAIL"
         print(f"  {mark} {verdict.name}: {verdict.detail}")

@@ -22,6 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--ros2", action="store_true", required=True, help="be a ROS 2 robot (the only mode)"
     )
     parser.add_argument("-o", "--output", type=Path, help="also record the world to this MCAP")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace an existing output file (default: refuse)"
+    )
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
     parser.add_argument(
         "--duration-s", type=float, help="stop after this much simulated time (default: Ctrl-C)"

@@ -1,6 +1,9 @@
 """View a recording in the Rerun viewer; an MCAP recording is converted to Rerun first.
 
-``--save OUT.rrd`` only writes the Rerun recording (no screen needed). Otherwise the
+``--save OUT.rrd`` only writes the Rerun recording (no screen needed). Like ``oimi run``'s
+outputs, it is refused (exit 2, naming it) when it exists, unless ``--overwrite``, and
+always when it is the recording being viewed; it must end in ``.rrd``; it is written as
+``OUT.partial.rrd`` and renamed once complete. Otherwise the
 viewer starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics
 off; ``--web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
 :mod:`oimi.web_viewer` so the page asks nothing of another machine. A
@@ -26,6 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="OUT.rrd",
         help="write the Rerun recording here and do not start the viewer",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="with --save: replace an existing OUT.rrd (default: refuse; never the input)",
     )
     parser.add_argument(
         "--port", type=_port, help="port of the viewer's gRPC server (default: Rerun's, 9876)"
@@ -55,5 +63,10 @@ def _port(text: str) -> int:
 
 def run(args: argparse.Namespace) -> int:
     return view(
-        args.recording, save=args.save, port=args.port, web=args.web, web_port=args.web_port
+        args.recording,
+        save=args.save,
+        overwrite=args.overwrite,
+        port=args.port,
+        web=args.web,
+        web_port=args.web_port,
     )

@@ -4,15 +4,31 @@ rosbag2 folder's inputs (``oimi.ros2.bag``, docs/ros2.md)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
+import msgspec
+
+from oimi.recorder.errors import RecordingError
+from oimi.recorder.reader import open_recording
 from oimi.replay.compare import Comparison, format_report
 from oimi.replay.redrive import redrive
-from oimi.replay.rerun import rerun
+from oimi.replay.rerun import rerun_recording
+from oimi.scenarios.schema import (
+    ClosingSpeedAtContact,
+    Expectation,
+    MinDistance,
+    NoRobotInitiatedContact,
+)
+from oimi.scenarios.session.expectations import Verdict
 from oimi.scenarios.session.runner import RunResult
 
-MODES = {"redrive": redrive, "rerun": rerun}
+ABOUT_PEOPLE: Final = (MinDistance, NoRobotInitiatedContact, ClosingSpeedAtContact)
+"""Expectations about the people in the room, which a rosbag2 cannot judge: its odometry
+is the robot's alone (``oimi.ros2.remote.RemoteBody``)."""
+NOT_JUDGED: Final = "the bag has no people"
+"""Why they are not judged."""
 
 
 def replay(recording: Path, *, mode: str, foxglove: int | None, speed: float) -> Comparison:
@@ -23,6 +39,24 @@ def replay(recording: Path, *, mode: str, foxglove: int | None, speed: float) ->
     if foxglove is not None:
         serve_to_foxglove(recording, foxglove, speed=speed)
     return comparison
+
+
+def rerun(path: Path) -> Comparison:
+    """``replay.rerun.rerun``, refusing up front (``RecordingError``) a live session's
+    recording: its operator commands and joystick came from outside the scenario, which a
+    rerun plays again."""
+    recording = open_recording(path)
+    if recording.meta.live is not None:
+        raise RecordingError(
+            "a live session's recording: its operator commands and joystick came from"
+            " outside the scenario, which --mode rerun cannot play again;"
+            " replay it with --mode redrive (the default)",
+            source=str(path),
+        )
+    return rerun_recording(recording)
+
+
+MODES = {"redrive": redrive, "rerun": rerun}
 
 
 def serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
@@ -42,10 +76,13 @@ class Driven(NamedTuple):
     """A rosbag2 folder driven through a scenario's pipeline."""
 
     result: RunResult
+    """Its verdicts are those of the expectations a bag can judge."""
     ticks: int
     notes: list[str]
     """The bag's inputs that were refused, and why."""
     output: Path
+    not_judged: list[str]
+    """The expectations about people (``ABOUT_PEOPLE``), by name: a bag cannot judge them."""
 
 
 def drive_rosbag(
@@ -55,14 +92,35 @@ def drive_rosbag(
     output: Path | None = None,
     seed: int | None = None,
     extensions: tuple[str, ...] = (),
+    overwrite: bool = False,
 ) -> Driven:
     """Drive ``scenario``'s pipeline over the bag's map updates, joystick and commands,
-    recorded to ``output`` (default ``out/BAG-replay.mcap``). Needs the ``ros2`` extra."""
+    recorded to ``output`` (default ``out/BAG-replay.mcap``; an existing file is replaced
+    only with ``overwrite``). Needs the ``ros2`` extra.
+    The expectations about people are set apart, not judged: a bag has no people."""
     from oimi.ros2.bag import replay_rosbag
     from oimi.scenarios.loader import load_scenario
 
     output = output or Path("out") / f"{bag.name}-replay.mcap"
-    result, ticks, notes = replay_rosbag(
-        bag, load_scenario(scenario, extensions=extensions), output=output, seed=seed
-    )
-    return Driven(result, ticks, list(notes), output)
+    loaded = load_scenario(scenario, extensions=extensions)
+    result, ticks, notes = replay_rosbag(bag, loaded, output=output, seed=seed, overwrite=overwrite)
+    judged, not_judged = _judgeable(loaded.scenario.expect, result.verdicts)
+    result = msgspec.structs.replace(result, verdicts=judged)
+    return Driven(result, ticks, list(notes), output, not_judged)
+
+
+def _judgeable(
+    expect: Sequence[Expectation], verdicts: Sequence[Verdict]
+) -> tuple[tuple[Verdict, ...], list[str]]:
+    """The verdicts a bag can judge, and the names of those it cannot; ``verdicts`` are
+    ``expect``'s, in its order (``Tracker.verdicts``)."""
+    if len(expect) != len(verdicts):
+        raise AssertionError(f"{len(verdicts)} verdicts for {len(expect)} expectations")
+    judged: list[Verdict] = []
+    not_judged: list[str] = []
+    for expectation, verdict in zip(expect, verdicts, strict=True):
+        if isinstance(expectation, ABOUT_PEOPLE):
+            not_judged.append(verdict.name)
+        else:
+            judged.append(verdict)
+    return tuple(judged), not_judged

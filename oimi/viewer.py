@@ -1,6 +1,10 @@
 """The Rerun viewer on a recording (``oimi view``): an MCAP is converted to Rerun first.
 
-``save`` only writes the Rerun recording (no screen needed). Otherwise the viewer
+``save`` only writes the Rerun recording (no screen needed), checked first as ``oimi run``
+checks its outputs: an ``.rrd`` name, never the recording being viewed (even with
+``overwrite``), not an existing file unless ``overwrite``; it is written as
+``NAME.partial.rrd`` and renamed once complete, so a failed save leaves nothing at the
+target and no partial file. Otherwise the viewer
 starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics off;
 ``web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
 :mod:`oimi.web_viewer` so the page asks nothing of another machine. A damaged MCAP
@@ -20,9 +24,10 @@ from pathlib import Path
 from typing import Final
 
 from oimi.recorder.errors import RecordingError
-from oimi.recorder.outputs import check_output
+from oimi.recorder.outputs import OutputError, check_output, check_replace, output_error, same_file
 from oimi.recorder.rerun_sink import mcap_to_rrd
 from oimi.recorder.rrd import check_rrd
+from oimi.scenarios.session.recording import partial_path
 from oimi.web_viewer import PrivateViewer
 
 EXIT_OK, EXIT_FAILED = 0, 1
@@ -42,20 +47,29 @@ proxy variables; loopback (its gRPC server, the recording) is exempt."""
 PROXY_VARIABLES: Final = ("HTTPS_PROXY", "https_proxy", "HTTP_PROXY", "http_proxy", "ALL_PROXY")
 NO_PROXY: Final = "127.0.0.1,localhost,::1"
 SUFFIXES: Final = (".mcap", ".rrd")
+RRD_SUFFIX: Final = ".rrd"
 
 
 def view(
-    source: Path, *, save: Path | None = None, port: int | None, web: bool, web_port: int
+    source: Path,
+    *,
+    save: Path | None = None,
+    overwrite: bool = False,
+    port: int | None,
+    web: bool,
+    web_port: int,
 ) -> int:
     """Write ``source`` as Rerun's recording to ``save``, or show it in the viewer until it
     is closed: ``EXIT_OK``, or ``EXIT_FAILED`` when the viewer cannot run; a missing or
-    unreadable recording raises ``RecordingError``."""
+    unreadable recording, or a ``save`` refused by :func:`check_save`, raises
+    ``RecordingError``."""
     _check_readable(source)
+    if save is not None:
+        check_save(source, save, overwrite=overwrite)
     if source.suffix.lower() == ".rrd":
         check_rrd(source)
     if save is not None:
-        check_output(save)
-        write_rrd(source, save)
+        save_rrd(source, save, overwrite=overwrite)
         print(f"rerun: {save}")
         return EXIT_OK
     problem = display_problem(web=web, environ=os.environ, platform=sys.platform)
@@ -82,6 +96,78 @@ def _check_readable(source: Path) -> None:
             pass
     except OSError as error:
         raise RecordingError(f"cannot read: {error.strerror}", source=str(source)) from None
+
+
+def check_save(source: Path, target: Path, *, overwrite: bool) -> None:
+    """Refuse (``OutputError``, exit 2) a ``--save`` target before anything is written: one
+    that cannot be written, the recording being viewed (by any name; even with
+    ``overwrite``) or a name whose partial file is it, a name not ending in ``.rrd``, an
+    existing file or a leftover partial file unless ``overwrite``."""
+    check_output(target, beside=True)  # written beside it, renamed into place
+    check_replace(target, inputs=(source,), overwrite=True)
+    if target.suffix.lower() != RRD_SUFFIX:
+        given = f"not {target.suffix!r}" if target.suffix else "it has none"
+        raise OutputError(
+            f"a Rerun recording is saved with the {RRD_SUFFIX} suffix, {given} (for example"
+            f" {target.stem}{RRD_SUFFIX})",
+            source=str(target),
+        )
+    partial = partial_path(target)
+    if same_file(partial, source):
+        raise OutputError(
+            f"would be written as {partial}, the input file: choose another name",
+            source=str(target),
+        )
+    check_replace(target, overwrite=overwrite)
+    if not overwrite and (partial.exists() or partial.is_symlink()):
+        raise OutputError(
+            f"the unfinished file {partial} exists (a killed save or session?): move it"
+            " first, or pass --overwrite",
+            source=str(target),
+        )
+
+
+def save_rrd(source: Path, target: Path, *, overwrite: bool) -> None:
+    """Write ``source`` as a Rerun recording to ``target``'s partial file (created
+    exclusively), renamed to ``target`` once complete; on any failure the partial file is
+    removed and ``target`` is as it was. Without ``overwrite`` no file is replaced, even one
+    that appeared meanwhile. ``target`` was checked by :func:`check_save`."""
+    partial = partial_path(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if overwrite:
+            partial.unlink(missing_ok=True)
+        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except FileExistsError:
+        raise OutputError(f"{partial} exists (another save writing?)", source=str(target)) from None
+    except OSError as error:
+        raise output_error(target, error) from None
+    try:
+        write_rrd(source, partial)
+        _rename(partial, target, overwrite=overwrite)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+
+
+def _rename(partial: Path, target: Path, *, overwrite: bool) -> None:
+    """Give the written file its name; without ``overwrite`` never over another file."""
+    if overwrite:
+        os.replace(partial, target)
+        return
+    appeared = OutputError(
+        "appeared while saving: refusing to replace it (pass --overwrite)", source=str(target)
+    )
+    try:
+        os.link(partial, target)
+    except FileExistsError:
+        raise appeared from None
+    except OSError:  # no hard links on this file system: check, then rename
+        if target.exists() or target.is_symlink():
+            raise appeared from None
+        os.replace(partial, target)
+        return
+    partial.unlink()
 
 
 def write_rrd(source: Path, target: Path) -> None:

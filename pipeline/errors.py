@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+import traceback
 from typing import Final
 
 WORD_CHARS: Final = 100
@@ -41,3 +43,26 @@ class LocatedError(Exception):
         if self.line:
             return f"{self.source}:{self.line}:{self.column}: {self.message}"
         return f"{self.source}: {self.message}"
+
+
+def failure(error: BaseException) -> str:
+    """What a user's code (a function, rule body or generator) raised, for a report:
+    ``RuntimeError: boom (my_rules.py:18)``, placed at the innermost frame outside the
+    pipeline, by file name only, and with memory addresses masked: the text is the same on
+    every machine and in every run, and does not move when the pipeline's own code does."""
+    said = _ADDRESS.sub("0x…", str(error))
+    text = f"{type(error).__name__}: {said}" if said else type(error).__name__
+    theirs = [
+        (frame.f_code.co_filename, line)
+        for frame, line in traceback.walk_tb(error.__traceback__)
+        if not frame.f_code.co_filename.startswith(_PIPELINE)
+    ]
+    if not theirs:
+        return text
+    filename, line = theirs[-1]
+    return f"{text} ({os.path.basename(filename)}:{line})"
+
+
+_PIPELINE: Final = (os.path.dirname(os.path.abspath(__file__)) + os.sep, "pipeline" + os.sep)
+"""Where the pipeline's frames come from: its folder, or (compiled) its relative path."""
+_ADDRESS: Final = re.compile(r"0x[0-9a-fA-F]{4,}")

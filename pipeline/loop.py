@@ -35,6 +35,7 @@ from oimi.pipeline.messages import (
     ActuatorOutputs,
     MapUpdate,
     Message,
+    RuleMessage,
     Script,
     WorldMap,
 )
@@ -199,6 +200,10 @@ class Pipeline:
         decisions = self.chain.propagate(self.map, now_ms=now_ms)
         if decisions:
             emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+        failures = self.chain.take_failures()
+        if failures:  # rules that raised were removed: the chain changed
+            emitter.logs.extend(failures)
+            self._publish_chain((), emitter)
         notes = self.chain.take_notes()
         if notes:  # rules' messages to generators (thesis 3.2): delivered and logged
             self._operator_moved = True
@@ -240,11 +245,14 @@ class Pipeline:
         emitter.logs.extend(self.chain.apply(outcome.rule_messages))
         if outcome.unlock:
             self.chain.unlock()
+        self._publish_chain(tuple(outcome.rule_messages), emitter)
+
+    def _publish_chain(self, applied: tuple[RuleMessage, ...], emitter: _Emitter) -> None:
         active, held, removed = self.chain.names()
         emitter.emit(
             Topic.RULE_CHAIN,
             RuleChainState,
-            applied=tuple(outcome.rule_messages),
+            applied=applied,
             active=active,
             held=held,
             removed=removed,

@@ -6,11 +6,14 @@ rules (no overwriting, no leftover partial file) are added by
 ``scenarios.session.recording.check_outputs``. A long run never ends in a traceback
 because ``-o`` names a folder, a path under a file, or a read-only place.
 :func:`output_error` turns an ``OSError`` met while writing into the same error.
+:func:`check_replace` adds the rules of a command's one output file: never the file it
+reads, and not an existing file unless ``--overwrite``.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable
 from pathlib import Path
 
 from oimi.recorder.errors import RecordingError
@@ -58,6 +61,40 @@ def check_output(
                 f"cannot create its folder: {error.strerror or error}", source=str(target)
             ) from None
     return target
+
+
+def check_replace(
+    path: str | os.PathLike[str],
+    *,
+    inputs: Iterable[str | os.PathLike[str]] = (),
+    overwrite: bool,
+) -> None:
+    """Raise :class:`OutputError` for an output that is one of ``inputs`` (the same file,
+    by any name or link: refused even with ``overwrite``, since writing it would destroy
+    what is read) or, unless ``overwrite``, one that exists (a dangling link too)."""
+    target = Path(path)
+    for source in inputs:
+        if same_file(target, source):
+            named = "" if Path(source) == target else f" ({os.fspath(source)})"
+            raise OutputError(
+                f"is the input file{named}: refusing to write over it, even with --overwrite"
+                " (choose another name)",
+                source=str(target),
+            )
+    if not overwrite and (target.exists() or target.is_symlink()):
+        raise OutputError(
+            "exists: refusing to replace it (pass --overwrite, or choose another name)",
+            source=str(target),
+        )
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether ``a`` and ``b`` are one file (hard links and symbolic links included), or
+    lead to one place when either does not exist."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):  # one is missing or unreadable: compare where they lead
+        return os.path.realpath(a) == os.path.realpath(b)
 
 
 def _check(target: Path, *, folder: bool, beside: bool) -> None:

@@ -4,7 +4,8 @@ The recording carries the scenario file (``scenario/<file>``), every script of
 its activity folders (``activities/<name>``) and the metadata of the run
 (``scenario``: name, file, seed...; ``configuration``: the pipeline's set-up).
 They are written into a temporary folder laid out as ``<tmp>/<file>`` and
-``<tmp>/activities/``, so that the attached scripts win over the installed
+``<tmp>/activities/`` (the scripts also beside the scenario: the recording keeps a script's
+name, not the folder it came from), so that the attached scripts win over the installed
 library: a recording replays with the scripts it was made with. The extensions it
 used (``extensions/NAME/...``) are loaded from their attached sources.
 """
@@ -110,6 +111,7 @@ def _rebuilt(recording: Recording, build: Callable[..., R]) -> Iterator[R]:
             if name.startswith(ACTIVITY_PREFIX):
                 script = _safe_name(name.removeprefix(ACTIVITY_PREFIX), source=where)
                 (scripts / script).write_bytes(data)
+                (base / script).write_bytes(data)  # a script named beside the scenario
         source = base / file_name
         source.write_bytes(raw)
         extensions = _attached_extensions(recording, base / "extensions")

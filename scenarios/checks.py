@@ -109,10 +109,10 @@ def check_scenario_file(
 
 
 def check_condition(text: str, number: int, toolkit: Toolkit | None = None) -> str:
-    """``""`` when ``text`` compiles, else ``<condition N>:COL: message``."""
+    """``""`` when ``text`` compiles, else ``<condition N>:LINE:COL: message``."""
     functions: FunctionRegistry | None = None if toolkit is None else toolkit.registries.functions
     try:
         compile_condition(text, registry=functions)
     except LocatedError as error:
-        return f"<condition {number}>:{error.column}: {error.message}"
+        return str(error.located(f"<condition {number}>"))
     return ""

@@ -34,7 +34,7 @@ from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.registries import GeneratorFactory, Registries
 from oimi.pipeline.think.functions import spec_of
 from oimi.pipeline.think.library import BUILTIN_RULES
-from oimi.pipeline.think.rules import Rule
+from oimi.pipeline.think.rules import Rule, check_rule, check_writes
 from oimi.pipeline.think.stdlib import default_registry
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.simulation.humans import BUILTIN_BEHAVIOURS, BehaviourFactory
@@ -59,37 +59,58 @@ class Extension:
     name: str
     root: Path
     """The extension's folder (``activities`` paths are relative to it)."""
+    origin: str = ""
+    """How it was named (a path or a module name): where its errors point."""
     functions: list[Callable[..., object]] = field(default_factory=list)
     rules: list[type[Rule]] = field(default_factory=list)
     generators: dict[str, GeneratorFactory] = field(default_factory=dict)
     behaviours: dict[str, BehaviourFactory] = field(default_factory=dict)
     activity_folders: list[Path] = field(default_factory=list)
 
+    @property
+    def label(self) -> str:
+        """How messages name it: ``extension 'NAME' (FILE)``, the file by its base name."""
+        return f"extension {self.name!r} ({Path(self.origin).name or self.name})"
+
+    def _error(self, message: str) -> ExtensionError:
+        """``message`` about this extension: it names the extension, and points at it."""
+        return ExtensionError(f"{message} ({self.label})", source=self.origin or self.name)
+
     def function(self, fn: Callable[..., object]) -> Callable[..., object]:
         """Add a condition function marked with ``@boolean``, ``@string`` or ``@evaluation``."""
-        spec_of(fn)  # refuses an unmarked function now, naming it
+        spec_of(fn)  # refuses an unmarked function or a bad signature now, naming it
         self.functions.append(fn)
         return fn
 
     def rule(self, cls: type[Rule]) -> type[Rule]:
-        """Add a rule class (its ``rulecode`` must be at least ``USER_RULE_CODES``)."""
+        """Add a rule class (its ``rulecode`` must be at least ``USER_RULE_CODES``, its
+        ``writes`` a tuple of map parts). :func:`build_toolkit` checks its ``writes`` and
+        ``condition_text`` as the session will, with every extension's functions."""
         if not (isinstance(cls, type) and issubclass(cls, Rule)):
-            raise TypeError(f"{cls!r} is not a Rule subclass")
+            raise TypeError(f"{_named(cls)} is not a Rule subclass")
+        try:
+            check_writes(cls)
+        except ValueError as error:
+            raise self._error(str(error)) from None
         self.rules.append(cls)
         return cls
 
     def generator(self, factory: GeneratorFactory) -> GeneratorFactory:
         """Add a script generator: a class (or factory) whose instances have a ``name``."""
         name = getattr(factory, "name", "") or factory().name
+        if not (isinstance(name, str) and name):
+            raise self._error(
+                f'generator {_named(factory)} has no name: give it one (name = "...")'
+            )
         if name in self.generators:
-            raise ExtensionError(f"generator {name!r} added twice", source=self.name)
+            raise self._error(f"generator {name!r} added twice")
         self.generators[name] = factory
         return factory
 
     def behaviour(self, name: str, factory: BehaviourFactory) -> BehaviourFactory:
         """Add a human behaviour, used in a scenario as ``{kind = "custom", name = ...}``."""
         if name in self.behaviours:
-            raise ExtensionError(f"behaviour {name!r} added twice", source=self.name)
+            raise self._error(f"behaviour {name!r} added twice")
         self.behaviours[name] = factory
         return factory
 
@@ -97,9 +118,7 @@ class Extension:
         """Add a folder of activity scripts (relative to the extension's folder)."""
         path = (self.root / folder).resolve()
         if not path.is_dir():
-            raise ExtensionError(
-                f"activity folder {str(folder)!r} does not exist", source=self.name
-            )
+            raise self._error(f"activity folder {str(folder)!r} does not exist")
         self.activity_folders.append(path)
 
 
@@ -134,7 +153,7 @@ def load_extension(spec: str, *, base: Path | None = None) -> LoadedExtension:
     if not callable(register):
         raise ExtensionError(f"{spec!r} has no register(ext) function", source=spec)
     root = _root(module)
-    ext = Extension(name=getattr(module, "NAME", module.__name__), root=root)
+    ext = Extension(name=getattr(module, "NAME", module.__name__), root=root, origin=spec)
     try:
         register(ext)
     except ExtensionError:
@@ -209,30 +228,30 @@ def build_toolkit(extensions: Iterable[LoadedExtension] = ()) -> Toolkit:
     generators = {name: BUILTIN for name in default_catalogue().names()}
     behaviours: dict[str, str] = {name: BUILTIN for name in BUILTIN_BEHAVIOURS}
     for ext in extensions:
-        origin = f"extension {ext.name!r} ({ext.origin})"
-        for fn in ext.added.functions:
-            _claim(functions, spec_of(fn).name, origin, "function")
-        for cls in ext.added.rules:
-            _claim(rules, cls.rulecode, f"{cls.__name__} ({origin})", "rule code")
+        added, origin, source = ext.added, ext.added.label, ext.origin
+        for fn in added.functions:
+            _claim(functions, spec_of(fn).name, origin, "function", source=source)
+        for cls in added.rules:
+            _claim(rules, cls.rulecode, f"{cls.__name__} ({origin})", "rule code", source=source)
             if cls.rulecode < USER_RULE_CODES:
-                raise ExtensionError(
-                    f"rule code {cls.rulecode} of {cls.__name__} ({origin}) is in oimi's range:"
-                    f" extension rule codes start at {USER_RULE_CODES}",
-                    source=ext.origin,
+                raise added._error(
+                    f"rule code {cls.rulecode} of {cls.__name__} is in oimi's range:"
+                    f" extension rule codes start at {USER_RULE_CODES}"
                 )
-        for name in ext.added.generators:
-            _claim(generators, name, origin, "generator")
-        for name in ext.added.behaviours:
-            _claim(behaviours, name, origin, "behaviour")
+        for name in added.generators:
+            _claim(generators, name, origin, "generator", source=source)
+        for name in added.behaviours:
+            _claim(behaviours, name, origin, "behaviour", source=source)
+    added_functions = [fn for ext in extensions for fn in ext.added.functions]
     try:
         registries = Registries.build(
-            functions=[fn for ext in extensions for fn in ext.added.functions],
+            functions=added_functions,
             rules=[cls for ext in extensions for cls in ext.added.rules],
             generators={k: v for ext in extensions for k, v in ext.added.generators.items()},
         )
-    except ValueError as error:  # a rule's condition_text does not compile, say
-        names = ", ".join(repr(ext.name) for ext in extensions)
-        raise ExtensionError(f"{error} (extensions {names})", source=BUILTIN) from None
+    except ValueError:  # a rule's writes or condition_text: say whose
+        _check_rules(extensions, added_functions)
+        raise  # none of theirs: oimi's own rules are wrong
     return Toolkit(
         registries=registries,
         behaviours=MappingProxyType(
@@ -262,12 +281,33 @@ def extension_attachments(extensions: Iterable[LoadedExtension]) -> list[tuple[s
     ]
 
 
-def _claim(taken: dict, key: object, origin: str, what: str) -> None:
+def _check_rules(
+    extensions: Iterable[LoadedExtension], functions: Sequence[Callable[..., object]]
+) -> None:
+    """Check each extension's rules on their own, as the session's :class:`RuleRegistry`
+    does; the first it refuses raises an :class:`ExtensionError` naming its extension."""
+    registry = Registries.build(functions=functions).functions
+    for ext in extensions:
+        for cls in ext.added.rules:
+            try:
+                check_rule(cls, functions=registry)
+            except ValueError as error:
+                raise ext.added._error(str(error)) from None
+
+
+def _claim(taken: dict, key: object, origin: str, what: str, *, source: str) -> None:
+    """Take ``key`` for ``origin``; one taken already raises, naming both (``source``:
+    where the error points, the extension that came second)."""
     if key in taken:
         raise ExtensionError(
-            f"{what} {key!r} of {origin} collides with {taken[key]}", source=origin
+            f"{what} {key!r} of {origin} collides with {taken[key]}", source=source
         )
     taken[key] = origin
+
+
+def _named(thing: object) -> str:
+    """A function or class by its qualified name (its repr may hold an address)."""
+    return str(getattr(thing, "__qualname__", type(thing).__qualname__))
 
 
 def _import(spec: str, base: Path | None) -> ModuleType:

@@ -13,10 +13,11 @@ checks with units and the located errors share the TOML position scan.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 import tomllib
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final
 
@@ -24,8 +25,9 @@ import msgspec
 from oimi.pipeline.act.safety import safety_problems
 from oimi.pipeline.messages import Script
 from oimi.pipeline.operator.commands import VERBS
-from oimi.pipeline.operator.generator import Catalogue, GeneratorError
+from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded
 from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.handler import generate_script
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import (
     ExtensionError,
@@ -48,7 +50,8 @@ from oimi.scenarios.schema import (
     Waypoints,
     unit_of,
 )
-from oimi.scenarios.session.activities import check_script_file
+from oimi.scenarios.session.activities import ACTIVITIES, check_script_file
+from oimi.scenarios.simulation.humans import make_behaviour
 
 LIBRARY_DIR: Final = Path(__file__).resolve().parent / "library"
 """Where scenario files and their activities ship; scripts are looked up here second."""
@@ -305,7 +308,10 @@ def parse_scenario(
                 raise Invalid(("extensions",), error.message) from None
         toolkit = build_toolkit(loaded_extensions)
         _check_behaviours(scenario, toolkit)
-        paths = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
+        paths, scripts = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
+        _check_expected_rules(
+            scenario, scripts, (folder, folder / "activities", *toolkit.activity_folders)
+        )
     except Invalid as problem:
         errors = []
         for each in (problem, *problem.others):
@@ -326,21 +332,28 @@ def parse_scenario(
 
 
 def _check_behaviours(scenario: Scenario, toolkit: Toolkit) -> None:
-    """Every ``custom`` segment names a behaviour an extension added."""
+    """Every ``custom`` segment names a behaviour an extension added, which its options
+    make (as the world will: a factory that raises is refused here)."""
     known = ", ".join(sorted(toolkit.behaviours)) or "none: add an extension"
-    segments: list[tuple[PathKey, object]] = [
-        (("humans", h, "behaviour", n), segment)
+    segments: list[tuple[PathKey, str, object]] = [
+        (("humans", h, "behaviour", n), human.id, segment)
         for h, human in enumerate(scenario.humans)
         for n, segment in enumerate(human.behaviour)
     ]
     segments += [
-        (("events", n, "segment"), event.segment)
+        (("events", n, "segment"), event.human, event.segment)
         for n, event in enumerate(scenario.events)
         if isinstance(event, BehaviourEvent)
     ]
-    for where, segment in segments:
-        if isinstance(segment, Custom) and segment.name not in toolkit.behaviours:
+    for where, human, segment in segments:
+        if not isinstance(segment, Custom):
+            continue
+        if segment.name not in toolkit.behaviours:
             raise Invalid((*where, "name"), f"unknown behaviour {segment.name!r} (known: {known})")
+        try:
+            make_behaviour(segment, toolkit.behaviours, human)
+        except ScenarioError as error:
+            raise Invalid((*where, "options"), f"{error.source}: {error.message}") from None
 
 
 def decode_scenario(document: Any) -> Scenario:
@@ -476,9 +489,10 @@ def _check_activities(
     catalogue: Catalogue | None,
     allow_outside: bool,
     toolkit: Toolkit,
-) -> list[Path | None]:
+) -> tuple[list[Path | None], list[Script]]:
     """Each activity's script file (None for a generator), found, confined and compiled;
-    then every generator and its options, as the session will start them."""
+    then every generator and its options, as the session will start them. Returns the
+    files and the scripts (the files' and the generators')."""
     paths: list[Path | None] = []
     scripts: dict[str, Script] = {}
     shipped = default_catalogue().names()
@@ -505,10 +519,43 @@ def _check_activities(
         paths.append(path)
     if catalogue is None:
         catalogue = toolkit.registries.catalogue(scripts)
-    for index, activity in enumerate(scenario.activities):
-        if activity.generator is not None:
-            _check_generator(catalogue, activity.generator, activity.options, index)
-    return paths
+    generated = [
+        _check_generator(catalogue, activity.generator, activity.options, index)
+        for index, activity in enumerate(scenario.activities)
+        if activity.generator is not None
+    ]
+    return paths, [*scripts.values(), *generated]
+
+
+def _check_expected_rules(
+    scenario: Scenario, scripts: Sequence[Script], folders: Sequence[Path]
+) -> None:
+    """A ``rule_fired`` expectation whose rule no script loads, but whose name is close to
+    one that a script does load, is a typo (``at_most = 0`` would pass forever): refused.
+    The scenario's scripts are looked at first, then every script of its activity folders
+    and the library; a name like none of them is left alone (a generator may make it)."""
+    expected = [(n, e.rule) for n, e in enumerate(scenario.expect) if isinstance(e, RuleFired)]
+    known = _rule_ids(scripts)
+    missing = [(n, rule) for n, rule in expected if rule not in known]
+    if not missing:
+        return
+    for folder in (*folders, ACTIVITIES):
+        for path in sorted([*folder.glob("*.json"), *folder.glob("*.txt")]):
+            parsed, _ = check_script_file(path)
+            if parsed is not None:
+                known |= _rule_ids([parsed.script])
+    for index, rule in missing:
+        close = difflib.get_close_matches(rule, sorted(known), n=1)
+        if rule not in known and close:
+            raise Invalid(
+                ("expect", index, "rule"),
+                f"no script loads a rule {rule!r}; did you mean {close[0]!r}?",
+            )
+
+
+def _rule_ids(scripts: Iterable[Script]) -> set[str]:
+    """The ids of the rules the scripts' alfa and omega messages name."""
+    return {m.id for s in scripts for m in (*s.alfarulemessages, *s.omegarulemessages)}
 
 
 def _find_script(
@@ -536,19 +583,19 @@ def _find_script(
 
 def _check_generator(
     catalogue: Catalogue, name: str, options: Mapping[str, str], index: int
-) -> None:
+) -> Script:
     where: PathKey = ("activities", index)
     if name not in catalogue:
         known = ", ".join(sorted(catalogue.names())) or "none"
         raise Invalid((*where, "generator"), f"unknown generator {name!r} (known: {known})")
-    try:
-        generator = catalogue.create(name)
-        generator.activate(options)
-        generator.generate()
+    try:  # as Get Ready would (without a map): what it raises or returns is checked
+        generator = guarded(name, "create", catalogue.create, name)
+        return generate_script(name, generator, options, None)
     except GeneratorError as error:
-        place = (
-            (*where, "options", error.option) if error.option in options else (*where, "options")
-        )
+        if error.option in options:
+            place: PathKey = (*where, "options", error.option)
+        else:  # a bad option, or the generator failed
+            place = (*where, "options" if error.option else "generator")
         raise Invalid(place, f"generator {name!r}: {error.message}") from None
 
 

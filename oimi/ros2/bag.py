@@ -177,8 +177,8 @@ def export_rosbag(source: Path, out: Path) -> dict[str, int]:
     counts = {topic.name: 0 for topic in EXPORTED}
     try:
         writer = Writer(out, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
-    except WriterError as error:
-        raise BagError(str(error), source=str(out)) from None
+    except WriterError as error:  # its message starts with the path: say it once
+        raise BagError(str(error).removeprefix(f"{out} "), source=str(out)) from None
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     writer.set_custom_data("oimi.source", source.name)
     entries = sorted(_converted(source), key=lambda entry: entry[0])
@@ -260,10 +260,16 @@ def _decode(kind: type, raw: bytes | memoryview, where: str) -> object:
 
 
 def replay_rosbag(
-    bag: Path, loaded: LoadedScenario, *, output: Path | None, seed: int | None = None
+    bag: Path,
+    loaded: LoadedScenario,
+    *,
+    output: Path | None,
+    seed: int | None = None,
+    overwrite: bool = False,
 ) -> tuple[RunResult, int, list[str]]:
-    """Drive the scenario's pipeline over the bag's inputs, recording to ``output``;
-    the session's result, the number of ticks run and notes on refused inputs."""
+    """Drive the scenario's pipeline over the bag's inputs, recording to ``output`` (an
+    existing file replaced only with ``overwrite``); the session's result, the number of
+    ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
     body, sensors = RemoteBody(loaded.scenario.robot.radius_m), RemoteSensors()
     session = Session(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
@@ -271,7 +277,7 @@ def replay_rosbag(
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()
     released: list[str] = []
-    with recorded(session, mcap=output, rrd=None):
+    with recorded(session, mcap=output, rrd=None, overwrite=overwrite):
         for tick in range(ticks):
             now = inputs.pop(tick, _Inputs())
             for update in now.updates:

@@ -160,7 +160,7 @@ def simulate(args: argparse.Namespace) -> Simulated:
     with Node(network) as node:
         session = SimSession(loaded, node, seed=args.seed, on_note=note)
         server = LiveServer(session, config, on_ready=_announce, on_note=note)
-        with recorded(session, mcap=args.output, rrd=None):
+        with recorded(session, mcap=args.output, rrd=None, overwrite=args.overwrite):
             asyncio.run(server.run())
     return Simulated(
         ticks=server.ticks,

@@ -17,13 +17,14 @@ import enum
 import math
 import re
 from collections.abc import Callable, Mapping
-from typing import Final, Protocol
+from typing import Final, Protocol, TypeVar
 
 import msgspec
-from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.errors import LocatedError, failure
 from oimi.pipeline.messages import GeneratorNote, Message, Script, WorldMap
 
 Colour = tuple[float, float, float]
+_T = TypeVar("_T")
 OptionValue = str | float | int | Colour | tuple[Colour, ...]
 
 
@@ -287,7 +288,7 @@ class Catalogue:
         self._factories = dict(factories)
         self._infos: dict[str, GeneratorInfo] = {}
         for key, factory in self._factories.items():
-            g = factory()
+            g = guarded(key, "create", factory)
             if g.name != key:
                 raise GeneratorError(
                     f"catalogue key {key!r} makes a generator named {g.name!r}", source=key
@@ -327,3 +328,20 @@ class Catalogue:
                     "a generator of this name is already in the catalogue", source=name
                 )
         return Catalogue({**self._factories, **factories})
+
+
+def guarded(name: str, what: str, call: Callable[..., _T], *args: object) -> _T:
+    """``call(*args)``, the ``what`` of generator ``name`` (user code). What it raises
+    other than a :class:`GeneratorError` becomes one: ``generator 'x': generate() raised
+    KeyError: 'y' (mine.py:8)`` (file name and line only, the same on every machine)."""
+    try:
+        return call(*args)
+    except GeneratorError:
+        raise
+    except Exception as error:
+        raise failed(name, f"{what}() raised {failure(error)}") from None
+
+
+def failed(name: str, what: str) -> GeneratorError:
+    """A :class:`GeneratorError` saying that generator ``name`` failed at ``what``."""
+    return GeneratorError(what, source=f"generator {name!r}")

@@ -3,7 +3,9 @@ the activity command button, and what the loop must do to the Block Reader's LIF
 
 ``handle`` either does a command fully and replies ``ok`` or refuses it with a
 reason and changes nothing. Its effects are typed messages the loop applies:
-:class:`PushScripts` and :class:`StopActivities`.
+:class:`PushScripts` and :class:`StopActivities`. Generators are user code: what one
+raises, or a ``generate`` that returns no valid script, refuses the command or is said in
+the reply or the log line (:func:`guarded`); it never leaves the handler.
 
 The button (``OperatorButton``)::
 
@@ -19,7 +21,7 @@ back to ``not_yet_completed``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import msgspec
@@ -49,6 +51,8 @@ from oimi.pipeline.operator.generator import (
     GeneratorError,
     GeneratorInfo,
     GeneratorView,
+    failed,
+    guarded,
     resolve_options,
 )
 from oimi.pipeline.script.validate import script_errors
@@ -248,19 +252,18 @@ class GeneratorHandler:
                 done.append(f"rule {note.rule!r}: generator {note.generator!r} is not selected")
                 continue
             if note.quiesce:
-                s.generator.shutdown()
+                trouble = _shutdown(s)
                 if s.name in self._running:
                     s.quiesced = True  # its script runs on; Get Ready once the run ends
                 else:
                     s.script = None
                     if self._button is not OperatorButton.STOP:
                         self._settle()
-                done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent")
+                done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent" + trouble)
                 continue
             hear = getattr(s.generator, "hear", None)
-            if hear is not None:
-                hear(note)
-            done.append(f"rule {note.rule!r} told generator {s.name!r}: {note.text}")
+            trouble = _reported(s.name, "hear", hear, note) if hear is not None else ""
+            done.append(f"rule {note.rule!r} told generator {s.name!r}: {note.text}" + trouble)
         return done
 
     # ----------------------------------------------------------------- helpers
@@ -313,9 +316,10 @@ class GeneratorHandler:
         info = self._catalogue.info(name)
         try:
             options = resolve_options(info.options, cmd.options, source=name)
+            generator = guarded(name, "create", self._catalogue.create, name)
         except GeneratorError as err:
             raise _Refused(str(err)) from None
-        self._selected.append(_Selected(name, options, self._catalogue.create(name)))
+        self._selected.append(_Selected(name, options, generator))
         self._button = OperatorButton.GET_READY
         return f"added {name!r}", ()
 
@@ -326,11 +330,11 @@ class GeneratorHandler:
             raise _Refused(f"{s.name!r} is running; stop first")
         if s.name in self._running:
             raise _Refused(f"{s.name!r} is queued to run; stop first")
-        s.generator.shutdown()
+        trouble = _shutdown(s)
         self._selected.remove(s)
         if self._button is not OperatorButton.STOP:
             self._settle()
-        return f"removed {s.name!r}", ()
+        return f"removed {s.name!r}" + trouble, ()
 
     def _reorder(self, cmd: Reorder) -> _Outcome:
         self._refuse_while("reorder", OperatorButton.LOADING, OperatorButton.STOP)
@@ -355,17 +359,9 @@ class GeneratorHandler:
                     scripts[s.name] = s.script
                     continue
                 activated.append(s)
-                s.generator.activate(s.options)
-                see = getattr(s.generator, "see", None)
-                if see is not None and self._seen[0] is not None:
-                    see(_view(*self._seen))
-                script = s.generator.generate()
-                problems = [error.message for error in script_errors(script)]
-                if problems:
-                    raise GeneratorError(
-                        "generated an invalid script: " + "; ".join(problems), source=s.name
-                    )
-                scripts[s.name] = script
+                world_map, now_ms = self._seen
+                view = _view(world_map, now_ms) if world_map is not None else None
+                scripts[s.name] = generate_script(s.name, s.generator, s.options, view)
             owners: dict[str, str] = {}
             for name, script in scripts.items():
                 other = owners.setdefault(script.activityname, name)
@@ -374,9 +370,7 @@ class GeneratorHandler:
                         f"its script is named {script.activityname!r} like {other!r}'s", source=name
                     )
         except GeneratorError as err:
-            for s in activated:
-                s.generator.shutdown()
-            raise _Refused(str(err)) from None
+            raise _Refused(str(err) + "".join(_shutdown(s) for s in activated)) from None
         for s in self._selected:
             s.script = scripts[s.name]
         self._button = OperatorButton.LOADING
@@ -420,11 +414,44 @@ class GeneratorHandler:
 
     def _clear(self) -> _Outcome:
         self._refuse_while("clear", OperatorButton.LOADING, OperatorButton.STOP)
-        for s in self._selected:
-            s.generator.shutdown()
+        trouble = "".join(_shutdown(s) for s in self._selected)
         self._selected = []
         self._button = OperatorButton.GET_READY
-        return "cleared", ()
+        return "cleared" + trouble, ()
+
+
+def generate_script(
+    name: str, generator: Generator, options: Mapping[str, str], view: GeneratorView | None
+) -> Script:
+    """Activate ``generator``, let it see ``view`` (if any and it looks), generate: a valid
+    script, or a :class:`GeneratorError` saying what failed."""
+    guarded(name, "activate", generator.activate, options)
+    see = getattr(generator, "see", None)
+    if see is not None and view is not None:
+        guarded(name, "see", see, view)
+    script = guarded(name, "generate", generator.generate)
+    if not isinstance(script, Script):
+        kind = "None" if script is None else type(script).__name__
+        raise failed(name, f"generate() returned {kind}, not a Script")
+    problems = [error.message for error in script_errors(script)]
+    if problems:
+        raise GeneratorError("generated an invalid script: " + "; ".join(problems), source=name)
+    return script
+
+
+def _reported(name: str, what: str, call: Callable[..., object], *args: object) -> str:
+    """:func:`guarded`, for a call whose failure is only said: ``""``, or ``"; "`` and how
+    it failed (to append to a reply or a log line)."""
+    try:
+        guarded(name, what, call, *args)
+    except GeneratorError as error:
+        return f"; {error}"
+    return ""
+
+
+def _shutdown(s: _Selected) -> str:
+    """Shut ``s``'s generator down; :func:`_reported`."""
+    return _reported(s.name, "shutdown", s.generator.shutdown)
 
 
 def _view(world_map: WorldMap, now_ms: int) -> GeneratorView:

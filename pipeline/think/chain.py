@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from oimi.pipeline.errors import failure
 from oimi.pipeline.events import Level, LogEntry, RuleDecision
 from oimi.pipeline.messages import GeneratorNote, MutexCmd, RuleAction, RuleMessage, WorldMap
 from oimi.pipeline.think.errors import RuleSyntaxError
@@ -37,6 +38,7 @@ class RuleChain:
         self.held: dict[str, Rule] = {}
         self.removed: dict[str, Rule] = {}
         self.locked = False
+        self.failures: list[LogEntry] = []
 
     def apply(self, messages: Iterable[RuleMessage]) -> list[LogEntry]:
         """Apply alfa/omega messages in order; what cannot be applied is reported, not raised."""
@@ -57,13 +59,27 @@ class RuleChain:
         self.locked = False
 
     def propagate(self, world_map: WorldMap, *, now_ms: int) -> list[RuleDecision]:
-        """Pass the map through every active rule in order; nothing happens while locked."""
+        """Pass the map through every active rule in order; nothing happens while locked.
+
+        A rule whose condition or body raises is removed (as by an R message: a C message
+        brings it back) and reported in :meth:`take_failures`; what its body changed before
+        it raised stays in the map, and the map goes on to the next rule."""
         if self.locked:
             return []
         ctx = RuleContext(now_ms=now_ms, shortcuts=self.shortcuts)
-        decisions = [rule.decide(world_map, ctx) for rule in list(self.active)]
+        decisions = []
+        for rule in list(self.active):
+            try:
+                decisions.append(rule.decide(world_map, ctx))
+            except Exception as error:  # a user's rule or function: the session goes on
+                self._fail(rule, error, ctx)
         self.notes += ctx.notes
         return decisions
+
+    def take_failures(self) -> list[LogEntry]:
+        """The rules removed for raising since the last call, one ERROR entry each."""
+        failures, self.failures = self.failures, []
+        return failures
 
     def take_notes(self) -> list[GeneratorNote]:
         """The rules' messages to generators since the last call, in the order written."""
@@ -85,6 +101,17 @@ class RuleChain:
         if name in self.held:
             return "held"
         return "removed" if name in self.removed else "absent"
+
+    def _fail(self, rule: Rule, error: Exception, ctx: RuleContext) -> None:
+        self.active.remove(rule)
+        self.removed[rule.name] = rule
+        if ctx.parts is not None:  # the body may have changed the map before it raised
+            ctx.parts.forget()
+            ctx.parts.baseline = None
+        text = f"rule {rule.name!r} (code {rule.rulecode}) raised {failure(error)}; removed"
+        self.failures.append(
+            LogEntry(level=Level.ERROR, source="rules", message=text, ref=rule.name)
+        )
 
     def _find_active(self, name: str) -> Rule | None:
         return next((rule for rule in self.active if rule.name == name), None)

@@ -233,8 +233,7 @@ class _Compiler:
 
     def criterion(self, node: Criterion, cls: str) -> Callable[[Run, Bound], bool]:
         if isinstance(node, Call):
-            call = self.call(node, Family.B, cls)
-            return lambda run, this: call(run, this) is True
+            return _truth(self.call(node, Family.B, cls), node.name)
         left = node.left
         if not (isinstance(left, FieldRef) and left.alias == THIS):
             raise located("the left of a comparison must be ?THIS>&field", left.pos)
@@ -265,8 +264,8 @@ class _Compiler:
         if not left_side and not isinstance(node, EvalClause):
             raise located("assignments (CLASS, VAR, ATT) belong before '!'", node.pos)
         if isinstance(node, EvalClause):
-            call = self.call(node.call, Family.E)
-            return lambda run: GO if call(run, None) is True else FAIL
+            holds = _truth(self.call(node.call, Family.E), node.call.name)
+            return lambda run: GO if holds(run, None) else FAIL
         if isinstance(node, ClassClause):
             self.read(*STORE_READS, ENTITY_READS[node.cls])
             criteria = tuple(self.criterion(c, node.cls) for c in node.criteria)
@@ -278,6 +277,21 @@ class _Compiler:
         self.read_alias(node.alias)
         call = self.call(node.call, Family.F)
         return _assign_step(f"{node.alias}${node.att}", node.scope, call, node.alias)
+
+
+def _truth(call: Getter, name: str) -> Callable[[Run, Bound | None], bool]:
+    """A B or E call's truth: ``True`` or ``False`` (a missing argument: ``False``); any
+    other result is the function's mistake, raised as a ``TypeError`` naming it."""
+
+    def holds(run: Run, this: Bound | None) -> bool:
+        found = call(run, this)
+        if found is True:
+            return True
+        if found is False or found is MISSING:
+            return False
+        raise TypeError(f"{name} returned {found!r:.60}, not True or False")
+
+    return holds
 
 
 def _bind_constant_call(spec: FunctionSpec, args: tuple[object, ...]) -> Getter:

@@ -195,7 +195,8 @@ def spec_of(fn: Callable) -> FunctionSpec:
     """Read the spec of a marked function (raises ``ValueError`` on an unmarked one)."""
     mark = getattr(fn, SPEC_ATTRIBUTE, None)
     if mark is None:
-        raise ValueError(f"{fn!r} is not marked with @boolean, @string or @evaluation")
+        named = getattr(fn, "__qualname__", type(fn).__qualname__)  # a repr may hold an address
+        raise ValueError(f"{named} is not marked with @boolean, @string or @evaluation")
     family, name, classes, reads = mark
     hints = typing.get_type_hints(fn)
     params = list(inspect.signature(fn).parameters.values())

@@ -30,6 +30,7 @@ from collections.abc import Callable, Iterable
 from typing import Final
 
 import msgspec
+from oimi.pipeline.errors import failure
 from oimi.pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
 from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
@@ -492,11 +493,21 @@ class BlockReader:
         return None
 
     def _jump(self, block: JumpBlock, outcome: ReadOutcome, now_ms: int) -> Position | None:
-        found = self._conditions[block.toparse].evaluate(self.map, now_ms=now_ms)
-        target = block.truejump if found.result else block.falsejump
-        outcome.items.append(
-            self._item(ProgressKind.JUMP, detail=f"{found.result} -> {target or 'next'}")
-        )
+        try:
+            holds = self._conditions[block.toparse].evaluate(self.map, now_ms=now_ms).result
+        except Exception as error:  # a user's function: the script goes on, as if false
+            holds = False
+            where = f"{self.current.activity}/{path_of(self.position)}"
+            outcome.logs.append(
+                LogEntry(
+                    level=Level.ERROR,
+                    source="reader",
+                    message=f"{where}: the jump condition raised {failure(error)}; taken as false",
+                    ref=self.current.activity,
+                )
+            )
+        target = block.truejump if holds else block.falsejump
+        outcome.items.append(self._item(ProgressKind.JUMP, detail=f"{holds} -> {target or 'next'}"))
         if not target:
             return self._after(self.position, outcome, now_ms)
         position = parse_path(target)

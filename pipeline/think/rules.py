@@ -172,13 +172,7 @@ class RuleRegistry:
             if cls.rulecode in found:
                 taken = found[cls.rulecode].__name__
                 raise ValueError(f"rule code {cls.rulecode} of {cls.__name__} is taken by {taken}")
-            unknown = [part for part in cls.writes or () if part not in FIELDS]
-            if unknown:
-                raise ValueError(f"{cls.__name__}.writes: {unknown} are not parts of the map")
-            try:
-                compile_condition(cls.condition_text, registry=functions)
-            except RuleSyntaxError as error:
-                raise ValueError(f"{cls.__name__}.condition_text: {error}") from error
+            check_rule(cls, functions=functions)
             found[cls.rulecode] = cls
         self._classes = dict(sorted(found.items()))
 
@@ -200,6 +194,32 @@ class RuleRegistry:
             f"{code}:{cls.__name__}:{cls.condition_text}" for code, cls in self._classes.items()
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def check_writes(cls: type[Rule]) -> None:
+    """``ValueError`` unless ``cls.writes`` is ``None`` or a tuple of the map's parts."""
+    writes = cls.writes
+    if writes is None:
+        return
+    if not isinstance(writes, tuple | list) or not all(isinstance(p, str) for p in writes):
+        shown = f"the str {writes!r}" if isinstance(writes, str) else repr(writes)
+        example = writes if isinstance(writes, str) else "scriptinfo"
+        raise ValueError(
+            f'{cls.__name__}.writes must be a tuple of map parts, e.g. ("{example}",), not {shown}'
+        )
+    unknown = [part for part in writes if part not in FIELDS]
+    if unknown:
+        raise ValueError(f"{cls.__name__}.writes: {unknown} are not parts of the map")
+
+
+def check_rule(cls: type[Rule], *, functions: FunctionRegistry) -> None:
+    """``ValueError`` for a rule class its session would refuse: bad ``writes``, or a
+    ``condition_text`` that does not compile with ``functions``."""
+    check_writes(cls)
+    try:
+        compile_condition(cls.condition_text, registry=functions)
+    except RuleSyntaxError as error:
+        raise ValueError(f"{cls.__name__}.condition_text: {error}") from error
 
 
 MAX_WAIT: Final = 8

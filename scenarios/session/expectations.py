@@ -53,7 +53,13 @@ class Verdict(msgspec.Struct, frozen=True, kw_only=True):
 class Tracker:
     """A sink that keeps only the figures the expectations and the summary need."""
 
-    TOPICS = (Topic.WORLD_STATE, Topic.RULE_DECISIONS, Topic.READER_PROGRESS, Topic.LOG)
+    TOPICS = (
+        Topic.WORLD_STATE,
+        Topic.RULE_DECISIONS,
+        Topic.READER_PROGRESS,
+        Topic.LOG,
+        Topic.SAFETY,
+    )
     """The topics :meth:`record` reads (what a replayed check needs)."""
 
     def __init__(self, scenario: Scenario) -> None:
@@ -71,6 +77,8 @@ class Tracker:
         self.goals_reached: dict[str, int] = {}
         self.activity_states: dict[str, list[tuple[int, str]]] = {}
         self.rejections: list[str] = []
+        self.errors: list[str] = []
+        """Every ERROR on ``/log`` (a user's rule, function or generator that raised...)."""
         self.contacts = 0
         self.safety = Interventions()
         """The supervisor's episodes (the definition ``oimi analyse`` uses)."""
@@ -101,6 +109,11 @@ class Tracker:
                     f"{message.time_ms} ms {e.source}: {e.message}"
                     for e in message.entries
                     if e.level >= Level.WARNING and e.source in REJECTING_SOURCES
+                ]
+                self.errors += [
+                    f"{message.time_ms / 1000:.2f} s {e.source}: {e.message}"
+                    for e in message.entries
+                    if e.level >= Level.ERROR
                 ]
 
     @property

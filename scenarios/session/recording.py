@@ -12,7 +12,7 @@ from typing import Protocol
 import msgspec
 from oimi.pipeline.events import Event, Topic
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
-from oimi.recorder.outputs import OutputError, check_output
+from oimi.recorder.outputs import OutputError, check_output, check_replace
 from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
@@ -82,13 +82,17 @@ def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) 
     return path
 
 
-def check_outputs(paths: Iterable[Path | None], *, overwrite: bool) -> None:
+def check_outputs(
+    paths: Iterable[Path | None], *, overwrite: bool, inputs: Iterable[Path] = ()
+) -> None:
     """Refuse, before anything is opened, an output that cannot be written
     (``recorder.outputs.check_output``: its folder is a file, or not writable; missing
-    folders are made), one given twice, one that exists (unless ``overwrite``) and one
-    whose partial file exists (a killed session's, unless ``overwrite``). An
+    folders are made), one given twice, one that is one of the session's ``inputs`` (its
+    scenario or scripts: even with ``overwrite``), one that exists (unless ``overwrite``)
+    and one whose partial file exists (a killed session's, unless ``overwrite``). An
     :class:`OutputError` names the path."""
     seen: set[Path] = set()
+    inputs = tuple(inputs)
     for path in paths:
         if path is None:
             continue
@@ -97,6 +101,7 @@ def check_outputs(paths: Iterable[Path | None], *, overwrite: bool) -> None:
             raise OutputError("given twice as an output", source=str(path))
         seen.add(key)
         check_output(path, create=True, beside=True)
+        check_replace(path, inputs=inputs, overwrite=True)
         if overwrite:
             continue
         if path.exists() or path.is_symlink():

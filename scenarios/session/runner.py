@@ -69,6 +69,8 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     robot_initiated_contacts: int = 0
     max_closing_speed_mps: float = 0.0
     """The fastest a gap closed at the start of a contact episode, m/s."""
+    errors: tuple[str, ...] = ()
+    """Each ERROR the session logged (``1.00 s rules: rule 'r' (code 1010) raised ...``)."""
 
 
 class RunResult(msgspec.Struct, frozen=True, kw_only=True):
@@ -268,6 +270,7 @@ class Session:
             contact_episodes=len(episodes := t.contact_episodes()),
             robot_initiated_contacts=sum(e.initiator == "robot" for e in episodes),
             max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
+            errors=tuple(t.errors),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
 

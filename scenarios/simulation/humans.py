@@ -12,10 +12,14 @@ where they look (glances towards the robot or elsewhere every :data:`GLANCE_S`).
 from __future__ import annotations
 
 import math
+import os
 import random
-from collections.abc import Callable, Mapping
+import re
+from collections.abc import Callable, Mapping, Sequence
 from typing import Final, NamedTuple, Protocol
 
+from oimi.pipeline.errors import failure
+from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.schema import (
     Approach,
     BehaviourSegment,
@@ -87,6 +91,26 @@ BUILTIN_BEHAVIOURS: Final = (
 )
 """Segment kinds of the schema; an extension's behaviour may not take one of these names."""
 
+SHOWN: Final = 60
+"""The most characters of a bad value a behaviour returned that its error quotes."""
+_ADDRESS: Final = re.compile(r" at 0x[0-9a-fA-F]+")
+
+
+def make_behaviour(
+    segment: Custom, behaviours: Mapping[str, BehaviourFactory], human: str
+) -> Behaviour:
+    """The behaviour of ``human``'s ``custom`` segment, made by its extension's factory; a
+    factory that raises, or makes no ``velocity``, is a :class:`ScenarioError`."""
+    factory = behaviours[segment.name]
+    try:
+        behaviour = factory(dict(segment.options))
+    except Exception as error:  # an extension's bug or a bad option: named, not a traceback
+        raise _failed(human, segment.name, f"could not start: {_raised(error)}") from None
+    if not callable(getattr(behaviour, "velocity", None)):
+        kind = type(behaviour).__name__
+        raise _failed(human, segment.name, f"made a {kind}, which has no velocity(view) method")
+    return behaviour
+
 
 class HumanDriver:
     """Follows one human's timeline of behaviour segments (and segments switched in by events)."""
@@ -98,7 +122,9 @@ class HumanDriver:
         arena: Arena,
         rng: random.Random,
         behaviours: Mapping[str, BehaviourFactory] | None = None,
+        later: Sequence[BehaviourSegment] = (),
     ):
+        """``later``: the segments behaviour events will switch in."""
         self.spec = spec
         self.behaviours = behaviours or {}
         """Extension behaviours by name, for ``custom`` segments."""
@@ -113,6 +139,13 @@ class HumanDriver:
         self._pace = self.rng.uniform(*PACE)
         self._glance_ms = 0
         self._timeline = list(spec.behaviour)
+        self._made = {
+            id(segment): make_behaviour(segment, self.behaviours, spec.id)
+            for segment in (*self._timeline, *later)
+            if isinstance(segment, Custom)
+        }
+        """The behaviours of the ``custom`` segments to come, by the segment's ``id``: made as
+        the world is built, so that a factory that fails does so before the first tick."""
         self._starts_ms = [round(segment.at_s * 1000) for segment in self._timeline]
         """When each timeline segment starts, ms (worked out once, checked every tick)."""
         self._next = 0
@@ -152,7 +185,10 @@ class HumanDriver:
         self._leaving = isinstance(segment, Leave)
         self._speed = self._speed_of(segment)
         if isinstance(segment, Custom):
-            self._custom = self.behaviours[segment.name](dict(segment.options))
+            made = self._made.pop(id(segment), None)
+            self._custom = (
+                made if made is not None else make_behaviour(segment, self.behaviours, self.spec.id)
+            )
 
     def velocity(
         self, position: Point, robot: Point, time_ms: int, dt_s: float
@@ -213,15 +249,33 @@ class HumanDriver:
                     vx, vy, self._done = _keep_distance(position, robot, distance, speed, dt_s)
             case Follow(distance_m=distance):
                 vx, vy, _ = _keep_distance(position, robot, distance, speed, dt_s)
-            case Custom():
+            case Custom(name=name):
                 assert self._custom is not None  # made by switch
                 view = BehaviourView(position, robot, time_ms, dt_s, speed, self.arena, self.rng)
-                vx, vy = self._custom.velocity(view)
+                vx, vy = self._custom_velocity(self._custom, name, view)
             case Leave():
                 vx, vy, arrived = _towards(position, self.arena.exit_m, speed, dt_s)
                 if arrived:
                     self.left = True
         return (vx, vy)
+
+    def _custom_velocity(
+        self, custom: Behaviour, name: str, view: BehaviourView
+    ) -> tuple[float, float]:
+        """The velocity of the extension behaviour ``name``; one that raises, or returns
+        anything but two finite numbers, is a :class:`ScenarioError` (the run stops there)."""
+        try:
+            velocity = custom.velocity(view)
+        except Exception as error:
+            raise _failed(self.spec.id, name, f"raised {_raised(error)}") from None
+        try:
+            vx, vy = velocity
+            if math.isfinite(vx) and math.isfinite(vy):
+                return (vx, vy)
+        except (TypeError, ValueError):  # not two numbers
+            pass
+        problem = f"returned {_shown(velocity)}, not a velocity pair (vx, vy) of finite numbers"
+        raise _failed(self.spec.id, name, problem + _defined_at(custom.velocity))
 
     def _wander(
         self, position: Point, time_ms: int, speed: float, dt_s: float, segment: Wander
@@ -260,6 +314,29 @@ class HumanDriver:
         if (cx, cy) == (x, y):
             return (vx, vy)
         return ((cx - px) / dt_s, (cy - py) / dt_s)
+
+
+def _failed(human: str, name: str, problem: str) -> ScenarioError:
+    """``human``'s behaviour ``name`` went wrong: bad input, so the command exits 2."""
+    return ScenarioError(f"behaviour {name!r} {problem}", source=f"human {human!r}")
+
+
+def _raised(error: Exception) -> str:
+    """What a behaviour raised, placed in its own code (the frame here is left out)."""
+    frames = error.__traceback__
+    return failure(error.with_traceback(frames.tb_next if frames is not None else None))
+
+
+def _shown(value: object) -> str:
+    """``value`` for a message: without memory addresses, cut to :data:`SHOWN` characters."""
+    text = _ADDRESS.sub("", repr(value))
+    return text if len(text) <= SHOWN else text[: SHOWN - 1] + "…"
+
+
+def _defined_at(method: object) -> str:
+    """`` (FILE:LINE)`` where ``method`` is defined (by the file's name only), or ``""``."""
+    code = getattr(method, "__code__", None)
+    return f" ({os.path.basename(code.co_filename)}:{code.co_firstlineno})" if code else ""
 
 
 def _towards(

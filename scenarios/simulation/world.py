@@ -170,7 +170,14 @@ class World:
         shape = pymunk.Circle(body, spec.radius_m)
         shape.friction, shape.elasticity = 0.5, 0.3
         self.space.add(body, shape)
-        driver = HumanDriver(spec, arena=self.arena, rng=self.rng, behaviours=self.behaviours)
+        later = [
+            event.segment
+            for event in self.scenario.events
+            if isinstance(event, BehaviourEvent) and event.human == spec.id
+        ]
+        driver = HumanDriver(
+            spec, arena=self.arena, rng=self.rng, behaviours=self.behaviours, later=later
+        )
         return Human(spec, driver, body, shape)
 
     def _add_robot(self) -> pymunk.Body:

@@ -56,7 +56,7 @@ def test_compile_error_leaves_an_existing_output_untouched(tmp_path):
     script.write_text(BAD, encoding="utf-8")
     out = tmp_path / "out.json"
     out.write_text("previous", encoding="utf-8")
-    assert main(["compile", str(script), "-o", str(out)]) == 2
+    assert main(["compile", str(script), "-o", str(out), "--overwrite"]) == 2
     assert out.read_text(encoding="utf-8") == "previous"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.txt", "out.json"]
 
@@ -122,9 +122,13 @@ def test_check_conditions_given_on_the_command_line(capsys):
     assert main(["check", "--condition", "! {TRUE}", "--condition", "! {E: f (}"]) == 2
     captured = capsys.readouterr()
     assert captured.out == "<condition 1>: ok\n"
-    assert captured.err.startswith("<condition 2>:")
-    column = captured.err.split(":")[1]
-    assert column.isdigit() and int(column) > 1
+    assert captured.err.startswith("<condition 2>:1:10: ")
+
+
+def test_a_condition_over_several_lines_is_placed_at_its_line_and_column(capsys):
+    text = "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"
+    assert main(["check", "--condition", text]) == 2
+    assert capsys.readouterr().err.startswith("<condition 1>:2:8: unknown function 'nearr'")
 
 
 def test_check_places_a_bad_jump_condition_in_the_script_file(tmp_path, capsys):

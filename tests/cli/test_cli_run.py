@@ -3,23 +3,12 @@ codes, the failing expectation named, JUnit, located errors."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-ROOT = Path(__file__).parents[2]
+from cli_process import ROOT, oimi
+
 LIBRARY = ROOT / "scenarios" / "library"
-
-
-def oimi(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "oimi", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
 
 
 def test_one_scenario_run_twice_in_two_processes_gives_identical_mcap(tmp_path: Path) -> None:
@@ -102,3 +91,13 @@ def test_world_every_sets_how_often_the_recording_keeps_the_worlds_state(tmp_pat
     )
     assert done.returncode == 2 and "--world-every: must be at least 1, got 0" in done.stderr
     assert not (tmp_path / "no.mcap").exists()
+
+
+def test_an_output_onto_the_scenario_is_refused_even_with_overwrite(tmp_path: Path) -> None:
+    scenario = tmp_path / "caress.toml"
+    scenario.write_bytes((LIBRARY / "caress_reward.toml").read_bytes())
+    before = scenario.read_bytes()
+    done = oimi("run", "-q", scenario, "-o", scenario, "--overwrite")
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert f"{scenario}: is the input file: refusing to write over it" in done.stderr
+    assert scenario.read_bytes() == before

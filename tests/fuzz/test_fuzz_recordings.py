@@ -89,7 +89,7 @@ COMMANDS = (
     ("replay", "{file}"),
     ("replay", "{file}", "--mode", "rerun"),
     ("analyse", "{file}"),
-    ("view", "{file}", "--save", "{out}"),
+    ("view", "{file}", "--save", "{out}", "--overwrite"),
 )
 
 
@@ -161,7 +161,12 @@ def test_nothing_recoverable_is_refused_by_analyse(sample: Sample, tmp_path: Pat
 
 @pytest.mark.parametrize(
     "command",
-    [["replay"], ["replay", "--mode", "rerun"], ["analyse"], ["view", "--save", "{out}"]],
+    [
+        ["replay"],
+        ["replay", "--mode", "rerun"],
+        ["analyse"],
+        ["view", "--save", "{out}", "--overwrite"],
+    ],
     ids=["redrive", "rerun", "analyse", "view"],
 )
 def test_as_a_process_a_huge_length_exits_2_without_a_traceback(

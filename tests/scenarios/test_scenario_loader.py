@@ -305,6 +305,14 @@ ERRORS = [
         r"events\[0\].verb: unknown field; an operator event holds its command: command = \{ cmd",
         5,
     ),
+    (
+        "a rule_fired expectation with a typo in the rule's name",
+        '[[activities]]\nscript = "activities/playroom.txt"\n'
+        '[[expect]]\nkind = "rule_fired"\nrule = "child_to_close"\nat_least = 0\nat_most = 0\n',
+        r"expect\[0\].rule: no script loads a rule 'child_to_close'; did you mean"
+        r" 'child_too_close'\?$",
+        6,
+    ),
 ]
 
 
@@ -316,6 +324,15 @@ def test_errors_name_the_file_and_line(tmp_path, what, text, pattern, line):
         load_scenario(path)
     assert caught.value.line == line, what
     assert str(caught.value).startswith(f"{path}:{line}:")
+
+
+def test_a_rule_named_by_no_script_nor_like_one_is_left_to_the_generators(tmp_path):
+    path = tmp_path / "free.toml"
+    path.write_text(
+        'name = "free"\n[[activities]]\ngenerator = "greeting"\n'
+        '[[expect]]\nkind = "rule_fired"\nrule = "made_by_some_generator"\nat_least = 0\n'
+    )
+    assert load_scenario(path).scenario.expect[0].rule == "made_by_some_generator"
 
 
 def test_error_column_points_at_the_key():
