@@ -27,7 +27,7 @@ from oimi.pipeline.operator.commands import OperatorCommand
 
 
 class Topic(enum.StrEnum):
-    """The recorded topics (DESIGN.md)."""
+    """The recorded topics (docs/recording.md lists them)."""
 
     SENSOR_UPDATES = "/sensors/updates"
     OPERATOR_COMMANDS = "/operator/commands"

@@ -7,7 +7,7 @@ clock (``_ms``), colours in [0, 1], distances in metres, angles in radians.
 Schemas evolve only by appending fields with defaults, so old recordings stay
 readable (see ``FORMAT_VERSION``).
 
-Long module: it is the core's one vocabulary (DESIGN.md: ``sense``, ``think`` and ``act``
+Long module: it is the core's one vocabulary (docs/architecture.md: ``sense``, ``think`` and ``act``
 talk only through it): scripts, updates and the world map with its tables, side by side.
 """
 

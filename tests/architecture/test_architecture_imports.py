@@ -1,4 +1,4 @@
-"""The package rules of DESIGN.md, checked by walking every module's imports."""
+"""The package rules of docs/architecture.md, checked by walking every module's imports."""
 
 from __future__ import annotations
 
@@ -27,8 +27,8 @@ THIRD_PARTY: dict[str, set[str]] = {
     # polars; pyarrow is its Arrow layer, matplotlib draws the report's plots.
     "analysis": {"msgspec", "polars", "pyarrow", "matplotlib"},
 }
-"""The libraries each package may import besides the standard library (DESIGN.md's table);
-``oimi`` may import anything."""
+"""The libraries each package may import besides the standard library (the table in
+docs/architecture.md); ``oimi`` may import anything."""
 FORBIDDEN_IN_CORE = {"threading", "asyncio", "random", "time", "datetime", "multiprocessing"}
 
 
@@ -86,7 +86,7 @@ def test_packages_use_only_the_libraries_design_allows(package: str) -> None:
             top = name.split(".")[0]
             if top in stdlib or top in PACKAGES or top in THIRD_PARTY[package]:
                 continue
-            broken.append(f"{where}:{line}: imports {name} (not in DESIGN.md's table)")
+            broken.append(f"{where}:{line}: imports {name} (not in docs/architecture.md's table)")
     assert not broken, "\n".join(broken)
 
 
@@ -143,7 +143,7 @@ def test_sense_think_and_act_never_import_each_other(stage: str) -> None:
 
 
 APPLICATIONS = ("oimi.live", "oimi.batch", "oimi.bench", "oimi.ros2")
-"""The applications beside the command line (DESIGN.md: they live under ``oimi/``)."""
+"""The applications beside the command line (docs/architecture.md: they live under ``oimi/``)."""
 
 
 @pytest.mark.parametrize("package", [p for p in FOLDERS if p != "pipeline"])

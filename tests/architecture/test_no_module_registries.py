@@ -1,4 +1,5 @@
-"""No process-wide registry: registries are built per session and handed down (DESIGN.md).
+"""No process-wide registry: registries are built per session and handed down
+(docs/architecture.md).
 
 Walks every module of the installed packages and fails on a module-level registry
 instance (``RULES = RuleRegistry()``, a catalogue or a mutable dict/list named like a
