@@ -73,6 +73,11 @@ def _argument_problem(args: argparse.Namespace) -> str:
     if not args.speed >= 0:  # NaN too
         return "--speed must be 0 or more"
     if args.recording.is_dir():
+        if not (args.recording / "metadata.yaml").is_file():
+            return (
+                f"{args.recording}: cannot read: a folder, but not a rosbag2 (it has no"
+                " metadata.yaml); give an MCAP recording or a rosbag2 folder"
+            )
         if why := missing_extra():
             return why
         if args.mode != "redrive":

@@ -24,6 +24,9 @@ class LocatedError(Exception):
     also: tuple[LocatedError, ...] = ()
     """Other problems of the same input found with this one, each placed (the command line
     and ``oimi check`` list them all)."""
+    context: str = ""
+    """The offending source line with a caret under the column, when known (shown under
+    the message)."""
 
     def __init__(self, message: str, *, source: str = "<input>", line: int = 0, column: int = 0):
         message = _LONG_WORD.sub(_cut, message)

@@ -340,11 +340,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     action = parser.add_mutually_exclusive_group(required=True)
     action.add_argument("--regenerate", action="store_true", help="rewrite the golden files")
     action.add_argument("--check", action="store_true", help="compare; exit 1 on a difference")
-    parser.add_argument("scenarios", nargs="*", type=Path, help="default: the library's")
+    parser.add_argument(
+        "scenarios",
+        nargs="*",
+        type=Path,
+        help="scenario files, or the library's by name (greeting); default: all the library's",
+    )
     parser.add_argument("--dir", type=Path, default=GOLDEN_DIR, help="golden files' folder")
     args = parser.parse_args(argv)
-    scenarios = args.scenarios or library_scenarios()
     try:
+        scenarios = [_named(path) for path in args.scenarios] or library_scenarios()
         if args.regenerate:
             for path in regenerate(scenarios, args.dir):
                 print(f"wrote {path}")
@@ -364,6 +369,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except LocatedError as error:
         print(error, file=sys.stderr)
         return 2
+
+
+def _named(path: Path) -> Path:
+    """A scenario file as given, or the library's scenario of that name (``greeting``)."""
+    if path.exists() or path.suffix or len(path.parts) > 1:
+        return path
+    shipped = {scenario.stem: scenario for scenario in library_scenarios()}
+    if path.name not in shipped:
+        known = ", ".join(shipped)
+        raise LocatedError(
+            f"no such file, nor a library scenario (one of {known})", source=str(path)
+        )
+    return shipped[path.name]
 
 
 if __name__ == "__main__":

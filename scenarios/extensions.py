@@ -109,6 +109,10 @@ class Extension:
 
     def behaviour(self, name: str, factory: BehaviourFactory) -> BehaviourFactory:
         """Add a human behaviour, used in a scenario as ``{kind = "custom", name = ...}``."""
+        if not (isinstance(name, str) and name):
+            raise self._error(f"a behaviour's name must be a non-empty str, not {name!r}")
+        if not callable(factory):
+            raise self._error(f"behaviour {name!r}: {_named(factory)} is not a class or function")
         if name in self.behaviours:
             raise self._error(f"behaviour {name!r} added twice")
         self.behaviours[name] = factory

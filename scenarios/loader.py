@@ -17,6 +17,7 @@ import difflib
 import math
 import re
 import tomllib
+import typing
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final
@@ -39,7 +40,10 @@ from oimi.scenarios.extensions import (
 from oimi.scenarios.profile import THESIS_ROBOT
 from oimi.scenarios.schema import (
     BehaviourEvent,
+    BehaviourSegment,
     Custom,
+    Event,
+    Expectation,
     FaultEvent,
     MinDistance,
     OperatorEvent,
@@ -453,9 +457,30 @@ def _invalid(message: str, document: Any) -> Invalid:
         return Invalid(
             path, f"must be {bound.group(2)} {bound.group(3)}, got {_value(document, path)}"
         )
-    if path[-1:] == ("cmd",) and text.startswith("Invalid value"):
-        return Invalid(path, f"{text} (one of {', '.join(VERBS)})")
+    if text.startswith("Invalid value") and (known := _choices(path)):
+        return Invalid(path, f"{text} (one of {', '.join(known)})")
     return Invalid(path, text)
+
+
+def _choices(path: PathKey) -> tuple[str, ...]:
+    """The values a tag at ``path`` takes: an operator command's ``cmd``, a behaviour
+    segment's, an event's or an expectation's ``kind`` (none for any other path)."""
+    if path[-1:] == ("cmd",):
+        return tuple(VERBS)
+    if path[-1:] != ("kind",):
+        return ()
+    owner = next((part for part in reversed(path[:-1]) if isinstance(part, str)), "")
+    union = _KINDS.get(owner)
+    return tuple(kind.__struct_config__.tag for kind in typing.get_args(union)) if union else ()
+
+
+_KINDS: Final = {
+    "behaviour": BehaviourSegment,
+    "segment": BehaviourSegment,
+    "events": Event,
+    "expect": Expectation,
+}
+"""The tagged unions by the key that holds them in a scenario file."""
 
 
 _OPERATOR_HINT: Final = (

@@ -74,9 +74,9 @@ def condition_errors(
             sourcemap = parsed.sourcemap
             where = sourcemap.text_position(f"{path}.toparse", error.column - 1)
             line, column = where or sourcemap.locate(path)
-            errors.append(
-                type(error)(error.message, source=sourcemap.source, line=line, column=column)
-            )
+            placed = type(error)(error.message, source=sourcemap.source, line=line, column=column)
+            placed.context = sourcemap.lines.context(line, column)
+            errors.append(placed)
     return errors
 
 

@@ -141,7 +141,10 @@ def test_check_places_a_bad_jump_condition_in_the_script_file(tmp_path, capsys):
     script.write_text(f"[a]\n[goal:g]\n[action]\n{line}\n", encoding="utf-8")
     assert main(["check", str(script)]) == 2
     start = line.index("CND(") + len("CND(") + 1
-    assert capsys.readouterr().err.startswith(f"{script}:4:{start + inner - 1}: ")
+    column = start + inner - 1
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith(f"{script}:4:{column}: ")
+    assert lines[1:] == [f"    {line}", "    " + " " * (column - 1) + "^"], "the line, a caret"
 
 
 def test_check_places_a_bad_json_condition_at_its_value(tmp_path, capsys):

@@ -81,6 +81,13 @@ def test_golden_cli_checks_and_regenerates_on_purpose(
     assert "ok replay_short.toml" in capsys.readouterr().out
 
 
+def test_golden_cli_takes_a_library_scenario_by_name(capsys: pytest.CaptureFixture[str]) -> None:
+    assert golden.main(["--check", "blink"]) == 0
+    assert capsys.readouterr().out == "ok blink.toml\n"
+    assert golden.main(["--check", "blinks"]) == 2
+    assert "blinks: no such file, nor a library scenario (one of " in capsys.readouterr().err
+
+
 def _decisions(tick: int, *, fired: bool) -> RuleDecisions:
     decision = RuleDecision(rule="r1", rulecode=1, fired=fired, bindings={"?c": "Human/c"})
     return RuleDecisions(tick=tick, time_ms=tick * 20, decisions=(decision,))

@@ -150,3 +150,17 @@ def test_a_generator_without_a_name_is_refused(tmp_path: Path) -> None:
     assert error.message == (
         "generator G has no name: give it one (name = \"...\") (extension 'genempty' (genempty.py))"
     )
+
+
+@pytest.mark.parametrize(
+    ("call", "said"),
+    [
+        ('ext.behaviour("", object)', "a behaviour's name must be a non-empty str, not ''"),
+        ('ext.behaviour("wobble", 3)', "behaviour 'wobble': int is not a class or function"),
+    ],
+)
+def test_a_behaviour_without_a_name_or_a_factory_is_refused(
+    tmp_path: Path, call: str, said: str
+) -> None:
+    path = extension(tmp_path, "behbad", f"def register(ext):\n    {call}\n")
+    assert refused(path).message == f"{said} (extension 'behbad' (behbad.py))"

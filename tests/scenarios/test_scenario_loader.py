@@ -211,7 +211,19 @@ ERRORS = [
         r"events\[0\].human: required, but missing$",
         2,
     ),
-    ("unknown tag", '[[events]]\nat_s = 1.0\nkind = "dance"\n', r"Invalid value 'dance'", 4),
+    (
+        "unknown tag",
+        '[[events]]\nat_s = 1.0\nkind = "dance"\n',
+        r"events\[0\].kind: Invalid value 'dance' \(one of operator, joystick, touch, fault,"
+        r" behaviour\)$",
+        4,
+    ),
+    (
+        "unknown behaviour kind",
+        '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\nbehaviour = [{ kind = "waypoint" }]\n',
+        r"behaviour\[0\].kind: Invalid value 'waypoint' \(one of stand, waypoints, approach,",
+        6,
+    ),
     ("TOML syntax", "name = \nseed = 1\n", r"TOML: Invalid value", 2),
     (
         "missing script",
