@@ -61,9 +61,25 @@ class MapParts:
                 baseline[name] = self.encoded(name)
         return {name: baseline[name] for name in names}
 
-    def after(self, names: tuple[str, ...]) -> dict[str, bytes]:
-        """The top-level parts ``names`` after a body (they become the baseline)."""
-        after = {name: self.encoded(name) for name in names}
+    def after(self, names: tuple[str, ...], before: dict[str, bytes]) -> dict[str, bytes]:
+        """The top-level parts ``names`` after a body (they become the baseline), each that
+        changed checked against its type. A part the body left with a value of another
+        type (a text where a number goes), or one that does not encode, would stop the
+        stages after it (the safety supervisor reads the humans): every part the body may
+        have changed is put back as in ``before`` and ``TypeError`` says what was wrong."""
+        after: dict[str, bytes] = {}
+        name = ""
+        try:
+            for name in names:
+                data = after[name] = self.encoded(name)
+                if data != before[name]:
+                    _TYPED[name].decode(data)
+        except (TypeError, ValueError, msgspec.ValidationError) as error:
+            for part in names:
+                _put_back(self.world_map, part, before[part])
+            self.forget()
+            self.baseline = None
+            raise TypeError(f"{name}: {error}; the body's changes are undone") from None
         self.baseline = {**(self.baseline or {}), **after}
         return after
 
@@ -79,6 +95,28 @@ def stores_of(world_map: WorldMap, tick_scope: dict[str, str]) -> Stores:
         tuple(world_map.variables.items()),
         tuple(tick_scope.items()),
     )
+
+
+_TYPED: Final = {
+    field.name: msgspec.msgpack.Decoder(field.type) for field in msgspec.structs.fields(WorldMap)
+}
+"""Each top-level part's decoder: what checks a part's types after a body."""
+
+
+def _put_back(world_map: WorldMap, name: str, data: bytes) -> None:
+    """Make the part ``name`` hold ``data`` again, in place where it can (others may hold
+    the list, dict or struct), else as a new value."""
+    kept, value = getattr(world_map, name), _TYPED[name].decode(data)
+    if type(kept) is list and type(value) is list:
+        kept[:] = value
+    elif type(kept) is dict and type(value) is dict:
+        kept.clear()
+        kept.update(value)
+    elif type(kept) is type(value) and isinstance(value, msgspec.Struct):
+        for field in value.__struct_fields__:
+            setattr(kept, field, getattr(value, field))
+    else:
+        setattr(world_map, name, value)
 
 
 @functools.cache

@@ -145,7 +145,7 @@ class Rule:
             effect = self.act(world_map, found, ctx)
             parts.forget()
             if effect is not Effect.UNCHANGED:
-                changes = map_changes(before, parts.after(written))
+                changes = map_changes(before, parts.after(written, before))
         decision = RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,

@@ -52,6 +52,7 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     seed: int
     ticks: int
     duration_s: float
+    """Simulated time: ``ticks`` times the tick's length, s."""
     activities: dict[str, str]
     goals_reached: dict[str, int]
     rules_fired: dict[str, int]
@@ -252,11 +253,12 @@ class Session:
 
     def result(self) -> RunResult:
         t = self.tracker
+        ticks = t.last_ms // self.tick_ms + 1
         summary = Summary(
             scenario=self.scenario.name,
             seed=self.scenario.seed,
-            ticks=t.last_ms // self.tick_ms + 1,
-            duration_s=t.last_ms / 1000,
+            ticks=ticks,
+            duration_s=ticks * self.tick_ms / 1000,  # each tick lasts tick_ms: 1500 are 30 s
             activities={a.name: a.state for a in self.pipeline.handler.activities()},
             goals_reached=dict(t.goals_reached),
             rules_fired=dict(sorted(t.fired.items())),

@@ -3,6 +3,7 @@ codes, the failing expectation named, JUnit, located errors."""
 
 from __future__ import annotations
 
+import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -101,3 +102,10 @@ def test_an_output_onto_the_scenario_is_refused_even_with_overwrite(tmp_path: Pa
     assert done.returncode == 2, done.stdout + done.stderr
     assert f"{scenario}: is the input file: refusing to write over it" in done.stderr
     assert scenario.read_bytes() == before
+
+
+def test_the_json_summary_says_the_simulated_time_of_its_ticks() -> None:
+    done = oimi("run", "-q", LIBRARY / "caress_reward.toml", "--no-record", "--json")
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)["summary"]
+    assert (summary["ticks"], summary["duration_s"]) == (1250, 25.0)

@@ -65,8 +65,22 @@ LOAD = RuleMessage(
 )
 
 
+class Mistypes(Rule):
+    """Leaves a text where the map holds a number, and an object no encoder takes."""
+
+    rulecode = 2004
+
+    def act(self, world_map: WorldMap, found: object, ctx: object) -> Effect:
+        world_map.variables["@seen"] = "yes"
+        rho = world_map.variables.get("@rho")
+        world_map.humans[0].positionrho = float(rho) if rho else "far"  # type: ignore[assignment]
+        if "@object" in world_map.variables:
+            world_map.variables["@thing"] = object()  # type: ignore[assignment]
+        return Effect.CHANGED
+
+
 def chain_of(*codes: int) -> RuleChain:
-    chain = RuleChain(RuleRegistry([Asks, Breaks, Counts], functions=FUNCTIONS))
+    chain = RuleChain(RuleRegistry([Asks, Breaks, Counts, Mistypes], functions=FUNCTIONS))
     assert chain.apply([message(code) for code in codes]) == []
     return chain
 
@@ -166,3 +180,32 @@ def test_a_jump_condition_that_raises_is_taken_as_false_and_logged() -> None:
 def test_failure_masks_memory_addresses() -> None:
     thing = object()
     assert failure(ValueError(f"bad {thing!r}")) == "ValueError: bad <object object at 0x…>"
+
+
+@pytest.mark.parametrize(
+    ("variables", "said"),
+    [
+        ({}, "humans: Expected `float`, got `str` - at `$[0].positionrho`"),
+        (
+            {"@rho": "1.5", "@object": "1"},
+            "variables: Encoding objects of type object is unsupported",
+        ),
+    ],
+    ids=["mistyped", "unencodable"],
+)
+def test_a_body_that_leaves_the_map_mistyped_is_undone_and_removed(
+    variables: dict[str, str], said: str
+) -> None:
+    """A text where the safety supervisor reads a number would stop the session: the parts
+    the body changed are put back (in place) before the map goes on."""
+    chain, world = chain_of(2004, 2003), WorldMap(variables=dict(variables))
+    world.humans.append(Human(id="h1", creationtime=0, positionrho=0.7))
+    humans, kept = world.humans, world.variables
+    decisions = chain.propagate(world, now_ms=0)
+    assert [d.rule for d in decisions] == ["r2003"]
+    assert world.humans is humans and world.humans[0].positionrho == 0.7
+    assert world.variables is kept and "@seen" not in kept and "@thing" not in kept
+    assert kept["@count"] == "1", "the next rule saw the map as it was"
+    [report] = chain.take_failures()
+    undone = "the body's changes are undone; removed"
+    assert report.message == f"rule 'r2004' (code 2004) raised TypeError: {said}; {undone}"
