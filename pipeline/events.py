@@ -413,7 +413,8 @@ class Level(enum.IntEnum):
 class LogEntry(Message):
     level: Level
     source: str
-    """The stage that speaks: ``producer``, ``rules``, ``reader``, ``actuator``, ``operator``."""
+    """The stage that speaks: ``producer``, ``rules``, ``reader``, ``actuator``, ``operator``,
+    ``generators``, ``safety``."""
     message: str
     ref: str = ""
     """What it is about: an update's ``seq``, a rule id, an operator command id."""

@@ -11,8 +11,9 @@ from collections.abc import Sequence
 
 import msgspec
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
-from oimi.pipeline.act.limits import RobotLimits
-from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor
+from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor, Verdict
+from oimi.pipeline.errors import failure
 from oimi.pipeline.events import (
     ActuatorCommands,
     Event,
@@ -26,6 +27,7 @@ from oimi.pipeline.events import (
     ReaderProgress,
     RuleChainState,
     RuleDecisions,
+    SafetyIntervention,
     SensorUpdates,
     Topic,
 )
@@ -105,6 +107,8 @@ class Pipeline:
         self._last_operator = b""
         self._operator_moved = False
         """The handler was called this tick in a way that may have changed its state."""
+        self._unreadable = ""
+        """Why the safety supervisor could not read the map at the last tick (said once)."""
 
     def tick(
         self,
@@ -181,8 +185,7 @@ class Pipeline:
             or info.restart
         ):
             self._publish_operator(emitter)
-            emitter.flush_logs()
-            return self._supervise(step, emitter)
+            return self._finish(step, emitter)
 
         # 4. Consume the pending updates into the map.
         for rejection in self.producer.consume(now_ms):
@@ -214,8 +217,7 @@ class Pipeline:
         self._publish_progress(outcome, emitter)
         self._publish_map(emitter)
         self._publish_operator(emitter)
-        emitter.flush_logs()
-        return self._supervise(step, emitter)
+        return self._finish(step, emitter)
 
     # ---------------------------------------------------------------- the steps' parts
 
@@ -265,24 +267,42 @@ class Pipeline:
         for name in outcome.started:
             self._operator_moved |= self.handler.activity_started(name)
 
-    def _supervise(self, step: ActuatorStep, emitter: _Emitter) -> ActuatorOutputs:
-        """The safety supervisor's pass over the body's velocity, on the tick's final map
-        (below every source of motion; no rule or script reaches it)."""
-        outputs, requested = step.outputs, self.actuator.velocity
-        verdict, event = self.safety.supervise(
-            requested,
-            self.map,
-            tick=emitter.tick,
-            now_ms=emitter.time_ms,
-            source=self.actuator.motion_source,
-        )
+    def _finish(self, step: ActuatorStep, emitter: _Emitter) -> ActuatorOutputs:
+        """Supervise the tick's velocity, then write its logs and the supervisor's event."""
+        outputs, event = self._supervise(step, emitter)
+        emitter.flush_logs()
         if event is not None:
             self.sink.record(Topic.SAFETY, emitter.time_ns, event)
+        return outputs
+
+    def _supervise(
+        self, step: ActuatorStep, emitter: _Emitter
+    ) -> tuple[ActuatorOutputs, SafetyIntervention | None]:
+        """The safety supervisor's pass over the body's velocity, on the tick's final map
+        (below every source of motion; no rule or script reaches it). A map it cannot read
+        (a value of the wrong type left by a rule) stops it moving, turning on the spot aside,
+        until it can again."""
+        outputs, requested = step.outputs, self.actuator.velocity
+        try:
+            verdict, event = self.safety.supervise(
+                requested,
+                self.map,
+                tick=emitter.tick,
+                now_ms=emitter.time_ms,
+                source=self.actuator.motion_source,
+            )
+            self._unreadable = ""
+        except Exception as error:  # never move on a map the supervisor cannot read
+            text = f"cannot read the map ({failure(error)}): the robot is stopped"
+            if text != self._unreadable:
+                emitter.log(Level.ERROR, "safety", text)
+            self._unreadable = text
+            verdict, event = Verdict(Velocity(0.0, 0.0, requested.v_theta)), None
         if verdict.velocity == requested:
-            return outputs
+            return outputs, event
         self.actuator.hold(verdict.velocity)
         v_x, v_y, _ = verdict.velocity
-        return msgspec.structs.replace(outputs, v_x=v_x, v_y=v_y, brake=True)
+        return msgspec.structs.replace(outputs, v_x=v_x, v_y=v_y, brake=True), event
 
     def _note_joystick(self, now_ms: int) -> None:
         status = self.map.robotstatus

@@ -10,6 +10,7 @@ import pytest
 from oimi.pipeline.events import (
     Event,
     JoystickInput,
+    Level,
     MapDelta,
     ProgressKind,
     Source,
@@ -314,3 +315,29 @@ def test_two_runs_give_identical_event_streams() -> None:
     second = [(t, ns, encode(e)) for t, ns, e in run_session(300).events]
     assert first == second
     assert msgspec.json.decode(first[0][2])["tick"] == 0
+
+
+def test_a_map_the_safety_supervisor_cannot_read_stops_the_robot_and_is_said_once() -> None:
+    """A rule body that says it changed nothing but left a text where a time goes: the
+    supervisor cannot place the human, so nothing moves until the map is readable again."""
+    sink = MemorySink()
+    p = pipeline(sink)
+    p.tick(tick=0, updates=[pose(1, 3.0, 0)])
+    push = JoystickInput(tick=1, time_ms=20, left_y=1.0, buttons=("LB",))
+    assert p.tick(tick=1, joystick=push).v_x > 0, "the pad drives it"
+    p.map.humans[0].positionchangetime = "later"  # type: ignore[assignment]
+    for tick in (2, 3, 4):
+        held = JoystickInput(tick=tick, time_ms=tick * 20, left_y=1.0, buttons=("LB",))
+        out = p.tick(tick=tick, joystick=held)
+        assert (out.v_x, out.v_y, out.brake) == (0.0, 0.0, True)
+    said = [e for m in sink.on(Topic.LOG) for e in m.entries if e.source == "safety"]
+    assert [(e.level, e.message) for e in said] == [
+        (
+            Level.ERROR,
+            "cannot read the map (TypeError: '<=' not supported between instances of 'int'"
+            " and 'str'): the robot is stopped",
+        )
+    ]
+    p.map.humans[0].positionchangetime = 40
+    held = JoystickInput(tick=5, time_ms=100, left_y=1.0, buttons=("LB",))
+    assert p.tick(tick=5, joystick=held).v_x > 0, "readable again: it moves"
