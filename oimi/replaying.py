@@ -114,8 +114,6 @@ def _judgeable(
 ) -> tuple[tuple[Verdict, ...], list[str]]:
     """The verdicts a bag can judge, and the names of those it cannot; ``verdicts`` are
     ``expect``'s, in its order (``Tracker.verdicts``)."""
-    if len(expect) != len(verdicts):
-        raise AssertionError(f"{len(verdicts)} verdicts for {len(expect)} expectations")
     judged: list[Verdict] = []
     not_judged: list[str] = []
     for expectation, verdict in zip(expect, verdicts, strict=True):

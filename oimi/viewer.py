@@ -24,10 +24,18 @@ from pathlib import Path
 from typing import Final
 
 from oimi.recorder.errors import RecordingError
-from oimi.recorder.outputs import OutputError, check_output, check_replace, output_error, same_file
+from oimi.recorder.outputs import (
+    OutputError,
+    check_output,
+    check_replace,
+    claim_partial,
+    finish_partial,
+    output_error,
+    partial_path,
+    same_file,
+)
 from oimi.recorder.rerun_sink import mcap_to_rrd
 from oimi.recorder.rrd import check_rrd
-from oimi.scenarios.session.recording import partial_path
 from oimi.web_viewer import PrivateViewer
 
 EXIT_OK, EXIT_FAILED = 0, 1
@@ -129,45 +137,20 @@ def check_save(source: Path, target: Path, *, overwrite: bool) -> None:
 
 def save_rrd(source: Path, target: Path, *, overwrite: bool) -> None:
     """Write ``source`` as a Rerun recording to ``target``'s partial file (created
-    exclusively), renamed to ``target`` once complete; on any failure the partial file is
-    removed and ``target`` is as it was. Without ``overwrite`` no file is replaced, even one
-    that appeared meanwhile. ``target`` was checked by :func:`check_save`."""
-    partial = partial_path(target)
+    exclusively), renamed to ``target`` once complete; a failed conversion removes the
+    partial file and leaves ``target`` as it was. Without ``overwrite`` no file is replaced,
+    even one that appeared meanwhile. ``target`` was checked by :func:`check_save`."""
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        if overwrite:
-            partial.unlink(missing_ok=True)
-        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-    except FileExistsError:
-        raise OutputError(f"{partial} exists (another save writing?)", source=str(target)) from None
     except OSError as error:
         raise output_error(target, error) from None
+    partial = claim_partial(target, overwrite=overwrite)
     try:
         write_rrd(source, partial)
-        _rename(partial, target, overwrite=overwrite)
     except BaseException:
         partial.unlink(missing_ok=True)
         raise
-
-
-def _rename(partial: Path, target: Path, *, overwrite: bool) -> None:
-    """Give the written file its name; without ``overwrite`` never over another file."""
-    if overwrite:
-        os.replace(partial, target)
-        return
-    appeared = OutputError(
-        "appeared while saving: refusing to replace it (pass --overwrite)", source=str(target)
-    )
-    try:
-        os.link(partial, target)
-    except FileExistsError:
-        raise appeared from None
-    except OSError:  # no hard links on this file system: check, then rename
-        if target.exists() or target.is_symlink():
-            raise appeared from None
-        os.replace(partial, target)
-        return
-    partial.unlink()
+    finish_partial(partial, target, overwrite=overwrite)
 
 
 def write_rrd(source: Path, target: Path) -> None:

@@ -120,3 +120,46 @@ def _existing_parent(path: Path) -> Path:
         if parent.exists():
             return parent
     return Path("/")
+
+
+def partial_path(path: Path) -> Path:
+    """Where an output is written until it is complete: ``NAME.partial.mcap`` beside
+    ``NAME.mcap``. A killed session leaves this file, which replay recovers."""
+    return path.with_name(f"{path.stem}.partial{path.suffix}")
+
+
+def claim_partial(path: Path, *, overwrite: bool) -> Path:
+    """Create ``path``'s partial file exclusively (empty; with ``overwrite`` a leftover one
+    is replaced): its path. ``OutputError`` when another writer has it, or it cannot be
+    written."""
+    partial = partial_path(path)
+    try:
+        if overwrite:
+            partial.unlink(missing_ok=True)
+        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+    except FileExistsError:
+        raise OutputError(f"{partial} exists (another writer at work?)", source=str(path)) from None
+    except OSError as error:
+        raise output_error(path, error) from None
+    return partial
+
+
+def finish_partial(partial: Path, path: Path, *, overwrite: bool) -> None:
+    """Give a complete partial file its name; without ``overwrite`` never over another file
+    (then the partial file keeps it, and the error says where)."""
+    if overwrite:
+        os.replace(partial, path)
+        return
+    appeared = OutputError(
+        f"appeared while writing: the output is kept as {partial}", source=str(path)
+    )
+    try:
+        os.link(partial, path)
+    except FileExistsError:
+        raise appeared from None
+    except OSError:  # no hard links on this file system: check, then rename
+        if path.exists() or path.is_symlink():
+            raise appeared from None
+        os.replace(partial, path)
+        return
+    partial.unlink()

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime
-import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -12,7 +11,14 @@ from typing import Protocol
 import msgspec
 from oimi.pipeline.events import Event, Topic
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
-from oimi.recorder.outputs import OutputError, check_output, check_replace
+from oimi.recorder.outputs import (
+    OutputError,
+    check_output,
+    check_replace,
+    claim_partial,
+    finish_partial,
+    partial_path,
+)
 from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
 from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
@@ -64,12 +70,6 @@ class ClosingSink(Protocol):
     def close(self) -> None: ...
 
 
-def partial_path(path: Path) -> Path:
-    """Where a recording is written until it is closed: ``NAME.partial.mcap`` beside
-    ``NAME.mcap``. A killed session leaves this file, which replay recovers."""
-    return path.with_name(f"{path.stem}.partial{path.suffix}")
-
-
 def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) -> Path:
     """``folder/NAME-2026-11-23T16-20-05.mcap`` (``-2``, ``-3``... when that is taken), so two
     sessions never share a file; ``now`` is the wall clock, read by the caller."""
@@ -119,45 +119,6 @@ def check_outputs(
             )
 
 
-def _claim(path: Path, *, overwrite: bool) -> Path:
-    """Create ``path``'s partial file exclusively (empty); its path."""
-    partial = partial_path(path)
-    if overwrite:
-        partial.unlink(missing_ok=True)
-    try:
-        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
-    except FileExistsError:
-        raise OutputError(
-            f"{partial} exists (another session writing?)", source=str(path)
-        ) from None
-    except OSError as error:
-        raise OutputError(f"cannot write: {error.strerror or error}", source=str(path)) from None
-    return partial
-
-
-def _finish(partial: Path, path: Path, *, overwrite: bool) -> None:
-    """Give a closed recording its name; without ``overwrite`` never over another file
-    (then the partial keeps it, and the error says where)."""
-    if overwrite:
-        os.replace(partial, path)
-        return
-    try:
-        os.link(partial, path)
-    except FileExistsError:
-        raise OutputError(
-            f"appeared while recording: the recording is kept as {partial}", source=str(path)
-        ) from None
-    except OSError:  # no hard links on this file system: check, then rename
-        if path.exists():
-            raise OutputError(
-                f"appeared while recording: the recording is kept as {partial}",
-                source=str(path),
-            ) from None
-        os.replace(partial, path)
-        return
-    partial.unlink()
-
-
 @contextlib.contextmanager
 def recorded(
     session: Session,
@@ -201,7 +162,7 @@ def recorded(
             session.sink.add(counter)
         for path in (mcap, rrd):
             if path is not None:
-                claimed.append((path, _claim(path, overwrite=overwrite)))
+                claimed.append((path, claim_partial(path, overwrite=overwrite)))
         for path, partial in claimed:
             if path is mcap:
                 metadata = session.metadata()
@@ -245,6 +206,6 @@ def recorded(
                     sink.close()
                 for path, partial in claimed:
                     if started:
-                        _finish(partial, path, overwrite=overwrite)
+                        finish_partial(partial, path, overwrite=overwrite)
                     else:  # it never recorded anything: withdraw the claim
                         partial.unlink(missing_ok=True)

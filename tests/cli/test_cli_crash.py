@@ -17,8 +17,8 @@ from mcap.exceptions import EndOfFile
 from mcap.reader import make_reader
 from oimi.pipeline.events import Topic
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.outputs import partial_path
 from oimi.recorder.reader import open_recording
-from oimi.scenarios.session.recording import partial_path
 from rerun.chunk import RrdReader
 
 from oimi.cli import main

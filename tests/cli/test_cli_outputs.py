@@ -12,7 +12,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from oimi.scenarios.session.recording import dated_path, partial_path
+from oimi.recorder.outputs import partial_path
+from oimi.scenarios.session.recording import dated_path
 
 from oimi.cli import main
 
