@@ -17,7 +17,7 @@ from typing import Final
 import msgspec
 import polars as pl
 from oimi.analysis.load import TIME, SessionData
-from oimi.analysis.stream import Streamed
+from oimi.analysis.stream import Streamed, rule_episodes_frame
 from oimi.pipeline.events import REJECTING_SOURCES, Level, ProgressKind
 from oimi.pipeline.proximity import ZONE_NAMES
 from oimi.pipeline.think.library import BUILTIN_RULES
@@ -136,7 +136,7 @@ def rule_episodes(data: SessionData, *, housekeeping: bool = False) -> pl.DataFr
     )
     chores = housekeeping_codes()
     episodes = (
-        streamed.rules.frame()
+        rule_episodes_frame(streamed.rules)
         .with_columns(
             housekeeping=pl.col("rulecode").is_in(list(chores)),
             still_firing=pl.col("ended_ms").is_null(),

@@ -19,6 +19,7 @@ import polars as pl
 from oimi.pipeline.act.safety import Interventions
 from oimi.pipeline.events import RuleDecisions, SafetyIntervention, Topic, WorldState
 from oimi.pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
+from oimi.pipeline.think.episodes import RuleEpisodes
 
 STREAMED: Final = (Topic.WORLD_STATE.value, Topic.RULE_DECISIONS.value, Topic.SAFETY.value)
 """Topics folded message by message (never held as tables)."""
@@ -27,50 +28,19 @@ MAX_SAMPLES: Final = 4000
 """Ticks kept for the plots: every tick of a short session, evenly thinned beyond."""
 
 
-class RuleEpisodes:
-    """A rule's firing episodes: from the first evaluation that fired to the first that did not
-    (decisions are recorded when the chain runs; a rule's result holds until the next)."""
-
-    def __init__(self) -> None:
-        self.rows: list[tuple[str, int, int, int | None, int]] = []
-        """(rule, rulecode, start_ms, end_ms or None while open, evaluations fired)."""
-        self.evaluated: dict[str, int] = {}
-        self._open: dict[str, int] = {}
-
-    def update(self, message: RuleDecisions) -> None:
-        seen = set()
-        for d in message.decisions:
-            seen.add(d.rule)
-            self.evaluated[d.rule] = self.evaluated.get(d.rule, 0) + 1
-            index = self._open.get(d.rule)
-            if d.fired and index is None:
-                self._open[d.rule] = len(self.rows)
-                self.rows.append((d.rule, d.rulecode, message.time_ms, None, 1))
-            elif d.fired and index is not None:
-                rule, code, start, end, count = self.rows[index]
-                self.rows[index] = (rule, code, start, end, count + 1)
-            elif index is not None:
-                self._close(d.rule, message.time_ms)
-        for rule in [r for r in self._open if r not in seen]:  # removed from the chain
-            self._close(rule, message.time_ms)
-
-    def _close(self, rule: str, time_ms: int) -> None:
-        index = self._open.pop(rule)
-        name, code, start, _, count = self.rows[index]
-        self.rows[index] = (name, code, start, time_ms, count)
-
-    def frame(self) -> pl.DataFrame:
-        return pl.DataFrame(
-            self.rows,
-            schema={
-                "rule": pl.String,
-                "rulecode": pl.Int64,
-                "started_ms": pl.Int64,
-                "ended_ms": pl.Int64,
-                "evaluations_fired": pl.Int64,
-            },
-            orient="row",
-        )
+def rule_episodes_frame(episodes: RuleEpisodes) -> pl.DataFrame:
+    """The episodes as a table: rule, rulecode, started_ms, ended_ms, evaluations_fired."""
+    return pl.DataFrame(
+        episodes.rows,
+        schema={
+            "rule": pl.String,
+            "rulecode": pl.Int64,
+            "started_ms": pl.Int64,
+            "ended_ms": pl.Int64,
+            "evaluations_fired": pl.Int64,
+        },
+        orient="row",
+    )
 
 
 class SafetyEpisodes(Interventions):

@@ -95,6 +95,13 @@ def parse_params(items: Sequence[str]) -> dict[str, str]:
     return params
 
 
+def _episodes(episodes: int, fired: int) -> str:
+    """`` (3 episodes)`` when a rule's firings came in fewer episodes than firings."""
+    if episodes == fired or not episodes:
+        return ""
+    return f" ({episodes} episode{'s' if episodes != 1 else ''})"
+
+
 def print_result(result: RunResult, *, live: bool = False) -> None:
     """The end-of-run summary and each expectation's verdict (``live``: a live session's,
     to which the scenario's scripted expectations do not apply)."""
@@ -105,7 +112,10 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
     for goal, at_ms in s.goals_reached.items():
         print(f"  goal {goal} reached at {at_ms / 1000:.2f} s")
     if s.rules_fired:
-        fired = ", ".join(f"{rule} x{count}" for rule, count in s.rules_fired.items())
+        fired = ", ".join(
+            f"{rule} x{count}" + _episodes(s.rule_episodes.get(rule, 0), count)
+            for rule, count in s.rules_fired.items()
+        )
         print(f"  rules fired: {fired}")
     closest = ", ".join(f"{h} {d:.2f} m" for h, d in s.min_surface_distance_m.items())
     print(

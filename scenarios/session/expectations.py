@@ -24,6 +24,7 @@ from oimi.pipeline.events import (
     WorldState,
 )
 from oimi.pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
+from oimi.pipeline.think.episodes import RuleEpisodes
 from oimi.scenarios.schema import (
     ActivityCompleted,
     ActivityState,
@@ -68,6 +69,8 @@ class Tracker:
         self.max_speed_mps = 0.0
         self.left_arena_ms: int | None = None
         self.fired: Counter[str] = Counter()
+        self.episodes = RuleEpisodes()
+        """Each rule's firing episodes (the definition ``oimi analyse`` uses)."""
         self.fired_at: dict[str, list[int]] = {
             e.rule: []
             for e in scenario.expect
@@ -93,6 +96,7 @@ class Tracker:
             return
         match message:
             case RuleDecisions():
+                self.episodes.update(message)
                 counts, at = self.fired, self.fired_at
                 for decision in message.decisions:
                     if decision.fired:

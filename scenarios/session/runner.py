@@ -56,6 +56,7 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     activities: dict[str, str]
     goals_reached: dict[str, int]
     rules_fired: dict[str, int]
+    """Per rule, the evaluations whose condition held (a touch held 300 ms counts several)."""
     min_distance_m: dict[str, float]
     max_speed_mps: float
     contacts: int
@@ -70,6 +71,8 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     robot_initiated_contacts: int = 0
     max_closing_speed_mps: float = 0.0
     """The fastest a gap closed at the start of a contact episode, m/s."""
+    rule_episodes: dict[str, int] = {}
+    """Per rule that fired, its firing episodes: runs of evaluations that held."""
     errors: tuple[str, ...] = ()
     """Each ERROR the session logged (``1.00 s rules: rule 'r' (code 1010) raised ...``)."""
 
@@ -272,6 +275,7 @@ class Session:
             contact_episodes=len(episodes := t.contact_episodes()),
             robot_initiated_contacts=sum(e.initiator == "robot" for e in episodes),
             max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
+            rule_episodes=dict(sorted(t.episodes.counts().items())),
             errors=tuple(t.errors),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))

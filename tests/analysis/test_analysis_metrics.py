@@ -161,3 +161,20 @@ def test_a_rule_firing_is_credited_to_the_activity_running_when_it_began() -> No
         (1000, 1020, "child_left", "game"),
         (1020, 1200, "close", "wait_for_child"),
     ]
+
+
+def test_the_run_summary_counts_the_episodes_oimi_analyse_lists(tmp_path: Path) -> None:
+    """One definition: `oimi run`'s "x27 (3 episodes)" is `oimi analyse`'s episode table."""
+    from oimi.analysis.metrics import rule_episodes
+    from oimi.scenarios.loader import load_scenario
+    from oimi.scenarios.session.recording import recorded
+    from oimi.scenarios.session.runner import Session
+
+    library = Path(__file__).resolve().parents[2] / "scenarios" / "library"
+    session = Session(load_scenario(library / "caress_reward.toml"))
+    with recorded(session, mcap=tmp_path / "c.mcap", rrd=None):
+        summary = session.run().summary
+    listed = rule_episodes(_load(tmp_path / "c.mcap"), housekeeping=True)
+    counted = dict(listed.group_by("rule").len().sort("rule").rows())
+    assert summary.rule_episodes == counted
+    assert any(summary.rules_fired[r] > n for r, n in counted.items()), "some fired in runs"

@@ -104,8 +104,15 @@ def test_an_output_onto_the_scenario_is_refused_even_with_overwrite(tmp_path: Pa
     assert scenario.read_bytes() == before
 
 
-def test_the_json_summary_says_the_simulated_time_of_its_ticks() -> None:
+def test_the_summary_says_the_simulated_time_and_the_rules_firing_episodes() -> None:
     done = oimi("run", "-q", LIBRARY / "caress_reward.toml", "--no-record", "--json")
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)["summary"]
     assert (summary["ticks"], summary["duration_s"]) == (1250, 25.0)
+    assert summary["rule_episodes"] == {"kick_starter": 1, "touch_reward": 2}
+    printed = oimi("run", "-q", LIBRARY / "caress_reward.toml", "--no-record").stdout
+    fired = summary["rules_fired"]
+    assert (
+        f"  rules fired: kick_starter x{fired['kick_starter']} (1 episode),"
+        f" touch_reward x{fired['touch_reward']} (2 episodes)\n"
+    ) in printed
