@@ -47,6 +47,7 @@ MODULES: Final = (
     "oimi.pipeline.think.chain",
     "oimi.pipeline.think.condition_compile",
     "oimi.pipeline.think.condition_runtime",
+    "oimi.pipeline.think.episodes",
     "oimi.pipeline.think.mapparts",
     "oimi.pipeline.think.reader",
     "oimi.pipeline.think.rules",
