@@ -24,6 +24,7 @@ from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import Script, WorldMap
 from oimi.pipeline.script import ParsedScript, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import Condition, Evaluation, compile_condition
+from oimi.recorder.outputs import check_outputs
 from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.checks import check_scenario_file
 from oimi.scenarios.extensions import Extension as Extension  # re-exported: the registration API
@@ -31,7 +32,7 @@ from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.loader import load_scenario as _load_scenario
 from oimi.scenarios.schema import Scenario as Scenario  # re-exported
-from oimi.scenarios.session.recording import check_outputs, recorded
+from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import RunResult, Session, Summary
 
 if TYPE_CHECKING:

@@ -26,13 +26,10 @@ from typing import Final
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.outputs import (
     OutputError,
-    check_output,
+    check_outputs,
     check_replace,
     claim_partial,
     finish_partial,
-    output_error,
-    partial_path,
-    same_file,
 )
 from oimi.recorder.rerun_sink import mcap_to_rrd
 from oimi.recorder.rrd import check_rrd
@@ -107,12 +104,11 @@ def _check_readable(source: Path) -> None:
 
 
 def check_save(source: Path, target: Path, *, overwrite: bool) -> None:
-    """Refuse (``OutputError``, exit 2) a ``--save`` target before anything is written: one
-    that cannot be written, the recording being viewed (by any name; even with
-    ``overwrite``) or a name whose partial file is it, a name not ending in ``.rrd``, an
-    existing file or a leftover partial file unless ``overwrite``."""
-    check_output(target, beside=True)  # written beside it, renamed into place
-    check_replace(target, inputs=(source,), overwrite=True)
+    """Refuse (``OutputError``, exit 2) a ``--save`` target before anything is written: the
+    recording being viewed (by any name, or as the partial file; even with ``overwrite``),
+    a name not ending in ``.rrd``, and what :func:`~oimi.recorder.outputs.check_outputs`
+    refuses of any recording."""
+    check_replace(target, inputs=(source,), overwrite=True)  # said before its suffix
     if target.suffix.lower() != RRD_SUFFIX:
         given = f"not {target.suffix!r}" if target.suffix else "it has none"
         raise OutputError(
@@ -120,19 +116,7 @@ def check_save(source: Path, target: Path, *, overwrite: bool) -> None:
             f" {target.stem}{RRD_SUFFIX})",
             source=str(target),
         )
-    partial = partial_path(target)
-    if same_file(partial, source):
-        raise OutputError(
-            f"would be written as {partial}, the input file: choose another name",
-            source=str(target),
-        )
-    check_replace(target, overwrite=overwrite)
-    if not overwrite and (partial.exists() or partial.is_symlink()):
-        raise OutputError(
-            f"the unfinished file {partial} exists (a killed save or session?): move it"
-            " first, or pass --overwrite",
-            source=str(target),
-        )
+    check_outputs((target,), overwrite=overwrite, inputs=(source,))
 
 
 def save_rrd(source: Path, target: Path, *, overwrite: bool) -> None:
@@ -140,10 +124,6 @@ def save_rrd(source: Path, target: Path, *, overwrite: bool) -> None:
     exclusively), renamed to ``target`` once complete; a failed conversion removes the
     partial file and leaves ``target`` as it was. Without ``overwrite`` no file is replaced,
     even one that appeared meanwhile. ``target`` was checked by :func:`check_save`."""
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise output_error(target, error) from None
     partial = claim_partial(target, overwrite=overwrite)
     try:
         write_rrd(source, partial)

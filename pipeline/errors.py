@@ -48,6 +48,11 @@ class LocatedError(Exception):
         return f"{self.source}: {self.message}"
 
 
+def named(thing: object) -> str:
+    """A user's function or class by its qualified name (its repr may hold an address)."""
+    return str(getattr(thing, "__qualname__", type(thing).__qualname__))
+
+
 def failure(error: BaseException) -> str:
     """What a user's code (a function, rule body or generator) raised, for a report:
     ``RuntimeError: boom (my_rules.py:18)``, placed at the innermost frame outside the

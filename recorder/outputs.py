@@ -2,9 +2,9 @@
 
 :func:`check_output` is the one answer to "can this place be written", for every command's
 outputs (tables, reports, compiled scripts, saved views) and for recordings, whose own
-rules (no overwriting, no leftover partial file) are added by
-``scenarios.session.recording.check_outputs``. A long run never ends in a traceback
-because ``-o`` names a folder, a path under a file, or a read-only place.
+rules (no overwriting, no leftover partial file) are added by :func:`check_outputs`. A long
+run never ends in a traceback because ``-o`` names a folder, a path under a file, or a
+read-only place.
 :func:`output_error` turns an ``OSError`` met while writing into the same error.
 :func:`check_replace` adds the rules of a command's one output file: never the file it
 reads, and not an existing file unless ``--overwrite``.
@@ -68,10 +68,12 @@ def check_replace(
     *,
     inputs: Iterable[str | os.PathLike[str]] = (),
     overwrite: bool,
+    what: str = "it",
 ) -> None:
     """Raise :class:`OutputError` for an output that is one of ``inputs`` (the same file,
     by any name or link: refused even with ``overwrite``, since writing it would destroy
-    what is read) or, unless ``overwrite``, one that exists (a dangling link too)."""
+    what is read) or, unless ``overwrite``, one that exists (a dangling link too; ``what``
+    names it in the message)."""
     target = Path(path)
     for source in inputs:
         if same_file(target, source):
@@ -83,9 +85,42 @@ def check_replace(
             )
     if not overwrite and (target.exists() or target.is_symlink()):
         raise OutputError(
-            "exists: refusing to replace it (pass --overwrite, or choose another name)",
+            f"exists: refusing to replace {what} (pass --overwrite, or choose another name)",
             source=str(target),
         )
+
+
+def check_outputs(
+    paths: Iterable[Path | None], *, overwrite: bool, inputs: Iterable[Path] = ()
+) -> None:
+    """Refuse, before anything is opened, outputs written through their partial files
+    (:func:`claim_partial`): one that cannot be written (:func:`check_output`; missing
+    folders are made), one given twice, one that is one of ``inputs`` or whose partial file
+    is (even with ``overwrite``), one that exists and one whose partial file exists (a
+    killed session's or save's), unless ``overwrite``. An :class:`OutputError` names it."""
+    seen: set[Path] = set()
+    inputs = tuple(inputs)
+    for path in paths:
+        if path is None:
+            continue
+        key = path.absolute()
+        if key in seen:
+            raise OutputError("given twice as an output", source=str(path))
+        seen.add(key)
+        check_output(path, create=True, beside=True)
+        check_replace(path, inputs=inputs, overwrite=overwrite, what="a recording")
+        partial = partial_path(path)
+        if any(same_file(partial, source) for source in inputs):
+            raise OutputError(
+                f"would be written as {partial}, the input file: choose another name",
+                source=str(path),
+            )
+        if not overwrite and (partial.exists() or partial.is_symlink()):
+            raise OutputError(
+                f"the unfinished file {partial} exists (a killed session or save?):"
+                " recover or move it first, or pass --overwrite",
+                source=str(path),
+            )
 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:

@@ -30,6 +30,7 @@ from types import MappingProxyType, ModuleType
 from typing import Final
 
 import msgspec
+from oimi.pipeline.errors import named
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.registries import GeneratorFactory, Registries
 from oimi.pipeline.think.functions import spec_of
@@ -87,7 +88,7 @@ class Extension:
         ``writes`` a tuple of map parts). :func:`build_toolkit` checks its ``writes`` and
         ``condition_text`` as the session will, with every extension's functions."""
         if not (isinstance(cls, type) and issubclass(cls, Rule)):
-            raise TypeError(f"{_named(cls)} is not a Rule subclass")
+            raise TypeError(f"{named(cls)} is not a Rule subclass")
         try:
             check_writes(cls)
         except ValueError as error:
@@ -99,9 +100,7 @@ class Extension:
         """Add a script generator: a class (or factory) whose instances have a ``name``."""
         name = getattr(factory, "name", "") or factory().name
         if not (isinstance(name, str) and name):
-            raise self._error(
-                f'generator {_named(factory)} has no name: give it one (name = "...")'
-            )
+            raise self._error(f'generator {named(factory)} has no name: give it one (name = "...")')
         if name in self.generators:
             raise self._error(f"generator {name!r} added twice")
         self.generators[name] = factory
@@ -112,7 +111,7 @@ class Extension:
         if not (isinstance(name, str) and name):
             raise self._error(f"a behaviour's name must be a non-empty str, not {name!r}")
         if not callable(factory):
-            raise self._error(f"behaviour {name!r}: {_named(factory)} is not a class or function")
+            raise self._error(f"behaviour {name!r}: {named(factory)} is not a class or function")
         if name in self.behaviours:
             raise self._error(f"behaviour {name!r} added twice")
         self.behaviours[name] = factory
@@ -307,11 +306,6 @@ def _claim(taken: dict, key: object, origin: str, what: str, *, source: str) -> 
             f"{what} {key!r} of {origin} collides with {taken[key]}", source=source
         )
     taken[key] = origin
-
-
-def _named(thing: object) -> str:
-    """A function or class by its qualified name (its repr may hold an address)."""
-    return str(getattr(thing, "__qualname__", type(thing).__qualname__))
 
 
 def _import(spec: str, base: Path | None) -> ModuleType:

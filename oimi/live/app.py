@@ -22,9 +22,10 @@ from oimi.live.server import Addresses, LiveServer, ServeConfig, listen
 from oimi.live.session import LiveSession
 from oimi.live_options import foxglove_sinks, session_info
 from oimi.pipeline.errors import LocatedError
+from oimi.recorder.outputs import check_outputs
 from oimi.scenarios.loader import LoadedScenario, load_scenario
 from oimi.scenarios.session.info import SessionInfo
-from oimi.scenarios.session.recording import check_outputs, dated_path, recorded
+from oimi.scenarios.session.recording import dated_path, recorded
 from oimi.scenarios.session.runner import RunResult
 
 LIVE_CHUNK_BYTES: Final = 128 * 1024

@@ -45,3 +45,10 @@ class RuleEpisodes:
         for rule, *_ in self.rows:
             counts[rule] = counts.get(rule, 0) + 1
         return counts
+
+    def fired(self) -> dict[str, int]:
+        """How many evaluations of each rule held, over all its episodes, by rule."""
+        fired: dict[str, int] = {}
+        for rule, _, _, _, count in self.rows:
+            fired[rule] = fired.get(rule, 0) + count
+        return fired

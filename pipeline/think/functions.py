@@ -28,6 +28,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Final
 
+from oimi.pipeline.errors import named
 from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking, Entity, WorldMap
 
 Bound = Entity | ActivityTracking
@@ -195,8 +196,7 @@ def spec_of(fn: Callable) -> FunctionSpec:
     """Read the spec of a marked function (raises ``ValueError`` on an unmarked one)."""
     mark = getattr(fn, SPEC_ATTRIBUTE, None)
     if mark is None:
-        named = getattr(fn, "__qualname__", type(fn).__qualname__)  # a repr may hold an address
-        raise ValueError(f"{named} is not marked with @boolean, @string or @evaluation")
+        raise ValueError(f"{named(fn)} is not marked with @boolean, @string or @evaluation")
     family, name, classes, reads = mark
     hints = typing.get_type_hints(fn)
     params = list(inspect.signature(fn).parameters.values())

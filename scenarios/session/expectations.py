@@ -7,7 +7,6 @@ passes: a verdict on it fails and says what was seen.
 from __future__ import annotations
 
 import math
-from collections import Counter
 
 import msgspec
 from oimi.pipeline.act.safety import Interventions
@@ -68,9 +67,9 @@ class Tracker:
         self._never_seen: dict[str, float] = {h.id: math.inf for h in scenario.humans}
         self.max_speed_mps = 0.0
         self.left_arena_ms: int | None = None
-        self.fired: Counter[str] = Counter()
         self.episodes = RuleEpisodes()
-        """Each rule's firing episodes (the definition ``oimi analyse`` uses)."""
+        """Each rule's firing episodes and evaluations that held (the definitions ``oimi
+        analyse`` uses)."""
         self.fired_at: dict[str, list[int]] = {
             e.rule: []
             for e in scenario.expect
@@ -97,12 +96,9 @@ class Tracker:
         match message:
             case RuleDecisions():
                 self.episodes.update(message)
-                counts, at = self.fired, self.fired_at
-                for decision in message.decisions:
-                    if decision.fired:
-                        rule = decision.rule
-                        counts[rule] += 1
-                        if (times := at.get(rule)) is not None:
+                if at := self.fired_at:  # a windowed rule_fired: when each of its rules fired
+                    for decision in message.decisions:
+                        if decision.fired and (times := at.get(decision.rule)) is not None:
                             times.append(message.time_ms)
             case ReaderProgress():
                 self._progress(message)
@@ -186,7 +182,7 @@ class Tracker:
                 seen = f"at {done[0] / 1000:.2f} s" if done else "never"
                 return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
             case RuleFired() if e.after_s is None and e.by_s is None:
-                count = self.fired[e.rule]
+                count = self.episodes.fired().get(e.rule, 0)
                 ok, bound = _within(count, e.at_least, e.at_most)
                 return self._verdict(e, f"rule {e.rule} fired {bound} times", ok, f"fired {count}")
             case RuleFired():

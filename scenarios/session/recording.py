@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Protocol
 
@@ -12,9 +12,7 @@ import msgspec
 from oimi.pipeline.events import Event, Topic
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
 from oimi.recorder.outputs import (
-    OutputError,
-    check_output,
-    check_replace,
+    check_outputs,
     claim_partial,
     finish_partial,
     partial_path,
@@ -80,43 +78,6 @@ def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) 
         number += 1
         path = folder / f"{stem}-{number}{suffix}"
     return path
-
-
-def check_outputs(
-    paths: Iterable[Path | None], *, overwrite: bool, inputs: Iterable[Path] = ()
-) -> None:
-    """Refuse, before anything is opened, an output that cannot be written
-    (``recorder.outputs.check_output``: its folder is a file, or not writable; missing
-    folders are made), one given twice, one that is one of the session's ``inputs`` (its
-    scenario or scripts: even with ``overwrite``), one that exists (unless ``overwrite``)
-    and one whose partial file exists (a killed session's, unless ``overwrite``). An
-    :class:`OutputError` names the path."""
-    seen: set[Path] = set()
-    inputs = tuple(inputs)
-    for path in paths:
-        if path is None:
-            continue
-        key = path.absolute()
-        if key in seen:
-            raise OutputError("given twice as an output", source=str(path))
-        seen.add(key)
-        check_output(path, create=True, beside=True)
-        check_replace(path, inputs=inputs, overwrite=True)
-        if overwrite:
-            continue
-        if path.exists() or path.is_symlink():
-            raise OutputError(
-                "exists: refusing to replace a recording (pass --overwrite, or choose "
-                "another name)",
-                source=str(path),
-            )
-        partial = partial_path(path)
-        if partial.exists():
-            raise OutputError(
-                f"the unfinished recording {partial} exists (a killed session?): "
-                "recover or move it first, or pass --overwrite",
-                source=str(path),
-            )
 
 
 @contextlib.contextmanager

@@ -264,7 +264,7 @@ class Session:
             duration_s=ticks * self.tick_ms / 1000,  # each tick lasts tick_ms: 1500 are 30 s
             activities={a.name: a.state for a in self.pipeline.handler.activities()},
             goals_reached=dict(t.goals_reached),
-            rules_fired=dict(sorted(t.fired.items())),
+            rules_fired=dict(sorted(t.episodes.fired().items())),
             min_distance_m={h: round(d, 4) for h, d in t.min_distance_m.items()},
             max_speed_mps=round(t.max_speed_mps, 4),
             contacts=t.contacts,
