@@ -53,22 +53,44 @@ def named(thing: object) -> str:
     return str(getattr(thing, "__qualname__", type(thing).__qualname__))
 
 
+class Overrun(BaseException):
+    """Raised into a user's code that held a tick far past its time (a loop that does not
+    end), by the watchdog of the edge that ticks the pipeline (the core keeps no clock).
+    Not an ``Exception``, so that the user's own ``except Exception`` does not keep the
+    loop going; the pipeline's guards catch :data:`FAILURES` and treat it as any other
+    failure of that code."""
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*(args or ("did not return in time",)))
+
+
+FAILURES: Final = (Exception, Overrun)
+"""What a guard around a user's code catches."""
+
+
 def failure(error: BaseException) -> str:
     """What a user's code (a function, rule body or generator) raised, for a report:
     ``RuntimeError: boom (my_rules.py:18)``, placed at the innermost frame outside the
     pipeline, by file name only, and with memory addresses masked: the text is the same on
-    every machine and in every run, and does not move when the pipeline's own code does."""
+    every machine and in every run, and does not move when the pipeline's own code does.
+    An :class:`Overrun` lands wherever the loop happened to be: it is placed at the
+    function the pipeline called instead (``(in Forever.body, my_rules.py:12)``, the line
+    of its ``def``), so that a replay reports it alike."""
     said = _ADDRESS.sub("0x…", str(error))
     text = f"{type(error).__name__}: {said}" if said else type(error).__name__
     theirs = [
-        (frame.f_code.co_filename, line)
+        (frame.f_code, line)
         for frame, line in traceback.walk_tb(error.__traceback__)
         if not frame.f_code.co_filename.startswith(_PIPELINE)
     ]
     if not theirs:
         return text
-    filename, line = theirs[-1]
-    return f"{text} ({os.path.basename(filename)}:{line})"
+    if isinstance(error, Overrun):
+        code = theirs[0][0]
+        where = f"{os.path.basename(code.co_filename)}:{code.co_firstlineno}"
+        return f"{text} (in {code.co_qualname}, {where})"
+    code, line = theirs[-1]
+    return f"{text} ({os.path.basename(code.co_filename)}:{line})"
 
 
 _PIPELINE: Final = (os.path.dirname(os.path.abspath(__file__)) + os.sep, "pipeline" + os.sep)

@@ -21,6 +21,7 @@ from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import RecordedMessage, Recording
 from oimi.recorder.world_sampling import recorded_sampling
+from oimi.scenarios.session.watchdog import watching
 
 CONTEXT_MESSAGES: Final = 5
 """How many matched messages a divergence report shows before the difference."""
@@ -315,14 +316,17 @@ def compare_ticks(
     comparator: Comparator, step: Callable[[int], None], *, mode: str, notes: Iterable[str] = ()
 ) -> Comparison:
     """Run ``step(tick)`` from tick 0 for as long as the recording lasts, the comparator
-    receiving what it emits; stop at the first divergence."""
+    receiving what it emits; stop at the first divergence. A user's code that holds a
+    tick is stopped by the watchdog, as it was when the session ran."""
     tick = 0
     divergence = None
     try:
-        while comparator.pull_through(tick):
-            step(tick)
-            comparator.finish_tick(tick)
-            tick += 1
+        with watching() as watchdog:
+            while comparator.pull_through(tick):
+                step(tick)
+                watchdog.feed()
+                comparator.finish_tick(tick)
+                tick += 1
     except Diverged as stop:
         divergence = stop.divergence
         tick += 1

@@ -55,6 +55,7 @@ from oimi.scenarios.schema import (
     unit_of,
 )
 from oimi.scenarios.session.activities import ACTIVITIES, check_script_file
+from oimi.scenarios.session.watchdog import watching
 from oimi.scenarios.simulation.humans import make_behaviour
 
 LIBRARY_DIR: Final = Path(__file__).resolve().parent / "library"
@@ -355,7 +356,8 @@ def _check_behaviours(scenario: Scenario, toolkit: Toolkit) -> None:
         if segment.name not in toolkit.behaviours:
             raise Invalid((*where, "name"), f"unknown behaviour {segment.name!r} (known: {known})")
         try:
-            make_behaviour(segment, toolkit.behaviours, human)
+            with watching():  # a factory in a loop that does not end is stopped
+                make_behaviour(segment, toolkit.behaviours, human)
         except ScenarioError as error:
             raise Invalid((*where, "options"), f"{error.source}: {error.message}") from None
 
@@ -614,8 +616,9 @@ def _check_generator(
         known = ", ".join(sorted(catalogue.names())) or "none"
         raise Invalid((*where, "generator"), f"unknown generator {name!r} (known: {known})")
     try:  # as Get Ready would (without a map): what it raises or returns is checked
-        generator = guarded(name, "create", catalogue.create, name)
-        return generate_script(name, generator, options, None)
+        with watching():  # and a loop that does not end stopped, as in a tick
+            generator = guarded(name, "create", catalogue.create, name)
+            return generate_script(name, generator, options, None)
     except GeneratorError as error:
         if error.option in options:
             place: PathKey = (*where, "options", error.option)

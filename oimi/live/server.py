@@ -73,6 +73,7 @@ from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.info import SessionInfo, with_fields
 from oimi.scenarios.session.recording import scene_of
 from oimi.scenarios.session.runner import Session
+from oimi.scenarios.session.watchdog import watching
 
 __all__ = [
     "Addresses",
@@ -236,22 +237,24 @@ class LiveServer:
             last = round(self.config.duration_s * 1000) // self.session.tick_ms
         start = loop.time()
         assert self._stop is not None
-        while not self._stop.is_set() and (last is None or self.ticks < last):
-            now = loop.time()
-            self._step(self.ticks, now_s=now)
-            if self.ticks % self._sweep_every == 0:
-                self._sweep(now)
-            self.ticks += 1
-            delay = start + self.ticks * tick_s - loop.time()
-            if delay < -MAX_LAG_S:
-                self._note(f"{-delay:.1f} s behind the wall clock: re-pacing")
-                start = loop.time() - self.ticks * tick_s
-                delay = 0
-            if delay > 0:
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._stop.wait(), delay)
-            else:
-                await asyncio.sleep(0)
+        with watching() as watchdog:  # a user's code that holds a tick is stopped
+            while not self._stop.is_set() and (last is None or self.ticks < last):
+                now = loop.time()
+                self._step(self.ticks, now_s=now)
+                watchdog.feed()
+                if self.ticks % self._sweep_every == 0:
+                    self._sweep(now)
+                self.ticks += 1
+                delay = start + self.ticks * tick_s - loop.time()
+                if delay < -MAX_LAG_S:
+                    self._note(f"{-delay:.1f} s behind the wall clock: re-pacing")
+                    start = loop.time() - self.ticks * tick_s
+                    delay = 0
+                if delay > 0:
+                    with contextlib.suppress(TimeoutError):
+                        await asyncio.wait_for(self._stop.wait(), delay)
+                else:
+                    await asyncio.sleep(0)
 
     def _sweep(self, now_s: float) -> None:
         """Close pending connections past their time and admitted ones idle too long."""

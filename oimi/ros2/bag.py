@@ -54,6 +54,7 @@ from oimi.ros2.topics import RosTopic
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import RunResult, Session
+from oimi.scenarios.session.watchdog import watching
 
 BAG_VERSION: Final = 9
 JOY_REPEAT_MS: Final = 100
@@ -277,7 +278,7 @@ def replay_rosbag(
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()
     released: list[str] = []
-    with recorded(session, mcap=output, rrd=None, overwrite=overwrite):
+    with recorded(session, mcap=output, rrd=None, overwrite=overwrite), watching() as watchdog:
         for tick in range(ticks):
             now = inputs.pop(tick, _Inputs())
             for update in now.updates:
@@ -294,4 +295,5 @@ def replay_rosbag(
                 if taken.release is not None:
                     released.append(f"tick {tick}: safety lock released ({taken.release})")
             session.step(tick, commands=now.commands, joystick=joystick)
+            watchdog.feed()
     return session.result(), ticks, [*sensors.refused, *released]

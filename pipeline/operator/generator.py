@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping
 from typing import Final, Protocol, TypeVar
 
 import msgspec
-from oimi.pipeline.errors import LocatedError, failure
+from oimi.pipeline.errors import FAILURES, LocatedError, failure
 from oimi.pipeline.messages import GeneratorNote, Message, Script, WorldMap
 
 Colour = tuple[float, float, float]
@@ -338,7 +338,7 @@ def guarded(name: str, what: str, call: Callable[..., _T], *args: object) -> _T:
         return call(*args)
     except GeneratorError:
         raise
-    except Exception as error:
+    except FAILURES as error:
         raise failed(name, f"{what}() raised {failure(error)}") from None
 
 

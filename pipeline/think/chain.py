@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from oimi.pipeline.errors import failure
+from oimi.pipeline.errors import FAILURES, failure
 from oimi.pipeline.events import Level, LogEntry, RuleDecision
 from oimi.pipeline.messages import GeneratorNote, MutexCmd, RuleAction, RuleMessage, WorldMap
 from oimi.pipeline.think.errors import RuleSyntaxError
@@ -71,7 +71,7 @@ class RuleChain:
         for rule in list(self.active):
             try:
                 decisions.append(rule.decide(world_map, ctx))
-            except Exception as error:  # a user's rule or function: the session goes on
+            except FAILURES as error:  # a user's rule or function: the session goes on
                 self._fail(rule, error, ctx)
         self.notes += ctx.notes
         return decisions
@@ -102,7 +102,7 @@ class RuleChain:
             return "held"
         return "removed" if name in self.removed else "absent"
 
-    def _fail(self, rule: Rule, error: Exception, ctx: RuleContext) -> None:
+    def _fail(self, rule: Rule, error: BaseException, ctx: RuleContext) -> None:
         self.active.remove(rule)
         self.removed[rule.name] = rule
         if ctx.parts is not None:  # the body may have changed the map before it raised

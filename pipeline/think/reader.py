@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable
 from typing import Final
 
 import msgspec
-from oimi.pipeline.errors import failure
+from oimi.pipeline.errors import FAILURES, failure
 from oimi.pipeline.events import Level, LogEntry, ProgressItem, ProgressKind
 from oimi.pipeline.messages import (
     REGISTER_CAPACITY,
@@ -495,7 +495,7 @@ class BlockReader:
     def _jump(self, block: JumpBlock, outcome: ReadOutcome, now_ms: int) -> Position | None:
         try:
             holds = self._conditions[block.toparse].evaluate(self.map, now_ms=now_ms).result
-        except Exception as error:  # a user's function: the script goes on, as if false
+        except FAILURES as error:  # a user's function: the script goes on, as if false
             holds = False
             where = f"{self.current.activity}/{path_of(self.position)}"
             outcome.logs.append(

@@ -38,6 +38,7 @@ from oimi.scenarios.session.activities import ACTIVITIES
 from oimi.scenarios.session.build import build_pipeline
 from oimi.scenarios.session.expectations import Verdict
 from oimi.scenarios.session.interrupts import interrupts_between_ticks
+from oimi.scenarios.session.watchdog import watching
 from oimi.scenarios.simulation.sensors import Sensors
 from oimi.scenarios.simulation.world import World, stream_rng
 
@@ -242,11 +243,13 @@ class Session:
         called after each tick (pace sleeps to the wall clock in ``--realtime`` mode).
 
         Ctrl-C stops the run between two ticks (``KeyboardInterrupt``), never inside one,
-        so a recorder is never cut off in the middle of a write."""
+        so a recorder is never cut off in the middle of a write. A user's code that holds
+        a tick is stopped by the :mod:`~.watchdog`."""
         total = self.scenario.ticks
-        with interrupts_between_ticks() as checkpoint:
+        with interrupts_between_ticks() as checkpoint, watching() as watchdog:
             for tick in range(total):
                 self.step(tick)
+                watchdog.feed()
                 if progress is not None:
                     progress(tick + 1, total)
                 if pace is not None:

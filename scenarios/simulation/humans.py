@@ -18,7 +18,7 @@ import re
 from collections.abc import Callable, Mapping, Sequence
 from typing import Final, NamedTuple, Protocol
 
-from oimi.pipeline.errors import failure
+from oimi.pipeline.errors import FAILURES, failure
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.schema import (
     Approach,
@@ -104,7 +104,7 @@ def make_behaviour(
     factory = behaviours[segment.name]
     try:
         behaviour = factory(dict(segment.options))
-    except Exception as error:  # an extension's bug or a bad option: named, not a traceback
+    except FAILURES as error:  # an extension's bug or a bad option: named, not a traceback
         raise _failed(human, segment.name, f"could not start: {_raised(error)}") from None
     if not callable(getattr(behaviour, "velocity", None)):
         kind = type(behaviour).__name__
@@ -266,7 +266,7 @@ class HumanDriver:
         anything but two finite numbers, is a :class:`ScenarioError` (the run stops there)."""
         try:
             velocity = custom.velocity(view)
-        except Exception as error:
+        except FAILURES as error:
             raise _failed(self.spec.id, name, f"raised {_raised(error)}") from None
         try:
             vx, vy = velocity
@@ -321,7 +321,7 @@ def _failed(human: str, name: str, problem: str) -> ScenarioError:
     return ScenarioError(f"behaviour {name!r} {problem}", source=f"human {human!r}")
 
 
-def _raised(error: Exception) -> str:
+def _raised(error: BaseException) -> str:
     """What a behaviour raised, placed in its own code (the frame here is left out)."""
     frames = error.__traceback__
     return failure(error.with_traceback(frames.tb_next if frames is not None else None))
