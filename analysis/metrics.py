@@ -493,7 +493,10 @@ def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
 
 
 def session_run_name(data: SessionData) -> str:
-    """:func:`run_name` of a recorded session (its scenario file's stem, overrides and seed)."""
+    """:func:`run_name` of a recorded session (its scenario file's stem, overrides and seed);
+    a live session's is its recording id (sessions of one scenario differ by their inputs)."""
+    if data.metadata.live is not None and data.metadata.oimi.recording_id:
+        return data.metadata.oimi.recording_id
     scenario = data.metadata.scenario or ScenarioRecord()
     stem = (scenario.file or "").removesuffix(".toml") or scenario.name or ""
     return run_name(stem or data.session_id, data.metadata.params, scenario.seed_number)

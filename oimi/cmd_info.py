@@ -64,6 +64,7 @@ def describe(recording: Recording) -> dict[str, Any]:
         "seed": scenario.seed_number,
         "tick_hz": tick_hz,
         "live": meta.live is not None,
+        "from_bag": meta.from_bag,
         "session": {field: getattr(live, field) or "" for field in SESSION_FIELDS}
         if live is not None
         else None,
@@ -95,6 +96,7 @@ def format_info(info: dict[str, Any]) -> str:
     source = info["scenario_file"] or "-"
     lines.append(f"scenario    {info['scenario'] or '-'} ({source}), seed {seed}")
     kind = "live session" if info["live"] else "scripted run"
+    kind = "driven over a rosbag2" if info["from_bag"] else kind
     lines.append(f"recording   {info['recording_id'] or '-'} ({kind})")
     lines.append(
         f"duration    {info['duration_s']:.2f} s, {info['ticks']:,} ticks at {info['tick_hz']} Hz"

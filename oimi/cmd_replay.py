@@ -22,7 +22,8 @@ from oimi import jsonout
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
 from oimi.live_options import add_foxglove_argument
-from oimi.replaying import MODES, NOT_JUDGED, drive_rosbag, replay
+from oimi.replay.expectations import NOT_JUDGED
+from oimi.replaying import MODES, drive_rosbag, replay
 from oimi.ros2.network import missing_extra
 
 

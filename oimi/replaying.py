@@ -4,31 +4,18 @@ rosbag2 folder's inputs (``oimi.ros2.bag``, docs/ros2.md)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Final, NamedTuple
+from typing import NamedTuple
 
 import msgspec
 
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
 from oimi.replay.compare import Comparison, format_report
+from oimi.replay.expectations import judgeable
 from oimi.replay.redrive import redrive
 from oimi.replay.rerun import rerun_recording
-from oimi.scenarios.schema import (
-    ClosingSpeedAtContact,
-    Expectation,
-    MinDistance,
-    NoRobotInitiatedContact,
-)
-from oimi.scenarios.session.expectations import Verdict
 from oimi.scenarios.session.runner import RunResult
-
-ABOUT_PEOPLE: Final = (MinDistance, NoRobotInitiatedContact, ClosingSpeedAtContact)
-"""Expectations about the people in the room, which a rosbag2 cannot judge: its odometry
-is the robot's alone (``oimi.ros2.remote.RemoteBody``)."""
-NOT_JUDGED: Final = "the bag has no people"
-"""Why they are not judged."""
 
 
 def replay(recording: Path, *, mode: str, foxglove: int | None, speed: float) -> Comparison:
@@ -43,13 +30,20 @@ def replay(recording: Path, *, mode: str, foxglove: int | None, speed: float) ->
 
 def rerun(path: Path) -> Comparison:
     """``replay.rerun.rerun``, refusing up front (``RecordingError``) a live session's
-    recording: its operator commands and joystick came from outside the scenario, which a
-    rerun plays again."""
+    recording (its operator commands and joystick came from outside the scenario, which a
+    rerun plays again) and one driven over a rosbag2 (no world to simulate again)."""
     recording = open_recording(path)
     if recording.meta.live is not None:
         raise RecordingError(
             "a live session's recording: its operator commands and joystick came from"
             " outside the scenario, which --mode rerun cannot play again;"
+            " replay it with --mode redrive (the default)",
+            source=str(path),
+        )
+    if recording.meta.from_bag:
+        raise RecordingError(
+            "a recording driven over a rosbag2: its inputs came from the bag, not from the"
+            " scenario's world, which --mode rerun would simulate;"
             " replay it with --mode redrive (the default)",
             source=str(path),
         )
@@ -104,21 +98,6 @@ def drive_rosbag(
     output = output or Path("out") / f"{bag.name}-replay.mcap"
     loaded = load_scenario(scenario, extensions=extensions)
     result, ticks, notes = replay_rosbag(bag, loaded, output=output, seed=seed, overwrite=overwrite)
-    judged, not_judged = _judgeable(loaded.scenario.expect, result.verdicts)
+    judged, not_judged = judgeable(loaded.scenario.expect, result.verdicts)
     result = msgspec.structs.replace(result, verdicts=judged)
     return Driven(result, ticks, list(notes), output, not_judged)
-
-
-def _judgeable(
-    expect: Sequence[Expectation], verdicts: Sequence[Verdict]
-) -> tuple[tuple[Verdict, ...], list[str]]:
-    """The verdicts a bag can judge, and the names of those it cannot; ``verdicts`` are
-    ``expect``'s, in its order (``Tracker.verdicts``)."""
-    judged: list[Verdict] = []
-    not_judged: list[str] = []
-    for expectation, verdict in zip(expect, verdicts, strict=True):
-        if isinstance(expectation, ABOUT_PEOPLE):
-            not_judged.append(verdict.name)
-        else:
-            judged.append(verdict)
-    return tuple(judged), not_judged

@@ -73,10 +73,16 @@ class LiveRecord(_Record):
     replay: str | None = None
 
 
+BAG_ROLE: Final = "bag"
+"""The ``ros2`` record's role of a session driven over a rosbag2's inputs."""
+
+
 class Ros2Record(_Record):
     """``ros2``: the session ran at the ROS 2 edge."""
 
     role: str | None = None
+    """``bridge`` (live, on a robot), ``sim`` (the world only) or ``bag`` (a rosbag2's
+    inputs driven through a scenario's pipeline)."""
     replay: str | None = None
     domain_id: str | None = None
     interface: str | None = None
@@ -129,6 +135,11 @@ class RecordingMetadata(msgspec.Struct, frozen=True, kw_only=True, omit_defaults
             return msgspec.convert({**known, "other": other}, cls)
         except msgspec.ValidationError as error:
             raise RecordingError(f"metadata: {error}", source=source) from None
+
+    @property
+    def from_bag(self) -> bool:
+        """Whether the session was driven over a rosbag2's inputs (it has no people)."""
+        return self.ros2 is not None and self.ros2.role == BAG_ROLE
 
     @property
     def tick_hz(self) -> int | None:

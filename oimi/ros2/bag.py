@@ -45,6 +45,7 @@ from oimi.pipeline.events import (
 from oimi.pipeline.messages import MoveCommand, ScriptInfo
 from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.pipeline.sink import NS_PER_MS
+from oimi.recorder.metadata import BAG_ROLE, RecordingMetadata, Ros2Record
 from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
@@ -260,6 +261,18 @@ def _decode(kind: type, raw: bytes | memoryview, where: str) -> object:
         raise BagError(f"cannot decode as {types.ros_name(kind)}: {error}", source=where) from None
 
 
+class BagSession(Session):
+    """A session driven over a rosbag2's inputs: its recording says so (``ros2`` record,
+    role ``bag``), so that its people's expectations are not judged again and it is not
+    rerun (``oimi.replaying``)."""
+
+    def metadata(self) -> RecordingMetadata:
+        return msgspec.structs.replace(
+            super().metadata(),
+            ros2=Ros2Record(role=BAG_ROLE, replay="redrive: the bag's inputs are recorded inputs"),
+        )
+
+
 def replay_rosbag(
     bag: Path,
     loaded: LoadedScenario,
@@ -273,7 +286,7 @@ def replay_rosbag(
     ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
     body, sensors = RemoteBody(loaded.scenario.robot.radius_m), RemoteSensors()
-    session = Session(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
+    session = BagSession(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()

@@ -4,6 +4,7 @@ the scenario's scripted expectations reported as not applicable."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from datetime import UTC, datetime
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 from live_helpers import LineClient, served
 from oimi.recorder.reader import open_recording
+from oimi.replay.expectations import recorded_verdicts
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.info import new_session_info
 
@@ -84,6 +86,10 @@ def test_info_and_analyse_show_the_session_fields(live) -> None:
     analysed = oimi("analyse", path)
     assert analysed.returncode == 0, analysed.stderr
     assert "child: C07" in analysed.stdout and "therapist: A. Rossi" in analysed.stdout
+    assert recorded_verdicts(path) is None, "the scenario's expectations are not applicable"
+    rid = open_recording(path).meta.oimi.recording_id
+    assert f"session {rid}\n" in analysed.stdout and "greeting-s1" not in analysed.stdout
+    assert re.search(r"\| expectations failed +\| 0 +\|", analysed.stdout), analysed.stdout
 
 
 def test_the_live_recording_still_redrives_identically(live) -> None:

@@ -1,6 +1,7 @@
 """`oimi replay BAG/ --scenario`: the expectations a bag can judge decide the exit code and
 ``ok`` as in `oimi run`; those about people are not judged (a bag's odometry has no people);
-and `oimi export` to a folder that exists names it once."""
+the drive's recording says it came from a bag, so `oimi analyse` judges it alike and
+`--mode rerun` refuses it; and `oimi export` to a folder that exists names it once."""
 
 from __future__ import annotations
 
@@ -10,6 +11,9 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("rosbags", reason="the ros2 extra (rosbags) is not installed")
+
+from oimi.recorder.reader import open_recording
+from oimi.replay.expectations import recorded_verdicts
 
 from oimi.cli import main
 
@@ -75,3 +79,19 @@ def test_a_drive_onto_an_existing_recording_is_refused_unless_overwrite(bag, tmp
     assert out.read_bytes() == b"someone's recording"
     assert main([*args, "--overwrite"]) == 0
     assert out.read_bytes().startswith(b"\x89MCAP")
+
+
+def test_the_drives_recording_says_so_is_judged_alike_and_not_rerun(bag, tmp_path, capsys):
+    out = tmp_path / "again.mcap"
+    _, _, summary = replay(bag, GREETING, out, capsys)
+    assert open_recording(out).meta.from_bag
+    verdicts = recorded_verdicts(out)
+    assert verdicts is not None
+    assert [(name, ok) for name, ok, _ in verdicts] == [
+        (v["name"], v["ok"]) for v in summary["verdicts"]
+    ], "oimi analyse judges what the drive judged, nothing about people"
+    assert main(["info", str(out)]) == 0
+    assert "(driven over a rosbag2)" in capsys.readouterr().out
+    assert main(["replay", str(out), "--mode", "rerun"]) == 2
+    assert "a recording driven over a rosbag2" in capsys.readouterr().err
+    assert main(["replay", str(out)]) == 0, "it redrives"
