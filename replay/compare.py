@@ -156,6 +156,8 @@ class Comparator:
             t: deque() for t in self.topics
         }
         self._recent: deque[tuple[str, int, bytes]] = deque(maxlen=context)
+        self._held = 0
+        """Recorded messages buffered and not matched yet."""
         self.counts: dict[str, int] = {t.value: 0 for t in self.topics}
         self._fetch()
 
@@ -180,6 +182,7 @@ class Comparator:
             buffer = self._buffers.get(message.topic)
             if buffer is not None:
                 buffer.append((self._index, message))
+                self._held += 1
             self._fetch()
         if self._exhausted and self.recording.recovery is not None:
             raise RecordingError(
@@ -194,7 +197,7 @@ class Comparator:
     @property
     def buffered(self) -> int:
         """Recorded messages held, waiting for the replay (at most about one tick's)."""
-        return sum(len(buffer) for buffer in self._buffers.values())
+        return self._held
 
     def inputs_at(self, topic: Topic, tick: int) -> list[Event]:
         """The recorded messages of ``topic`` at ``tick``, decoded (left for comparison)."""
@@ -250,11 +253,14 @@ class Comparator:
                 str(time_ns),
             )
         buffer.popleft()
+        self._held -= 1
         self.counts[topic.value] += 1
         self._recent.append((topic.value, time_ns, payload))
 
     def finish_tick(self, tick: int) -> None:
         """Every recorded message up to ``tick`` must have been matched by now."""
+        if not self._held:
+            return
         left = [b[0] for b in self._buffers.values() if b and b[0][1].tick <= tick]
         if left:
             _, message = min(left, key=lambda entry: entry[0])

@@ -13,6 +13,7 @@ used (``extensions/NAME/...``) are loaded from their attached sources.
 from __future__ import annotations
 
 import contextlib
+import functools
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path, PurePosixPath
@@ -76,8 +77,8 @@ def rebuilt_session(recording: Recording) -> contextlib.AbstractContextManager[S
 
 def rebuilt_pipeline(recording: Recording) -> contextlib.AbstractContextManager[BuiltPipeline]:
     """The recorded scenario's pipeline alone (``build_pipeline``), for redrive: no world is
-    built. As ``rebuilt_session`` otherwise."""
-    return _rebuilt(recording, build_pipeline)
+    built, and no expectations are tracked. As ``rebuilt_session`` otherwise."""
+    return _rebuilt(recording, functools.partial(build_pipeline, tracked=False))
 
 
 @contextlib.contextmanager

@@ -46,6 +46,9 @@ def redrive_recording(recording: Recording) -> Comparison:
             updates = comparator.inputs_at(Topic.SENSOR_UPDATES, tick)
             commands = comparator.inputs_at(Topic.OPERATOR_COMMANDS, tick)
             joystick = comparator.inputs_at(Topic.JOYSTICK, tick)
+            if not (updates or commands or joystick):  # most ticks: no input
+                pipeline.tick(tick=tick)
+                return
             pipeline.tick(
                 tick=tick,
                 updates=[u for e in updates if isinstance(e, SensorUpdates) for u in e.updates],

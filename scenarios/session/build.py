@@ -62,7 +62,7 @@ class BuiltPipeline:
         library: ActivityLibrary,
         scripts: dict[str, Script],
         sink: FanOut,
-        tracker: Tracker,
+        tracker: Tracker | None,
         pipeline: Pipeline,
     ) -> None:
         self.loaded = loaded
@@ -129,11 +129,13 @@ def build_pipeline(
     sinks: Sequence[Sink] = (),
     seed: int | None = None,
     overrides: Mapping[str, str] | None = None,
+    tracked: bool = True,
 ) -> BuiltPipeline:
     """The pipeline of one session of ``loaded``: ``overrides``
     (``scenarios.loader.apply_overrides``, recorded as ``variation``) and ``seed`` applied,
     its activity library searched in the scenario's folder, its ``activities/``, the shipped
-    library and the extensions' folders."""
+    library and the extensions' folders. ``tracked``: a :class:`Tracker` follows what it
+    emits, for the session's summary and verdicts (a redrive needs neither)."""
     scenario = loaded.scenario
     changes = dict(overrides or {})
     if changes:
@@ -153,8 +155,8 @@ def build_pipeline(
         if path is not None:
             script = library.load(path)
             scripts[script.activityname] = script
-    tracker = Tracker(scenario)
-    sink = FanOut(tracker, *sinks)
+    tracker = Tracker(scenario) if tracked else None
+    sink = FanOut(*([tracker] if tracker is not None else []), *sinks)
     registries = loaded.toolkit.registries
     pipeline = Pipeline(
         pipeline_config(scenario),

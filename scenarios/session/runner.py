@@ -137,6 +137,7 @@ class Session:
         self.loaded, self.overrides, self.toolkit = loaded, built.overrides, built.toolkit
         self.registries: Registries = built.registries
         self.library, self.activity_names = built.library, list(built.scripts)
+        assert built.tracker is not None, "a session's pipeline is tracked"
         self.tracker, self.sink = built.tracker, built.sink
         self.config, self.pipeline = built.config, built.pipeline
         self.tick_ms = scenario.tick_ms
