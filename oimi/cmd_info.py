@@ -39,7 +39,7 @@ def describe(recording: Recording) -> dict[str, Any]:
     scenario = meta.scenario or ScenarioRecord()
     tick_hz = meta.tick_hz or 50
     last_tick = None
-    for message in recording.iter_messages([Topic.WORLD_STATE]):
+    for message in recording.iter_messages([Topic.WORLD_STATE], check_indexes=True):
         last_tick = message.tick
     ticks = 0 if last_tick is None else last_tick + 1
     recovery = recording.recovery
@@ -65,6 +65,7 @@ def describe(recording: Recording) -> dict[str, Any]:
         "tick_hz": tick_hz,
         "live": meta.live is not None,
         "from_bag": meta.from_bag,
+        "stopped": meta.stopped.reason if meta.stopped is not None else None,
         "session": {field: getattr(live, field) or "" for field in SESSION_FIELDS}
         if live is not None
         else None,
@@ -102,6 +103,8 @@ def format_info(info: dict[str, Any]) -> str:
         f"duration    {info['duration_s']:.2f} s, {info['ticks']:,} ticks at {info['tick_hz']} Hz"
         + ("" if info["complete"] else " (up to the damage)")
     )
+    if info["stopped"] is not None:
+        lines.append(f"stopped     before its end: {info['stopped']}")
     every = info["world_every_n_ticks"]
     sampled = f"every {every} ticks, at every contact and at the last tick"
     lines.append(f"world state {'every tick' if every == 1 else sampled if every else '?'}")

@@ -101,6 +101,14 @@ class SessionRecord(_Record):
     ticks: str | None = None
 
 
+class StoppedRecord(_Record):
+    """``stopped``: written as a session's recording closes when the session did not run
+    to its end (Ctrl-C, a scenario's behaviour that failed), saying why; none otherwise.
+    Optional and written last: a reader that does not know it keeps it as ``other``."""
+
+    reason: str | None = None
+
+
 class RecordingMetadata(msgspec.Struct, frozen=True, kw_only=True, omit_defaults=True):
     """Every metadata record of a recording; ``None`` (or empty) when not written."""
 
@@ -114,6 +122,7 @@ class RecordingMetadata(msgspec.Struct, frozen=True, kw_only=True, omit_defaults
     live: LiveRecord | None = None
     ros2: Ros2Record | None = None
     session: SessionRecord | None = None
+    stopped: StoppedRecord | None = None
     other: dict[str, dict[str, str]] = {}
     """Records oimi does not know, kept as read."""
 

@@ -146,16 +146,20 @@ class Recording:
         return int(self.meta.oimi.format_version or "0")
 
     def iter_messages(
-        self, topics: Iterable[Topic | str] | None = None
+        self, topics: Iterable[Topic | str] | None = None, *, check_indexes: bool = False
     ) -> Iterator[RecordedMessage]:
         """Our topics' messages in file order (= simulated-time order), streamed.
 
         ``topics`` limits the topics (all of ``Topic`` by default). On a damaged
-        file iteration ends at the damage and :attr:`recovery` says where and why.
+        file iteration ends at the damage and :attr:`recovery` says where and why;
+        with ``check_indexes`` a message index that does not list its chunk's messages
+        is damage too (``oimi info``: what a viewer that seeks reads by).
         """
         wanted = _wanted_topics(topics, self.path)
         with _open(self.path) as stream:
-            scan = ChunkScan(stream, frozenset(t.value for t in wanted))
+            scan = ChunkScan(
+                stream, frozenset(t.value for t in wanted), check_indexes=check_indexes
+            )
             try:
                 for topic, sequence, log_time_ns, data in scan.messages():
                     try:

@@ -29,11 +29,15 @@ _FOOTER: Final = 0x02
 _CHANNEL: Final = 0x04
 _MESSAGE: Final = 0x05
 _CHUNK: Final = 0x06
+_MESSAGE_INDEX: Final = 0x07
 _ATTACHMENT: Final = 0x09
 _METADATA: Final = 0x0C
 _DATA_END: Final = 0x0F
 _RECORD_HEADER: Final = struct.Struct("<BQ")
 _U64: Final = struct.Struct("<Q")
+_INDEX_HEADER: Final = struct.Struct("<HI")
+"""Message index: channel id, byte length of its (log time, offset) entries."""
+_INDEX_ENTRY: Final = struct.Struct("<QQ")
 _CHUNK_HEADER: Final = struct.Struct("<QQQII")
 """Chunk: start and end time, uncompressed size and CRC, compression name length."""
 _MESSAGE_HEADER: Final = struct.Struct("<HIQQ")
@@ -124,15 +128,25 @@ class ChunkScan:
     metadata, attachments and message counts per topic are kept too
     (``metadata``, ``attachments``, ``counts``) and the summary section is walked
     up to the footer (a cut summary is damage); without, the scan ends with the
-    data section.
+    data section. With ``check_indexes`` each chunk's message index records must list
+    exactly its messages (log time and place, per channel): a viewer that seeks, as
+    Foxglove does, reads through them, and no CRC covers them.
     """
 
     def __init__(
-        self, stream: IO[bytes], wanted: frozenset[str], *, keep_records: bool = False
+        self,
+        stream: IO[bytes],
+        wanted: frozenset[str],
+        *,
+        keep_records: bool = False,
+        check_indexes: bool = False,
     ) -> None:
         self.stream = stream
         self.wanted = wanted
         self.keep_records = keep_records
+        self._unindexed: dict[int, list[tuple[int, int]]] | None = {} if check_indexes else None
+        """Per channel, the (log time, offset) of the last chunk's messages no index has
+        listed yet (None: indexes not checked)."""
         self.size = os.fstat(stream.fileno()).st_size
         self.channels: dict[int, str] = {}
         """Channel id -> topic, every channel seen."""
@@ -177,6 +191,11 @@ class ChunkScan:
                     raise Damage(at, "the file ends inside a record header")
                 opcode, length = _RECORD_HEADER.unpack(head)
                 if opcode == _FOOTER or (opcode == _DATA_END and not self.keep_records):
+                    if self._unindexed:  # the last chunk's indexes fell short
+                        try:
+                            self._all_indexed()
+                        except ValueError as error:
+                            raise Damage(at, f"message index: {error}") from None
                     return
                 left = self.size - at - _RECORD_HEADER.size
                 if length > left:
@@ -201,6 +220,11 @@ class ChunkScan:
             self.damage = damage
 
     def _record(self, opcode: int, body: bytes) -> list[Scanned]:
+        if self._unindexed is not None:
+            if opcode == _MESSAGE_INDEX:
+                self._check_index(body)
+                return []
+            self._all_indexed()
         if opcode == _CHUNK:
             return self._chunk(body)
         if opcode == _CHANNEL:
@@ -217,6 +241,41 @@ class ChunkScan:
             record = attachment(body)
             self.attachments[record.name] = record.data
         return []
+
+    def _check_index(self, body: bytes) -> None:
+        """A message index record must list the last chunk's messages on its channel."""
+        if len(body) < _INDEX_HEADER.size:
+            raise ValueError(f"{len(body)} bytes are too few for its header")
+        channel, length = _INDEX_HEADER.unpack_from(body)
+        if length != len(body) - _INDEX_HEADER.size or length % _INDEX_ENTRY.size:
+            raise ValueError(f"channel {channel}: entries of {length} bytes do not fit the record")
+        listed = sorted(_INDEX_ENTRY.iter_unpack(memoryview(body)[_INDEX_HEADER.size :]))
+        assert self._unindexed is not None
+        held = sorted(self._unindexed.pop(channel, []))
+        if listed == held:
+            return
+        topic = f"channel {channel} ({self.channels.get(channel, 'undeclared')})"
+        if len(listed) != len(held):
+            wrong = f"lists {len(listed)} messages where its chunk has {len(held)}"
+        else:
+            (time, place), (real_time, real_place) = next(
+                pair for pair in zip(listed, held, strict=True) if pair[0] != pair[1]
+            )
+            wrong = (
+                f"lists a message at log time {time}, byte {place} of its chunk, where the"
+                f" chunk has one at {real_time}, byte {real_place}"
+            )
+        raise ValueError(f"{topic} {wrong}: a viewer that seeks would read the wrong messages")
+
+    def _all_indexed(self) -> None:
+        """Past the last chunk's indexes, every message of it must have been listed."""
+        assert self._unindexed is not None
+        if self._unindexed:
+            channel = min(self._unindexed)
+            raise ValueError(
+                f"the chunk before has messages on channel {channel}"
+                f" ({self.channels.get(channel, 'undeclared')}) that no message index lists"
+            )
 
     def _channel(self, body: bytes | memoryview) -> None:
         record = _parse(Channel, body)
@@ -258,6 +317,7 @@ class ChunkScan:
         found: list[Scanned] = []
         offset, count = 0, 0
         counts = dict(self.counts)
+        index = self._unindexed
         try:
             while offset < end:
                 if end - offset < header.size:
@@ -269,6 +329,8 @@ class ChunkScan:
                         f"a record of {length} bytes at byte {offset} of the records overruns"
                         f" them ({end - start} bytes left)"
                     )
+                if opcode == _MESSAGE and index is not None:
+                    _index_message(index, data, start, offset)
                 offset = start + length
                 if opcode == _MESSAGE:
                     count += 1
@@ -304,6 +366,16 @@ class ChunkScan:
         return data
 
 
+def _index_message(
+    index: dict[int, list[tuple[int, int]]], data: bytes, start: int, at: int
+) -> None:
+    """Note the message whose record starts at ``at`` (its body at ``start``) for the
+    chunk's index check (a body too short is damage the scan reports next)."""
+    if len(data) - start >= _MESSAGE_HEADER.size:
+        channel, _, log_time, _ = _MESSAGE_HEADER.unpack_from(data, start)
+        index.setdefault(channel, []).append((log_time, at))
+
+
 _NAMES: Final = {
     0x01: "header",
     0x03: "schema",
@@ -312,7 +384,7 @@ _NAMES: Final = {
     _CHUNK: "chunk",
     _ATTACHMENT: "attachment",
     _METADATA: "metadata",
-    0x07: "message index",
+    _MESSAGE_INDEX: "message index",
     0x0A: "attachment index",
     0x0B: "statistics",
     0x08: "chunk index",

@@ -9,8 +9,10 @@ from pathlib import Path
 from typing import Protocol
 
 import msgspec
+from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.events import Event, Topic
 from oimi.recorder.mcap_sink import DEFAULT_CHUNK_SIZE_BYTES, McapSink
+from oimi.recorder.metadata import RecordingMetadata, StoppedRecord
 from oimi.recorder.outputs import (
     check_outputs,
     claim_partial,
@@ -78,6 +80,15 @@ def dated_path(folder: Path, name: str, suffix: str, *, now: datetime.datetime) 
         number += 1
         path = folder / f"{stem}-{number}{suffix}"
     return path
+
+
+def stop_reason(error: BaseException) -> str:
+    """Why a session stopped before its end, for its recording's ``stopped`` record."""
+    if isinstance(error, KeyboardInterrupt):
+        return "interrupted (Ctrl-C)"
+    if isinstance(error, LocatedError):
+        return str(error)
+    return f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
 
 
 @contextlib.contextmanager
@@ -149,6 +160,14 @@ def recorded(
             session.sink.add(extra)
         started = True
         yield session
+    except BaseException as error:
+        stopped = RecordingMetadata(stopped=StoppedRecord(reason=stop_reason(error)))
+        # the recording says why it ends early; the error to report is the first one
+        with contextlib.suppress(Exception):
+            for name, record in stopped.records().items():
+                if mcap_sink is not None:
+                    mcap_sink.add_metadata(name, record)
+        raise
     finally:
         with interrupts_held():
             try:

@@ -17,6 +17,7 @@ from mcap.exceptions import EndOfFile
 from mcap.reader import make_reader
 from oimi.pipeline.events import Topic
 from oimi.recorder.errors import RecordingError
+from oimi.recorder.metadata import StoppedRecord
 from oimi.recorder.outputs import partial_path
 from oimi.recorder.reader import open_recording
 from rerun.chunk import RrdReader
@@ -155,6 +156,7 @@ def test_ctrl_c_stops_the_run_with_130_and_a_finished_file(tmp_path: Path) -> No
     assert summary is not None and summary.statistics is not None
     recording = open_recording(output)
     assert recording.recovery is None
+    assert recording.meta.stopped == StoppedRecord(reason="interrupted (Ctrl-C)")
     ticks = world_ticks(output)
     assert len(ticks) > 0
     assert_every_second_tick(ticks)  # and the last, written when the file closed

@@ -1,5 +1,6 @@
 """The scanner trusts no length: each is checked against what is left of the file, the
-record or the chunk, and damage is reported at the byte where its record starts."""
+record or the chunk, and damage is reported at the byte where its record starts; asked
+to, it checks that the message indexes list their chunks' messages."""
 
 from __future__ import annotations
 
@@ -159,3 +160,46 @@ def test_a_changed_summary_is_not_believed_and_is_reported(whole: bytes, tmp_pat
         "summary: CRC mismatch, so its counts and indexes are not used"
     )
     assert recording.recovery.stopped_at_byte == first(data, 0x0F) + 9 + 4  # after data end
+
+
+def indexed(tmp_path: Path, data: bytes | bytearray) -> tuple[object, int]:
+    """The recovery of a full pass that checks the message indexes, and its messages."""
+    path = tmp_path / "indexed.mcap"
+    path.write_bytes(bytes(data))
+    recording = open_recording(path)
+    messages = list(recording.iter_messages(check_indexes=True))
+    return recording.recovery, len(messages)
+
+
+def test_a_message_index_that_lists_another_time_is_damage_where_checked(
+    whole: bytes, tmp_path: Path
+) -> None:
+    assert indexed(tmp_path, whole)[0] is None, "a whole file's indexes are right"
+    index = first(whole, 0x07)
+    data = bytearray(whole)
+    data[index + 9 + 2 + 4] ^= 0x01  # the first entry's log time
+    recovery, _ = indexed(tmp_path, data)
+    assert recovery is not None and recovery.stopped_at_byte == index
+    assert "message index: channel" in recovery.reason
+    assert "a viewer that seeks would read the wrong messages" in recovery.reason
+    recording, messages = reopen(tmp_path, data)
+    _, every = reopen(tmp_path, whole)
+    assert recording.recovery is None and len(messages) == len(every), "replays read chunks"
+
+
+def test_a_chunk_whose_messages_no_index_lists_is_damage(whole: bytes, tmp_path: Path) -> None:
+    data = bytearray(whole)
+    data[first(whole, 0x07)] = 0x7F  # an unknown record instead: skipped, the chunk unlisted
+    recovery, _ = indexed(tmp_path, data)
+    assert recovery is not None and "that no message index lists" in recovery.reason
+
+
+def test_info_shows_a_damaged_index(whole: bytes, tmp_path: Path) -> None:
+    from oimi.cmd_info import describe
+
+    data = bytearray(whole)
+    data[first(whole, 0x07) + 9 + 2 + 4] ^= 0x01
+    path = tmp_path / "info.mcap"
+    path.write_bytes(bytes(data))
+    info = describe(open_recording(path))
+    assert not info["complete"] and "message index" in info["recovery"]["reason"]

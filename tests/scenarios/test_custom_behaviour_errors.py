@@ -1,6 +1,7 @@
 """An extension's human behaviour that fails is bad input, named and placed, not a traceback:
 a factory that raises stops the world being built; a ``velocity`` that raises or returns
-anything but two finite numbers stops the run (``oimi run`` exits 2, the recording closed)."""
+anything but two finite numbers stops the run (``oimi run`` exits 2, the recording closed,
+saying why it stopped)."""
 
 from __future__ import annotations
 
@@ -162,4 +163,9 @@ def test_oimi_run_stops_with_exit_2_and_a_located_message_and_closes_the_recordi
     )
     assert str(tmp_path) not in err and "Traceback" not in err
     assert not list(tmp_path.glob("*.partial.*")), "the recording was closed and named"
-    assert "beh" in oimi.open_recording(out).metadata.extensions, "and it reads"
+    recording = oimi.open_recording(out)
+    assert "beh" in recording.metadata.extensions, "and it reads"
+    stopped = recording.metadata.stopped
+    assert stopped is not None and stopped.reason == err.removeprefix("error: ").strip()
+    assert main(["info", str(out)]) == 0
+    assert f"stopped     before its end: {stopped.reason}\n" in capsys.readouterr().out
