@@ -183,6 +183,13 @@ def installed_extensions() -> list[LoadedExtension]:
     return found
 
 
+def installed_extension_packages() -> frozenset[str]:
+    """The top-level packages of the installed extensions (their code is a user's, though
+    it lives with the libraries)."""
+    points = metadata.entry_points(group=ENTRY_POINT_GROUP)
+    return frozenset(point.value.partition(":")[0].partition(".")[0] for point in points)
+
+
 def load_extensions(
     specs: Sequence[str], *, base: Path | None = None, installed: bool = True
 ) -> tuple[LoadedExtension, ...]:

@@ -10,7 +10,8 @@ once a tick; its thread looks every :data:`PERIOD_S`, and when no tick has ended
 last looked, it asks the main thread to raise, as a signal would
 (:func:`_thread.interrupt_main`). The main thread raises only while it is in a user's
 code (the innermost frame that is neither the standard library's nor an installed
-package's is not oimi's); else it is asked again a period later. A stuck tick is thus
+package's, other than an installed extension, is not oimi's); else it is asked again a
+period later. A stuck tick is thus
 stopped between one and two periods after it began, and a replay of the session stops it
 alike (a loop that changed the map while it ran may leave a value a replay does not
 reproduce). Python can only be interrupted between two of its instructions: a call into
@@ -29,6 +30,7 @@ from types import FrameType
 from typing import Final
 
 from oimi.pipeline.errors import Overrun
+from oimi.scenarios.extensions import installed_extension_packages
 
 PERIOD_S: Final = 1.0
 """How often the watchdog looks: a tick still running after one to two periods is stuck
@@ -44,8 +46,10 @@ LIBRARIES: Final = tuple(
 class Watchdog:
     """Counts the ticks that ended (:meth:`feed`) and stops one that does not end."""
 
-    def __init__(self, period_s: float = PERIOD_S) -> None:
+    def __init__(self, period_s: float = PERIOD_S, users: frozenset[str] = frozenset()) -> None:
         self.period_s = period_s
+        self.users = users
+        """Top-level packages whose code is a user's wherever it lives (installed extensions)."""
         self.fed = 0
         """Ticks ended so far."""
         self.stopped = 0
@@ -73,19 +77,22 @@ class Watchdog:
     def _stop(self, frame: FrameType | None) -> None:
         """In the main thread: raise in a user's code that holds a stuck tick."""
         self.asked = False
-        if self._stuck is None or self._stuck != self.fed or not _in_user_code(frame):
+        if self._stuck is None or self._stuck != self.fed or not _in_user_code(frame, self.users):
             return
         self._stuck = None  # the rest of the tick is watched afresh
         self.stopped += 1
         raise Overrun
 
 
-def _in_user_code(frame: FrameType | None) -> bool:
-    """Whether the innermost frame that is not a library's is a user's (not oimi's)."""
+def _in_user_code(frame: FrameType | None, users: frozenset[str] = frozenset()) -> bool:
+    """Whether the innermost frame that is not a library's is a user's (not oimi's); the
+    packages ``users`` are a user's wherever they are installed."""
     while frame is not None:
         module = str(frame.f_globals.get("__name__", ""))
         if module == "oimi" or module.startswith("oimi."):
             return False
+        if module.partition(".")[0] in users:
+            return True
         filename = frame.f_code.co_filename
         if not filename.startswith(LIBRARIES) and not filename.startswith("<"):
             return True
@@ -97,7 +104,7 @@ def _in_user_code(frame: FrameType | None) -> bool:
 def watching(period_s: float = PERIOD_S) -> Iterator[Watchdog]:
     """A :class:`Watchdog` on the ticks run inside the block (feed it once per tick).
     Outside the main thread it only counts: it cannot interrupt another thread."""
-    dog = Watchdog(period_s)
+    dog = Watchdog(period_s, installed_extension_packages())
     if threading.current_thread() is not threading.main_thread():
         yield dog
         return

@@ -86,6 +86,13 @@ def test_oimis_own_code_is_not_interrupted() -> None:
     assert _in_user_code(defined("my_rules", "/home/me/my_rules.py", GRAB)())
 
 
+def test_an_installed_extension_is_a_users_code_though_it_lives_with_the_libraries() -> None:
+    installed = defined("labext.rules", json.__file__.replace("json", "labext"), GRAB)
+    called = defined("oimi.pipeline.fake", "/x/pipeline/fake.py", CALL, g=installed)
+    assert not _in_user_code(called()), "a library called by oimi"
+    assert _in_user_code(called(), frozenset({"labext"})), "an installed extension"
+
+
 def test_outside_the_main_thread_it_only_counts() -> None:
     outcome: list[object] = []
 
