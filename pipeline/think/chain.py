@@ -116,13 +116,17 @@ class RuleChain:
     def _find_active(self, name: str) -> Rule | None:
         return next((rule for rule in self.active if rule.name == name), None)
 
-    def _create(self, message: RuleMessage) -> Rule | str:
+    def _create(self, message: RuleMessage) -> Rule | str | tuple[Level, str]:
+        """A new rule, or why not (an ERROR when a user's rule class raised creating it)."""
         if message.rulecode not in self.registry:
             return f"unknown rule code {message.rulecode} for rule {message.id!r}"
         try:
             return self.registry.create(message)
         except RuleSyntaxError as error:
             return f"rule {message.id!r} has a bad condition: {error}"
+        except FAILURES as error:  # a user's rule class: the session goes on without it
+            what = f"rule {message.id!r} (code {message.rulecode}) could not be created"
+            return Level.ERROR, f"{what}: {failure(error)}"
 
     def _apply_one(self, message: RuleMessage) -> str | tuple[Level, str] | None:
         """Move one rule between states; why not, when the action does not apply to its state.
@@ -135,7 +139,7 @@ class RuleChain:
             if state in ("active", "held"):
                 return f"{action.name}: rule {name!r} is loaded already ({state})"
             rule = self._create(message)
-            if isinstance(rule, str):
+            if not isinstance(rule, Rule):
                 return rule
             self.removed.pop(name, None)
             if action == RuleAction.A:
@@ -169,7 +173,7 @@ class RuleChain:
         if state != "absent":
             return f"C: rule {name!r} is {state}, not removed"
         rule = self._create(message)
-        if isinstance(rule, str):
+        if not isinstance(rule, Rule):
             return rule
         self.active.append(rule)
         return None

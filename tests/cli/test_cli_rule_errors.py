@@ -1,5 +1,6 @@
-"""`oimi run` with an extension's rule that raises: the session goes on, the error is in the
-summary and on ``/log``, the chain shows the rule removed, and the recording redrives."""
+"""`oimi run` with an extension's rule that raises (acting, or being created): the session goes
+on, the error is in the summary and on ``/log``, the chain shows the rule removed, and the
+recording redrives."""
 
 from __future__ import annotations
 
@@ -45,3 +46,21 @@ def test_the_human_summary_lists_the_error(tmp_path: Path) -> None:
     done = oimi("run", "-q", rule_scenario(tmp_path, "breaks", BODY), "--no-record")
     assert done.returncode == 0, done.stdout + done.stderr
     assert "  ERROR at 1.00 s rules: rule 'breaks' (code 1010) raised RuntimeError" in done.stdout
+
+
+def test_a_rule_class_that_cannot_be_created_is_an_error_not_the_end(tmp_path: Path) -> None:
+    scenario = rule_scenario(tmp_path, "unmade", "        return None")
+    source = tmp_path / "unmade.py"
+    act = "    def act(self, world_map, found, ctx):"
+    init = "    def __init__(self, *args, **kwargs):\n        raise RuntimeError('no')\n\n"
+    source.write_text(source.read_text().replace(act, init + act))
+    line = 1 + source.read_text().splitlines().index("        raise RuntimeError('no')")
+    out = tmp_path / "unmade.mcap"
+    done = oimi("run", "-q", scenario, "-o", out, "--json")
+    assert done.returncode == 0, done.stdout + done.stderr
+    report = f"rule 'unmade' (code 1010) could not be created: RuntimeError: no (unmade.py:{line})"
+    summary = msgspec.json.decode(done.stdout)["summary"]
+    assert summary["errors"] == [f"0.02 s rules: {report}"], "when the script loads it"
+    assert summary["activities"] == {"unmade_script": "completed"}, "the script ran on"
+    again = oimi("replay", out, "--mode", "redrive")
+    assert again.returncode == 0, again.stdout + again.stderr
