@@ -237,7 +237,8 @@ class LiveServer:
             last = round(self.config.duration_s * 1000) // self.session.tick_ms
         start = loop.time()
         assert self._stop is not None
-        with watching() as watchdog:  # a user's code that holds a tick is stopped
+        # a user's code that holds a tick is stopped; a late tick stops a robot at once
+        with watching(on_late=self.session.late) as watchdog:
             while not self._stop.is_set() and (last is None or self.ticks < last):
                 now = loop.time()
                 self._step(self.ticks, now_s=now)

@@ -173,6 +173,13 @@ class BridgeSession(LiveSession):
             self._led.write(led)
             self._audio.write(audio)
 
+    def late(self) -> None:
+        """A tick is late (from the watchdog's thread: the tick holds the main one): the
+        robot is told to stop moving at once, not only when cmd_vel falls silent for its
+        own timeout. The next tick's command moves it again."""
+        self._cmd_vel.write(outputs_message(ActuatorOutputs())[0])
+        self._note("a tick is late: the robot is told to stand still until it ends")
+
     def stand_still(self) -> None:
         """The bridge is stopping: the robot stops, lights off, silence (waiting a moment
         for the robot to acknowledge; a robot that missed it stops when cmd_vel falls

@@ -228,6 +228,11 @@ class Session:
             Topic.WORLD_STATE, time_ms * NS_PER_MS, self.world.state(tick=tick, time_ms=time_ms)
         )
 
+    def late(self) -> None:
+        """A tick is late (called from a live server's watchdog thread while the tick holds
+        the main one): nothing to do for a simulated world, which waits for the tick; a
+        session on a robot (``oimi bridge``) tells it to stand still."""
+
     def command(self, command: OperatorCommand) -> OperatorCommand:
         """``command`` numbered with the session's next id (a client's or a scenario's own
         id is not unique in the recording; the live server maps replies back)."""

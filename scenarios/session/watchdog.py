@@ -6,16 +6,20 @@ The pipeline guards every call into a user's code: a rule that raises is removed
 generator's call refused, a jump condition taken as false, each said at ERROR on ``/log``.
 What it cannot do is stop a call that never returns: the core keeps no clock and starts
 no thread. The loop that ticks it (a run, a live session, a replay) feeds this watchdog
-once a tick; its thread looks every :data:`PERIOD_S`, and when no tick has ended since it
-last looked, it asks the main thread to raise, as a signal would
+once a tick; its thread looks four times as often as a tick may be late, and when no tick
+has ended for :data:`PERIOD_S`, it asks the main thread to raise, as a signal would
 (:func:`_thread.interrupt_main`). The main thread raises only while it is in a user's
 code (the innermost frame that is neither the standard library's nor an installed
 package's, other than an installed extension, is not oimi's); else it is asked again a
-period later. A stuck tick is thus
-stopped between one and two periods after it began, and a replay of the session stops it
-alike (a loop that changed the map while it ran may leave a value a replay does not
-reproduce). Python can only be interrupted between two of its instructions: a call into
-C that never returns, or code run outside the main thread, is not stopped.
+period later. A stuck tick is thus stopped about a period after it began, and a replay of
+the session stops it alike (a loop that changed the map while it ran may leave a value a
+replay does not reproduce). Python can only be interrupted between two of its
+instructions: a call into C that never returns, or code run outside the main thread, is
+not stopped.
+
+Before that, a tick that has not ended :data:`LATE_S` after the one before is *late*: the
+watchdog calls ``on_late`` once, from its own thread (a live session on a robot commands it
+to stand still: its control loop is not running).
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ import contextlib
 import signal
 import sysconfig
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Final
 
@@ -33,8 +38,10 @@ from oimi.pipeline.errors import Overrun
 from oimi.scenarios.extensions import installed_extension_packages
 
 PERIOD_S: Final = 1.0
-"""How often the watchdog looks: a tick still running after one to two periods is stuck
-(a tick lasts 20 ms; a generator that needs longer stalls the robot's control loop too)."""
+"""A tick still running this long is stuck (a tick lasts 20 ms; a generator that needs
+longer stalls the robot's control loop too)."""
+LATE_S: Final = 0.2
+"""A tick not ended this long after the last one is late (ten ticks at 50 Hz)."""
 SIGNAL: Final = signal.SIGUSR2
 """The signal whose handler raises (simulated with ``interrupt_main``: none is sent)."""
 LIBRARIES: Final = tuple(
@@ -46,8 +53,17 @@ LIBRARIES: Final = tuple(
 class Watchdog:
     """Counts the ticks that ended (:meth:`feed`) and stops one that does not end."""
 
-    def __init__(self, period_s: float = PERIOD_S, users: frozenset[str] = frozenset()) -> None:
+    def __init__(
+        self,
+        period_s: float = PERIOD_S,
+        users: frozenset[str] = frozenset(),
+        *,
+        on_late: Callable[[], None] | None = None,
+        late_s: float = LATE_S,
+    ) -> None:
         self.period_s = period_s
+        self.on_late = on_late
+        self.late_s = late_s
         self.users = users
         """Top-level packages whose code is a user's wherever it lives (installed extensions)."""
         self.fed = 0
@@ -65,14 +81,20 @@ class Watchdog:
         self.fed += 1
 
     def _watch(self) -> None:
-        seen = -1
-        while not self._quit.wait(self.period_s):
-            fed = self.fed
+        seen, since, told = -1, time.monotonic(), False
+        while not self._quit.wait(min(self.period_s, self.late_s) / 4):
+            fed, now = self.fed, time.monotonic()
             if fed != seen:
-                seen, self._stuck = fed, None
+                seen, since, told, self._stuck = fed, now, False, None
                 continue
-            self._stuck, self.asked = fed, True
-            _thread.interrupt_main(SIGNAL)
+            if self.on_late is not None and not told and now - since >= self.late_s:
+                told = True
+                with contextlib.suppress(Exception):  # the watch goes on whatever it does
+                    self.on_late()
+            if now - since >= self.period_s:
+                since = now  # asked again a period later, if it does not raise now
+                self._stuck, self.asked = fed, True
+                _thread.interrupt_main(SIGNAL)
 
     def _stop(self, frame: FrameType | None) -> None:
         """In the main thread: raise in a user's code that holds a stuck tick."""
@@ -101,10 +123,16 @@ def _in_user_code(frame: FrameType | None, users: frozenset[str] = frozenset()) 
 
 
 @contextlib.contextmanager
-def watching(period_s: float = PERIOD_S) -> Iterator[Watchdog]:
-    """A :class:`Watchdog` on the ticks run inside the block (feed it once per tick).
-    Outside the main thread it only counts: it cannot interrupt another thread."""
-    dog = Watchdog(period_s, installed_extension_packages())
+def watching(
+    period_s: float = PERIOD_S,
+    *,
+    on_late: Callable[[], None] | None = None,
+    late_s: float = LATE_S,
+) -> Iterator[Watchdog]:
+    """A :class:`Watchdog` on the ticks run inside the block (feed it once per tick), which
+    calls ``on_late`` (from its thread) once per late tick. Outside the main thread it only
+    counts: it cannot interrupt another thread."""
+    dog = Watchdog(period_s, installed_extension_packages(), on_late=on_late, late_s=late_s)
     if threading.current_thread() is not threading.main_thread():
         yield dog
         return

@@ -1,5 +1,6 @@
 """The ROS 2 edge's small parts: the pad as joy_node reports it, the closed-by-default
-network, the remote sensors' refusals, the bridge's session without a simulated world."""
+network, the remote sensors' refusals, the bridge's session without a simulated world and
+its stop when a tick is late."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from oimi.scenarios.session import runner
 
 from oimi.cli import main
 from oimi.live.inputs import Pad
-from oimi.ros2 import types
+from oimi.ros2 import topics, types
 from oimi.ros2.bridge import BridgeSession
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.network import Network, NetworkError, domain_id_from
@@ -111,3 +112,24 @@ def test_the_bridge_builds_the_pipeline_without_a_simulated_world(monkeypatch):
     assert session.pipeline is session.built.pipeline
     state = session.world.state(tick=0, time_ms=0)
     assert (state.robot.x_m, state.robot.radius_m) == (0.0, session.scenario.robot.radius_m)
+
+
+class _Writers(_NoDds):
+    """A stand-in node whose writers keep what they are given, by topic."""
+
+    def __init__(self) -> None:
+        self.written: dict[str, list[object]] = {}
+
+    def writer(self, topic: object, **options: object) -> object:
+        sent = self.written.setdefault(str(getattr(topic, "name", topic)), [])
+        return type("Writer", (), {"write": staticmethod(sent.append)})()
+
+
+def test_a_late_tick_tells_the_robot_to_stand_still_at_once():
+    node = _Writers()
+    notes: list[str] = []
+    session = BridgeSession(load_scenario(ROOM), node, on_note=notes.append)  # type: ignore[arg-type]
+    session.late()  # from the watchdog's thread, while a tick holds the main one
+    (twist,) = node.written[str(topics.CMD_VEL.name)]
+    assert twist == types.Twist(linear=types.Vector3(), angular=types.Vector3())
+    assert notes == ["a tick is late: the robot is told to stand still until it ends"]

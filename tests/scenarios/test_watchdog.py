@@ -1,6 +1,7 @@
 """The watchdog on ticks: a user's code that does not return is stopped with ``Overrun``
-(past an ``except Exception`` of its own), one that returns in time never is, oimi's own
-code is never interrupted, and the signal handler there was before comes back."""
+(past an ``except Exception`` of its own), one that returns in time never is, a late tick
+is told once, oimi's own code is never interrupted, and the signal handler there was
+before comes back."""
 
 from __future__ import annotations
 
@@ -55,6 +56,28 @@ def test_ticks_that_end_in_time_are_never_stopped() -> None:
                 pass
             dog.feed()
     assert dog.stopped == 0 and dog.fed == 40
+
+
+def test_a_late_tick_is_told_once_before_it_is_stopped() -> None:
+    told: list[float] = []
+    with watching(PERIOD_S * 3, on_late=lambda: told.append(time.monotonic()), late_s=0.05):
+        start = time.monotonic()
+        with pytest.raises(Overrun):
+            spin()
+        took = time.monotonic() - start
+    assert len(told) == 1, "once per late tick"
+    assert 0.05 <= told[0] - start < took
+
+
+def test_ticks_in_time_are_never_late() -> None:
+    told: list[float] = []
+    with watching(PERIOD_S, on_late=lambda: told.append(time.monotonic()), late_s=0.15) as dog:
+        for _ in range(40):  # ticks of 10 ms: 0.4 s in all
+            start = time.monotonic()
+            while time.monotonic() - start < 0.01:
+                pass
+            dog.feed()
+    assert told == []
 
 
 def test_a_second_stuck_call_in_the_same_tick_is_stopped_too() -> None:
