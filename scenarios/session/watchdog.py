@@ -6,8 +6,8 @@ The pipeline guards every call into a user's code: a rule that raises is removed
 generator's call refused, a jump condition taken as false, each said at ERROR on ``/log``.
 What it cannot do is stop a call that never returns: the core keeps no clock and starts
 no thread. The loop that ticks it (a run, a live session, a replay) feeds this watchdog
-once a tick; its thread looks four times as often as a tick may be late, and when no tick
-has ended for :data:`PERIOD_S`, it asks the main thread to raise, as a signal would
+once a tick; its thread looks four times a period (or as often as a tick may be late, when
+someone is to be told), and when no tick has ended for :data:`PERIOD_S`, it asks the main thread to raise, as a signal would
 (:func:`_thread.interrupt_main`). The main thread raises only while it is in a user's
 code (the innermost frame that is neither the standard library's nor an installed
 package's, other than an installed extension, is not oimi's); else it is asked again a
@@ -82,7 +82,8 @@ class Watchdog:
 
     def _watch(self) -> None:
         seen, since, told = -1, time.monotonic(), False
-        while not self._quit.wait(min(self.period_s, self.late_s) / 4):
+        soonest = min(self.period_s, self.late_s) if self.on_late else self.period_s
+        while not self._quit.wait(soonest / 4):
             fed, now = self.fed, time.monotonic()
             if fed != seen:
                 seen, since, told, self._stuck = fed, now, False, None
