@@ -7,15 +7,15 @@ generator's call refused, a jump condition taken as false, each said at ERROR on
 What it cannot do is stop a call that never returns: the core keeps no clock and starts
 no thread. The loop that ticks it (a run, a live session, a replay) feeds this watchdog
 once a tick; its thread looks four times a period (or as often as a tick may be late, when
-someone is to be told), and when no tick has ended for :data:`PERIOD_S`, it asks the main thread to raise, as a signal would
-(:func:`_thread.interrupt_main`). The main thread raises only while it is in a user's
-code (the innermost frame that is neither the standard library's nor an installed
-package's, other than an installed extension, is not oimi's); else it is asked again a
-period later. A stuck tick is thus stopped about a period after it began, and a replay of
-the session stops it alike (a loop that changed the map while it ran may leave a value a
-replay does not reproduce). Python can only be interrupted between two of its
-instructions: a call into C that never returns, or code run outside the main thread, is
-not stopped.
+someone is to be told), and when no tick has ended for :data:`PERIOD_S`, it asks the main
+thread to raise, as a signal would (:func:`_thread.interrupt_main`). The main thread
+raises only while it is in a user's code (the innermost frame that is neither the
+standard library's nor an installed package's, other than an installed extension, is not
+oimi's); else it is asked again a period later. A stuck tick is thus stopped about a
+period after it began, and a replay of the session stops it alike (a loop that changed
+the map while it ran may leave a value a replay does not reproduce). Python can only be
+interrupted between two of its instructions: a call into C that never returns, or code
+run outside the main thread, is not stopped.
 
 Before that, a tick that has not ended :data:`LATE_S` after the one before is *late*: the
 watchdog calls ``on_late`` once, from its own thread (a live session on a robot commands it
