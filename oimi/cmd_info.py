@@ -96,8 +96,8 @@ def format_info(info: dict[str, Any]) -> str:
     seed = "-" if info["seed"] is None else info["seed"]
     source = info["scenario_file"] or "-"
     lines.append(f"scenario    {info['scenario'] or '-'} ({source}), seed {seed}")
-    kind = "live session" if info["live"] else "scripted run"
-    kind = "driven over a rosbag2" if info["from_bag"] else kind
+    live, from_bag = info["live"], info["from_bag"]
+    kind = "live session" if live else "driven over a rosbag2" if from_bag else "scripted run"
     lines.append(f"recording   {info['recording_id'] or '-'} ({kind})")
     lines.append(
         f"duration    {info['duration_s']:.2f} s, {info['ticks']:,} ticks at {info['tick_hz']} Hz"

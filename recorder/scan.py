@@ -329,12 +329,12 @@ class ChunkScan:
                         f"a record of {length} bytes at byte {offset} of the records overruns"
                         f" them ({end - start} bytes left)"
                     )
-                if opcode == _MESSAGE and index is not None:
-                    _index_message(index, data, start, offset)
-                offset = start + length
+                at, offset = offset, start + length
                 if opcode == _MESSAGE:
                     count += 1
                     message(data, start, offset, found)
+                    if index is not None:
+                        _index_message(index, data, start, at)
                 elif opcode == _CHANNEL:
                     self._channel(data[start:offset])
         except ValueError:
@@ -369,11 +369,10 @@ class ChunkScan:
 def _index_message(
     index: dict[int, list[tuple[int, int]]], data: bytes, start: int, at: int
 ) -> None:
-    """Note the message whose record starts at ``at`` (its body at ``start``) for the
-    chunk's index check (a body too short is damage the scan reports next)."""
-    if len(data) - start >= _MESSAGE_HEADER.size:
-        channel, _, log_time, _ = _MESSAGE_HEADER.unpack_from(data, start)
-        index.setdefault(channel, []).append((log_time, at))
+    """Note the message whose record starts at ``at`` (its body, read already, at
+    ``start``) for the chunk's index check."""
+    channel, _, log_time, _ = _MESSAGE_HEADER.unpack_from(data, start)
+    index.setdefault(channel, []).append((log_time, at))
 
 
 _NAMES: Final = {

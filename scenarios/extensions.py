@@ -18,6 +18,7 @@ built-ins; a name or rule code that collides is refused naming both origins.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -183,9 +184,10 @@ def installed_extensions() -> list[LoadedExtension]:
     return found
 
 
+@functools.cache
 def installed_extension_packages() -> frozenset[str]:
     """The top-level packages of the installed extensions (their code is a user's, though
-    it lives with the libraries)."""
+    it lives with the libraries); read once, when a watchdog first needs them."""
     points = metadata.entry_points(group=ENTRY_POINT_GROUP)
     return frozenset(point.value.partition(":")[0].partition(".")[0] for point in points)
 

@@ -156,7 +156,7 @@ def build_pipeline(
             script = library.load(path)
             scripts[script.activityname] = script
     tracker = Tracker(scenario) if tracked else None
-    sink = FanOut(*([tracker] if tracker is not None else []), *sinks)
+    sink = FanOut(tracker, *sinks) if tracker is not None else FanOut(*sinks)
     registries = loaded.toolkit.registries
     pipeline = Pipeline(
         pipeline_config(scenario),

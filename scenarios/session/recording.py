@@ -164,8 +164,8 @@ def recorded(
         stopped = RecordingMetadata(stopped=StoppedRecord(reason=stop_reason(error)))
         # the recording says why it ends early; the error to report is the first one
         with contextlib.suppress(Exception):
-            for name, record in stopped.records().items():
-                if mcap_sink is not None:
+            if mcap_sink is not None:
+                for name, record in stopped.records().items():
                     mcap_sink.add_metadata(name, record)
         raise
     finally:

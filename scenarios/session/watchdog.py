@@ -56,7 +56,6 @@ class Watchdog:
     def __init__(
         self,
         period_s: float = PERIOD_S,
-        users: frozenset[str] = frozenset(),
         *,
         on_late: Callable[[], None] | None = None,
         late_s: float = LATE_S,
@@ -64,8 +63,6 @@ class Watchdog:
         self.period_s = period_s
         self.on_late = on_late
         self.late_s = late_s
-        self.users = users
-        """Top-level packages whose code is a user's wherever it lives (installed extensions)."""
         self.fed = 0
         """Ticks ended so far."""
         self.stopped = 0
@@ -100,8 +97,8 @@ class Watchdog:
     def _stop(self, frame: FrameType | None) -> None:
         """In the main thread: raise in a user's code that holds a stuck tick."""
         self.asked = False
-        if self._stuck is None or self._stuck != self.fed or not _in_user_code(frame, self.users):
-            return
+        if self._stuck != self.fed or not _in_user_code(frame, installed_extension_packages()):
+            return  # the tick ended meanwhile (or none is stuck), or oimi's code is running
         self._stuck = None  # the rest of the tick is watched afresh
         self.stopped += 1
         raise Overrun
@@ -133,7 +130,7 @@ def watching(
     """A :class:`Watchdog` on the ticks run inside the block (feed it once per tick), which
     calls ``on_late`` (from its thread) once per late tick. Outside the main thread it only
     counts: it cannot interrupt another thread."""
-    dog = Watchdog(period_s, installed_extension_packages(), on_late=on_late, late_s=late_s)
+    dog = Watchdog(period_s, on_late=on_late, late_s=late_s)
     if threading.current_thread() is not threading.main_thread():
         yield dog
         return
