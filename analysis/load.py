@@ -18,7 +18,7 @@ import msgspec
 import polars as pl
 import pyarrow as pa
 import pyarrow.json as pa_json
-from oimi.analysis.stream import STREAMED, Streamed, StreamFolder
+from oimi.analysis.stream import FOLDED, STREAMED, Streamed, StreamFolder
 from oimi.pipeline.events import TOPIC_TYPES, Topic
 from oimi.pipeline.messages import WorldMap
 from oimi.recorder.errors import RecordingError
@@ -326,16 +326,18 @@ def load_session(
         wanted = tuple(t for t in wanted if t in LIGHT_TOPICS)
     payloads: dict[Topic, list[bytes]] = {t: [] for t in wanted}
     folder = StreamFolder(tick_ms=1000 // _tick_hz(recording.meta, name))
-    names = frozenset(t.value for t in wanted if t is not Topic.MAP)
-    names |= frozenset(STREAMED) if stream else frozenset()
+    tables = frozenset(t.value for t in wanted if t is not Topic.MAP)
+    folded = frozenset(FOLDED) if stream else frozenset()
     streamed = 0
     with open(name, "rb") as file:
-        scan = ChunkScan(file, names)
+        scan = ChunkScan(file, tables | folded)
         for topic, _, _, data in scan.messages():
-            if topic in STREAMED and stream:
+            if topic in folded:
                 folder.add(topic, data)
-                streamed += 1
-            else:
+                if topic in STREAMED:
+                    streamed += 1
+                    continue
+            if topic in tables:
                 payloads[Topic(topic)].append(data)
     if Topic.MAP in payloads:
         payloads[Topic.MAP] = _map_payloads(recording)

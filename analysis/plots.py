@@ -27,7 +27,12 @@ ZONE_COLOURS: Final = {
     "personal": "#f7d08a",
     "social": "#cfe8c4",
 }
-INITIATOR_COLOURS: Final = {"robot": "#d1495b", "person": "#edae49"}
+INITIATOR_COLOURS: Final = {"robot": "#d1495b", "person": "#edae49", "pushed": "#00798c"}
+CONTACT_LABELS: Final = {
+    "robot": "contact, robot-initiated",
+    "person": "contact, person-initiated",
+    "pushed": "contact, robot pushed into them",
+}
 SAFETY_COLOUR: Final = "#7b2cbf"
 OUTCOME_COLOURS: Final = {
     "completed": "#4c9a2a",
@@ -168,7 +173,7 @@ def timeline(data: SessionData, metrics: SessionMetrics) -> Figure:
         )
     for row in metrics["contacts"].iter_rows(named=True):
         colour = INITIATOR_COLOURS[row["initiator"]]
-        used[f"contact, {row['initiator']}-initiated"] = colour
+        used[CONTACT_LABELS[row["initiator"]]] = colour
         _bar(
             axes, row["started_ms"], row["duration"].total_seconds(), rows.index("contacts"), colour
         )

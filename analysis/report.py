@@ -48,7 +48,8 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
     "robot_initiated_contacts": (
         "",
         "Contacts in which the robot moved towards the person faster than the person moved"
-        " towards it, just before touching.",
+        " towards it, just before touching (not those in which another person pushed it"
+        " into them: initiator `pushed` in the contacts table).",
     ),
     "max_closing_speed_mps": (
         "m/s",

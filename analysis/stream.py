@@ -17,12 +17,21 @@ from typing import Final
 import msgspec
 import polars as pl
 from oimi.pipeline.act.safety import Interventions
-from oimi.pipeline.events import RuleDecisions, SafetyIntervention, Topic, WorldState
+from oimi.pipeline.events import (
+    ActuatorCommands,
+    RuleDecisions,
+    SafetyIntervention,
+    Topic,
+    WorldState,
+)
 from oimi.pipeline.proximity import ContactEpisode, ProximityTracker, surface_distance
 from oimi.pipeline.think.episodes import RuleEpisodes
 
 STREAMED: Final = (Topic.WORLD_STATE.value, Topic.RULE_DECISIONS.value, Topic.SAFETY.value)
 """Topics folded message by message (never held as tables)."""
+FOLDED: Final = (*STREAMED, Topic.ACTUATOR_COMMANDS.value)
+"""Topics the folder reads: the streamed ones, and the actuator commands (a table too),
+whose move commands tell a robot that drove into a person from one pushed into them."""
 
 MAX_SAMPLES: Final = 4000
 """Ticks kept for the plots: every tick of a short session, evenly thinned beyond."""
@@ -163,6 +172,7 @@ class StreamFolder:
         self._world = msgspec.json.Decoder(WorldState)
         self._decisions = msgspec.json.Decoder(RuleDecisions)
         self._safety = msgspec.json.Decoder(SafetyIntervention)
+        self._commands = msgspec.json.Decoder(ActuatorCommands)
 
     def add(self, topic: str, data: bytes) -> None:
         if topic == Topic.WORLD_STATE:
@@ -179,6 +189,8 @@ class StreamFolder:
             # a /safety message of another shape is not an intervention we can read
             with contextlib.suppress(msgspec.DecodeError):
                 self.safety.update(self._safety.decode(data))
+        elif topic == Topic.ACTUATOR_COMMANDS:
+            self.proximity.command(self._commands.decode(data))
 
     def result(self) -> Streamed:
         return Streamed(

@@ -118,10 +118,11 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
         )
         print(f"  rules fired: {fired}")
     closest = ", ".join(f"{h} {d:.2f} m" for h, d in s.min_surface_distance_m.items())
+    pushed = f" {s.pushed_contacts} pushed by another person," if s.pushed_contacts else ""
     print(
         f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest (surface to surface)"
         f" {closest or '-'}, {s.contact_episodes} contact episodes"
-        f" ({s.robot_initiated_contacts} robot-initiated,"
+        f" ({s.robot_initiated_contacts} robot-initiated,{pushed}"
         f" fastest closing {s.max_closing_speed_mps:.2f} m/s), {s.rejected_inputs} rejected inputs"
     )
     print(

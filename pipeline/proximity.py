@@ -19,7 +19,8 @@ import math
 from typing import Final
 
 import msgspec
-from oimi.pipeline.events import BodyState, WorldState
+from oimi.pipeline.events import ActuatorCommands, BodyState, WorldState
+from oimi.pipeline.messages import MoveCommand
 
 ZONES_M: Final = (
     ("contact", -math.inf, 0.0),
@@ -41,9 +42,14 @@ class Initiator(enum.StrEnum):
     """Who closed the gap at the start of a contact."""
 
     ROBOT = "robot"
-    """The robot moved towards the person faster than the person moved towards it."""
+    """The robot moved towards the person faster than the person moved towards it (and it
+    was not :attr:`PUSHED`)."""
     PERSON = "person"
     """The person moved towards the robot at least as fast (a standing robot never initiates)."""
+    PUSHED = "pushed"
+    """The robot moved towards the person faster, but another person was pressing into it
+    and its own drive (its last move command) did not point towards this one: it was pushed
+    into them."""
 
 
 def surface_distance(robot: BodyState, human: BodyState) -> float:
@@ -132,6 +138,17 @@ class ProximityTracker:
         self._open: dict[str, _Open] = {}
         self._previous: WorldState | None = None
         """The state before the one being read: where a contact's speeds are taken."""
+        self._drive: tuple[float, float] = (0.0, 0.0)
+        """The robot's own drive: its last move command's velocity (body frame, m/s)."""
+        self._previous_drive = self._drive
+        """The drive as it was at the previous state."""
+
+    def command(self, message: ActuatorCommands) -> None:
+        """Note the robot's move commands (its own drive, which tells a robot that drove
+        into a person from one pushed into them); feed them in order with the states."""
+        for command in message.commands:
+            if type(command) is MoveCommand:
+                self._drive = (0.0, 0.0) if command.stop else (command.v_x, command.v_y)
 
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
@@ -163,7 +180,7 @@ class ProximityTracker:
                 self._touch(who, human, robot, now, distance)
             elif open_ and who in open_ and now - open_[who].last_ms > MERGE_MS:
                 self._close(who)
-        self._previous = state
+        self._previous, self._previous_drive = state, self._drive
 
     def _touch(self, who: str, human: BodyState, robot: BodyState, now: int, d: float) -> None:
         if (open_ := self._open.get(who)) is not None:
@@ -176,7 +193,10 @@ class ProximityTracker:
                     before_robot, before_human = previous.robot, body
                     break
         robot_speed, person_speed = approach_speeds(before_robot, before_human)
-        initiator = Initiator.ROBOT if robot_speed > person_speed else Initiator.PERSON
+        initiator = Initiator.PERSON
+        if robot_speed > person_speed:
+            pushed = previous is not None and self._pushed(previous, before_human)
+            initiator = Initiator.PUSHED if pushed else Initiator.ROBOT
         episode = ContactEpisode(
             human=who,
             kind=human.kind,
@@ -188,6 +208,22 @@ class ProximityTracker:
             min_surface_distance_m=round(d, 4),
         )
         self._open[who] = _Open(episode=episode, last_ms=now, deepest=d)
+
+    def _pushed(self, previous: WorldState, human: BodyState) -> bool:
+        """Whether, at ``previous``, another person touching the robot pressed into it while
+        the robot's own drive did not point towards ``human`` (then it was pushed)."""
+        robot = previous.robot
+        dx, dy = human.x_m - robot.x_m, human.y_m - robot.y_m
+        v_x, v_y = self._previous_drive
+        cos, sin = math.cos(robot.theta_rad), math.sin(robot.theta_rad)
+        if (v_x * cos - v_y * sin) * dx + (v_x * sin + v_y * cos) * dy > 0.0:
+            return False  # it drove towards them: its own doing, pushed or not
+        return any(
+            other.id != human.id
+            and other.id in previous.contacts
+            and approach_speeds(robot, other)[1] > 0.0
+            for other in previous.humans
+        )
 
     def _closed(self, open_: _Open) -> ContactEpisode:
         return msgspec.structs.replace(

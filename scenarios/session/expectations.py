@@ -12,6 +12,7 @@ import msgspec
 from oimi.pipeline.act.safety import Interventions
 from oimi.pipeline.events import (
     REJECTING_SOURCES,
+    ActuatorCommands,
     Event,
     Level,
     LogEntries,
@@ -104,6 +105,8 @@ class Tracker:
                 self._progress(message)
             case SafetyIntervention():
                 self.safety.update(message)
+            case ActuatorCommands():
+                self.proximity.command(message)
             case LogEntries():
                 self.rejections += [
                     f"{message.time_ms} ms {e.source}: {e.message}"

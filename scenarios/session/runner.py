@@ -70,6 +70,9 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     """Closest surface-to-surface distance per human (``pipeline.proximity``), m."""
     contact_episodes: int = 0
     robot_initiated_contacts: int = 0
+    pushed_contacts: int = 0
+    """Contacts in which another person pushed the robot into this one
+    (``pipeline.proximity.Initiator.PUSHED``)."""
     max_closing_speed_mps: float = 0.0
     """The fastest a gap closed at the start of a contact episode, m/s."""
     rule_episodes: dict[str, int] = {}
@@ -283,6 +286,7 @@ class Session:
             min_surface_distance_m={h: round(d, 4) for h, d in t.proximity.closest_m.items()},
             contact_episodes=len(episodes := t.contact_episodes()),
             robot_initiated_contacts=sum(e.initiator == "robot" for e in episodes),
+            pushed_contacts=sum(e.initiator == "pushed" for e in episodes),
             max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
             rule_episodes=dict(sorted(t.episodes.counts().items())),
             errors=tuple(t.errors),

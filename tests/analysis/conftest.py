@@ -69,9 +69,9 @@ SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 
 @pytest.fixture(scope="session")
 def contact_mcaps(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """The two contact scenarios of ``tests/analysis/scenarios``, recorded."""
+    """The contact scenarios of ``tests/analysis/scenarios``, recorded."""
     folder = tmp_path_factory.mktemp("contacts")
     return {
         name: _record(SCENARIOS / f"{name}.toml", folder / f"{name}.mcap")
-        for name in ("scripted_collision", "child_walks_into_robot")
+        for name in ("scripted_collision", "child_walks_into_robot", "robot_pushed_into_child")
     }

@@ -1,0 +1,93 @@
+"""A robot pushed into a person by another is not said to have initiated the contact."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+from oimi.analysis.load import load_session
+from oimi.analysis.metrics import session_metrics
+from oimi.pipeline.events import ActuatorCommands, BodyState, WorldState
+from oimi.pipeline.messages import MoveCommand, Source
+from oimi.pipeline.proximity import Initiator, ProximityTracker
+from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.session.runner import Session
+
+SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+
+
+def _first_contact(
+    *,
+    drive: tuple[float, float] | None = None,
+    stop_after: bool = False,
+    theta_rad: float = 0.0,
+    pusher_vx_mps: float = -0.5,
+    pusher_touching: bool = True,
+) -> Initiator:
+    """Who initiated the contact of a robot moving at 0.3 m/s (-x) into a standing child
+    ("still", 0.1 m away at first), while another child ("pusher") is at its other side,
+    touching it or not; ``drive`` is the robot's last move command (body frame)."""
+    tracker = ProximityTracker(tick_ms=20)
+    if drive is not None:
+        move = MoveCommand(source=Source.SCRIPT, v_x=drive[0], v_y=drive[1])
+        tracker.command(ActuatorCommands(tick=0, time_ms=0, commands=(move,)))
+    if stop_after:
+        stop = MoveCommand(source=Source.SCRIPT, stop=True)
+        tracker.command(ActuatorCommands(tick=0, time_ms=0, commands=(stop,)))
+    for tick, x_m in enumerate((0.0, -0.1)):
+        robot = BodyState(
+            id="robot",
+            kind="robot",
+            x_m=x_m,
+            y_m=0.0,
+            theta_rad=theta_rad,
+            vx_mps=-0.3,
+            radius_m=0.3,
+        )
+        still = BodyState(id="still", kind="child", x_m=-0.6, y_m=0.0, radius_m=0.2)
+        pusher = BodyState(
+            id="pusher", kind="child", x_m=x_m + 0.5, y_m=0.0, vx_mps=pusher_vx_mps, radius_m=0.2
+        )
+        touching = ("pusher",) if pusher_touching else ()
+        tracker.update(
+            WorldState(
+                tick=tick, time_ms=tick * 20, robot=robot, humans=(still, pusher), contacts=touching
+            )
+        )
+    (episode,) = [e for e in tracker.finish() if e.human == "still"]
+    return episode.initiator
+
+
+def test_a_robot_pushed_by_a_child_pressing_into_it_did_not_initiate() -> None:
+    assert _first_contact() is Initiator.PUSHED  # no move command: it stands
+    assert _first_contact(drive=(0.2, 0.0)) is Initiator.PUSHED  # its drive: away from them
+    assert _first_contact(drive=(-0.2, 0.0), stop_after=True) is Initiator.PUSHED
+
+
+def test_a_robot_that_drove_towards_the_person_initiated_even_when_pushed() -> None:
+    assert _first_contact(drive=(-0.2, 0.0)) is Initiator.ROBOT
+    # its body faces -x: a forward command drives it towards the child standing there
+    assert _first_contact(drive=(0.2, 0.0), theta_rad=math.pi) is Initiator.ROBOT
+    assert _first_contact(drive=(0.0, 0.2), theta_rad=math.pi / 2) is Initiator.ROBOT
+
+
+def test_without_someone_pressing_into_it_a_moving_robot_initiated() -> None:
+    """A robot coasting after a stop, or merely touched, is not pushed."""
+    assert _first_contact(pusher_touching=False) is Initiator.ROBOT
+    assert _first_contact(pusher_vx_mps=0.5) is Initiator.ROBOT  # the other child steps away
+
+
+def test_run_and_analysis_say_the_robot_was_pushed_into_the_child(contact_mcaps) -> None:
+    """A child walks through a standing robot and pushes it into another child: the run's
+    summary and expectation and the analysis of its recording say so alike."""
+    result = Session(load_scenario(SCENARIOS / "robot_pushed_into_child.toml")).run()
+    assert result.summary.contact_episodes == 2
+    assert (result.summary.robot_initiated_contacts, result.summary.pushed_contacts) == (0, 1)
+    assert [v.ok for v in result.verdicts] == [True]
+    metrics = session_metrics(load_session(contact_mcaps["robot_pushed_into_child"], stream=True))
+    initiators = {r["human"]: r["initiator"] for r in metrics["contacts"].rows(named=True)}
+    assert initiators == {"pusher": "person", "still": "pushed"}
+    (pushed,) = [r for r in metrics["contacts"].rows(named=True) if r["human"] == "still"]
+    assert pushed["robot_speed_mps"] == pytest.approx(0.5, abs=0.1)  # faster than the child
+    assert metrics.summary["robot_initiated_contacts"].item() == 0
