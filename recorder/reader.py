@@ -89,6 +89,8 @@ class RecordedMessage(msgspec.Struct, frozen=True, kw_only=True):
     sequence: int
     """Index of the message on its channel, from 0."""
     payload_bytes: bytes
+    source: str
+    """The file it was read from (named by the error of a payload that does not decode)."""
 
     def decoded(self) -> Event:
         """The payload as its topic's Struct (``pipeline.events.TOPIC_TYPES``)."""
@@ -96,7 +98,8 @@ class RecordedMessage(msgspec.Struct, frozen=True, kw_only=True):
             return _decoder(self.topic).decode(self.payload_bytes)
         except msgspec.DecodeError as error:
             raise RecordingError(
-                f"{self.topic} message {self.sequence} (tick {self.tick}): {error}"
+                f"{self.topic} message {self.sequence} (tick {self.tick}): {error}",
+                source=self.source,
             ) from None
 
 
@@ -176,6 +179,7 @@ class Recording:
                         time_ns=log_time_ns,
                         sequence=sequence,
                         payload_bytes=data,
+                        source=self.path,
                     )
             except ValueError as error:  # bad magic: open_recording has refused such files
                 raise RecordingError(str(error), source=self.path) from None

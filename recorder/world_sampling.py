@@ -52,12 +52,15 @@ class WorldSampling:
         return held
 
 
-def recorded_sampling(record: OimiRecord) -> WorldSampling:
+def recorded_sampling(record: OimiRecord, *, source: str) -> WorldSampling:
     """The sampling a recording's ``oimi`` record states (every tick before format 4;
-    ``RecordingError`` for a value that is not a positive integer)."""
+    ``RecordingError`` naming ``source``, the file, for a value that is not a positive
+    integer)."""
     every = record.world_every
-    if every is None:
+    if every is None or every < 1:
         raise RecordingError(
-            f"metadata: {WORLD_EVERY_KEY} is not a number: {record.world_every_n_ticks!r}"
+            f"metadata: {WORLD_EVERY_KEY} is not a positive integer:"
+            f" {record.world_every_n_ticks!r}",
+            source=source,
         )
     return WorldSampling(every)

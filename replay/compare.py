@@ -147,7 +147,9 @@ class Comparator:
             t for t in Topic if t in read
         )
         self._sampling = (
-            recorded_sampling(recording.meta.oimi) if Topic.WORLD_STATE in self.topics else None
+            recorded_sampling(recording.meta.oimi, source=recording.path)
+            if Topic.WORLD_STATE in self.topics
+            else None
         )
         self._ahead: RecordedMessage | None = None
         self._index = 0

@@ -191,6 +191,16 @@ def test_iter_messages_filters_topics_and_rejects_unknown_ones(recorded: Path) -
         list(recording.iter_messages(["/nope"]))
 
 
+def test_a_payload_that_is_not_its_topics_names_the_file(recorded: Path) -> None:
+    """A damaged channel record can file a message under another topic (found by fuzzing:
+    ``oimi analyse`` then said ``<input>:`` instead of the file)."""
+    message = next(open_recording(recorded).iter_messages([Topic.JOYSTICK]))
+    misfiled = msgspec.structs.replace(message, topic=Topic.LOG)
+    with pytest.raises(RecordingError) as raised:
+        misfiled.decoded()
+    assert str(raised.value).startswith(f"{recorded}: /log message 0 (tick 0): Object ")
+
+
 def test_truncated_file_recovers_the_complete_chunks_with_a_report(tmp_path: Path) -> None:
     whole = tmp_path / "whole.mcap"
     write(whole, session(40), chunk_size_bytes=4096)

@@ -59,10 +59,16 @@ def test_an_even_last_tick_is_not_written_twice(tmp_path: Path) -> None:
 def test_a_sampling_below_one_or_unreadable_is_refused() -> None:
     with pytest.raises(RecordingError, match="world_every_n_ticks must be >= 1, got 0"):
         WorldSampling(0)
-    with pytest.raises(RecordingError, match="world_every_n_ticks is not a number: 'two'"):
-        recorded_sampling(OimiRecord(world_every_n_ticks="two"))
-    assert recorded_sampling(OimiRecord()).every_n_ticks == 1, "before format 4: every tick"
-    assert recorded_sampling(OimiRecord(world_every_n_ticks="5")).every_n_ticks == 5
+    for value in ("two", "0", "-3"):  # a recording's metadata names the file
+        with pytest.raises(RecordingError) as raised:
+            recorded_sampling(OimiRecord(world_every_n_ticks=value), source="s.mcap")
+        assert str(raised.value) == (
+            f"s.mcap: metadata: world_every_n_ticks is not a positive integer: {value!r}"
+        )
+    record = OimiRecord()
+    assert recorded_sampling(record, source="s.mcap").every_n_ticks == 1, "before format 4"
+    record = OimiRecord(world_every_n_ticks="5")
+    assert recorded_sampling(record, source="s.mcap").every_n_ticks == 5
 
 
 def test_time_in_each_zone_read_from_the_samples_is_the_sessions() -> None:
