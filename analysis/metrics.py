@@ -461,6 +461,7 @@ def _summary(data: SessionData, t: dict[str, pl.DataFrame]) -> pl.DataFrame:
         "goals_interrupted": int((outcome == "interrupted").sum()),
         "contacts": touching.height,
         "robot_initiated_contacts": int((touching["initiator"] == "robot").sum()),
+        "pushed_contacts": int((touching["initiator"] == "pushed").sum()),
         "max_closing_speed_mps": float(touching["closing_speed_mps"].max() or 0.0),
         "contact_s": _seconds(touching),
         "closest_human": closest["human"].item() if closest.height else None,

@@ -51,6 +51,11 @@ GLOSSARY: Final[dict[str, tuple[str, str]]] = {
         " towards it, just before touching (not those in which another person pushed it"
         " into them: initiator `pushed` in the contacts table).",
     ),
+    "pushed_contacts": (
+        "",
+        "Contacts in which another person pressing into the robot pushed it into this one (its"
+        " own drive did not point towards them).",
+    ),
     "max_closing_speed_mps": (
         "m/s",
         "The fastest a gap closed just before a contact (robot's and person's speeds towards"

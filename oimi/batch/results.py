@@ -5,7 +5,7 @@ no wall-clock values, so the same batch gives the same table on any executor:
 
 ``run, scenario, file, seed, params, param:KEY..., ok, passed, failed,
 expect:NAME..., ticks, duration_s, max_speed_mps, min_surface_distance_m,
-min_surface_distance_m:HUMAN..., contacts, robot_initiated_contacts,
+min_surface_distance_m:HUMAN..., contacts, robot_initiated_contacts, pushed_contacts,
 max_closing_speed_mps, rejected_inputs, safety_interventions, protective_stops,
 rules_fired, goals_reached, recording, error``. ``run`` is the one name of a run
 (``STEM[-KEY=VALUE,...]-sSEED``, as ``oimi analyse`` names it); ``param:`` values are
@@ -55,6 +55,7 @@ def row_columns(row: ResultRow) -> dict[str, Any]:
         **{f"min_surface_distance_m:{h}": d for h, d in s.min_surface_distance_m.items()},
         "contacts": s.contact_episodes,
         "robot_initiated_contacts": s.robot_initiated_contacts,
+        "pushed_contacts": s.pushed_contacts,
         "max_closing_speed_mps": s.max_closing_speed_mps,
         "rejected_inputs": s.rejected_inputs,
         "safety_interventions": s.safety_interventions,

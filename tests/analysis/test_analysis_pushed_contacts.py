@@ -91,3 +91,4 @@ def test_run_and_analysis_say_the_robot_was_pushed_into_the_child(contact_mcaps)
     (pushed,) = [r for r in metrics["contacts"].rows(named=True) if r["human"] == "still"]
     assert pushed["robot_speed_mps"] == pytest.approx(0.5, abs=0.1)  # faster than the child
     assert metrics.summary["robot_initiated_contacts"].item() == 0
+    assert metrics.summary["pushed_contacts"].item() == 1
