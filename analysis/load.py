@@ -334,11 +334,10 @@ def load_session(
         for topic, _, _, data in scan.messages():
             if topic in folded:
                 folder.add(topic, data)
-                if topic in STREAMED:
-                    streamed += 1
-                    continue
-            if topic in tables:
+            if topic in tables:  # the actuator commands are both
                 payloads[Topic(topic)].append(data)
+            else:
+                streamed += 1
     if Topic.MAP in payloads:
         payloads[Topic.MAP] = _map_payloads(recording)
     recovery = recording.recovery or scan.report()

@@ -38,8 +38,11 @@ class OimiRecord(_Record):
     @property
     def world_every(self) -> int | None:
         """``world_every_n_ticks`` as a number (1 when not written: every tick, before
-        format 4), or None when it does not read."""
-        return 1 if self.world_every_n_ticks is None else _integer(self.world_every_n_ticks)
+        format 4), or None when it does not read as a positive integer."""
+        if self.world_every_n_ticks is None:
+            return 1
+        every = _integer(self.world_every_n_ticks)
+        return every if every is not None and every >= 1 else None
 
 
 class ScenarioRecord(_Record):

@@ -57,7 +57,7 @@ def recorded_sampling(record: OimiRecord, *, source: str) -> WorldSampling:
     ``RecordingError`` naming ``source``, the file, for a value that is not a positive
     integer)."""
     every = record.world_every
-    if every is None or every < 1:
+    if every is None:
         raise RecordingError(
             f"metadata: {WORLD_EVERY_KEY} is not a positive integer:"
             f" {record.world_every_n_ticks!r}",

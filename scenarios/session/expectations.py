@@ -7,6 +7,7 @@ passes: a verdict on it fails and says what was seen.
 from __future__ import annotations
 
 import math
+from typing import Final
 
 import msgspec
 from oimi.pipeline.act.safety import Interventions
@@ -51,16 +52,21 @@ class Verdict(msgspec.Struct, frozen=True, kw_only=True):
     detail: str
 
 
+HANDLERS: Final = {
+    Topic.WORLD_STATE: "_world",
+    Topic.RULE_DECISIONS: "_decisions",
+    Topic.READER_PROGRESS: "_progress",
+    Topic.SAFETY: "_intervention",
+    Topic.ACTUATOR_COMMANDS: "_commands",
+    Topic.LOG: "_log",
+}
+"""The :class:`Tracker` method that reads each topic it reads."""
+
+
 class Tracker:
     """A sink that keeps only the figures the expectations and the summary need."""
 
-    TOPICS = (
-        Topic.WORLD_STATE,
-        Topic.RULE_DECISIONS,
-        Topic.READER_PROGRESS,
-        Topic.LOG,
-        Topic.SAFETY,
-    )
+    TOPICS = tuple(HANDLERS)
     """The topics :meth:`record` reads (what a replayed check needs)."""
 
     def __init__(self, scenario: Scenario) -> None:
@@ -88,36 +94,39 @@ class Tracker:
         self.last_ms = 0
         self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz)
         """Surface distances and contact episodes (the definitions ``oimi analyse`` uses)."""
+        self._handle = {topic: getattr(self, name) for topic, name in HANDLERS.items()}
+        """:attr:`HANDLERS`, bound."""
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         self.last_ms = message.time_ms
-        if type(message) is WorldState:  # 50 times a simulated second: tested first
-            self._world(message)
-            return
-        match message:
-            case RuleDecisions():
-                self.episodes.update(message)
-                if at := self.fired_at:  # a windowed rule_fired: when each of its rules fired
-                    for decision in message.decisions:
-                        if decision.fired and (times := at.get(decision.rule)) is not None:
-                            times.append(message.time_ms)
-            case ReaderProgress():
-                self._progress(message)
-            case SafetyIntervention():
-                self.safety.update(message)
-            case ActuatorCommands():
-                self.proximity.command(message)
-            case LogEntries():
-                self.rejections += [
-                    f"{message.time_ms} ms {e.source}: {e.message}"
-                    for e in message.entries
-                    if e.level >= Level.WARNING and e.source in REJECTING_SOURCES
-                ]
-                self.errors += [
-                    f"{message.time_ms / 1000:.2f} s {e.source}: {e.message}"
-                    for e in message.entries
-                    if e.level >= Level.ERROR
-                ]
+        handle = self._handle.get(topic)
+        if handle is not None:
+            handle(message)
+
+    def _decisions(self, message: RuleDecisions) -> None:
+        self.episodes.update(message)
+        if at := self.fired_at:  # a windowed rule_fired: when each of its rules fired
+            for decision in message.decisions:
+                if decision.fired and (times := at.get(decision.rule)) is not None:
+                    times.append(message.time_ms)
+
+    def _intervention(self, message: SafetyIntervention) -> None:
+        self.safety.update(message)
+
+    def _commands(self, message: ActuatorCommands) -> None:
+        self.proximity.command(message)
+
+    def _log(self, message: LogEntries) -> None:
+        self.rejections += [
+            f"{message.time_ms} ms {e.source}: {e.message}"
+            for e in message.entries
+            if e.level >= Level.WARNING and e.source in REJECTING_SOURCES
+        ]
+        self.errors += [
+            f"{message.time_ms / 1000:.2f} s {e.source}: {e.message}"
+            for e in message.entries
+            if e.level >= Level.ERROR
+        ]
 
     @property
     def min_distance_m(self) -> dict[str, float]:

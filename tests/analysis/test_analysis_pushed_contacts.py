@@ -92,3 +92,28 @@ def test_run_and_analysis_say_the_robot_was_pushed_into_the_child(contact_mcaps)
     assert pushed["robot_speed_mps"] == pytest.approx(0.5, abs=0.1)  # faster than the child
     assert metrics.summary["robot_initiated_contacts"].item() == 0
     assert metrics.summary["pushed_contacts"].item() == 1
+
+
+def test_a_robot_driven_into_the_child_while_pushed_fails_alike_when_checked_again(
+    tmp_path: Path,
+) -> None:
+    """The operator reverses the robot towards the standing child as the other child pushes
+    it: its own drive points at them, so the contact is the robot's. The verdict that
+    ``oimi analyse`` checks again on the recording must read the move commands too."""
+    from oimi.replay.expectations import recorded_verdicts
+    from oimi.scenarios.session.recording import recorded
+
+    scenario = tmp_path / "driven.toml"
+    scenario.write_text(
+        (SCENARIOS / "robot_pushed_into_child.toml").read_text()
+        + '\n[[events]]\nat_s = 2.5\nkind = "joystick"\nleft_y = -0.3\nbuttons = ["LB"]'
+        + "\nhold_s = 3.0\n"
+    )
+    session = Session(load_scenario(scenario))
+    with recorded(session, mcap=tmp_path / "driven.mcap", rrd=None):
+        result = session.run()
+    assert (result.summary.robot_initiated_contacts, result.summary.pushed_contacts) == (1, 0)
+    assert [(v.name, v.ok, v.detail) for v in result.verdicts] == recorded_verdicts(
+        tmp_path / "driven.mcap"
+    )
+    assert [v.ok for v in result.verdicts] == [False]
