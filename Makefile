@@ -7,6 +7,7 @@ DEV    := $(VENV)/.installed-dev
 DEMO   ?= scenarios/library/greeting.toml
 OUT    ?= out
 FUZZ   ?= 20
+SEED   ?=
 
 .PHONY: env dev demo test fuzz lint golden bench clean accel
 
@@ -40,9 +41,11 @@ test: $(DEV)
 	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest
 
-# The fuzz suite (also part of `test`) with FUZZ times as many examples per property.
+# The fuzz suite (also part of `test`) with FUZZ times as many examples per property; the
+# same examples at every run, or others chosen by SEED (make fuzz SEED=7).
 fuzz: $(DEV)
-	OIMI_FUZZ_EXAMPLES=$(FUZZ) $(BIN)/python -m pytest tests/fuzz
+	OIMI_FUZZ_EXAMPLES=$(FUZZ) OIMI_FUZZ_SEED=$(SEED) $(BIN)/python -m pytest tests/fuzz \
+		$(if $(SEED),--hypothesis-seed=$(SEED))
 
 lint: $(DEV)
 	$(BIN)/ruff check .

@@ -26,14 +26,16 @@ def examples(count: int) -> int:
     return max(1, round(count * factor))
 
 
-def fuzz_settings(count: int) -> settings:
-    """Deterministic (fixed seed), no per-example deadline, ``examples(count)`` examples."""
+def fuzz_settings(count: int, *, suppress: Sequence[HealthCheck] = ()) -> settings:
+    """``examples(count)`` examples, no per-example deadline; deterministic (the same
+    examples at every run) unless ``OIMI_FUZZ_SEED`` is set, when pytest's
+    ``--hypothesis-seed`` chooses them (``make fuzz SEED=N`` explores new ground)."""
     return settings(
         max_examples=examples(count),
-        derandomize=True,
+        derandomize=not os.environ.get("OIMI_FUZZ_SEED"),
         deadline=None,
         database=None,
-        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, *suppress],
     )
 
 

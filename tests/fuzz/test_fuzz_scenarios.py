@@ -2,23 +2,19 @@
 short run. Whatever the mutation, ``check`` exits 0 or 2 with a located message, and a
 scenario it passes runs without an exception, a hang or a signal, ending 0 or 1.
 
-Bounded for ``make test``; ``OIMI_FUZZ_EXAMPLES=N`` runs N examples (``make fuzz``).
+Bounded for ``make test``; ``make fuzz`` runs ``OIMI_FUZZ_EXAMPLES`` times as many examples.
 """
 
 from __future__ import annotations
 
-import contextlib
-import os
 import re
-import signal
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import msgspec
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import LIBRARY_DIR, apply_overrides, load_scenario
@@ -27,11 +23,10 @@ from oimi.scenarios.session.runner import Session
 
 from oimi.cli import main
 
-EXAMPLES = int(os.environ.get("OIMI_FUZZ_EXAMPLES", "60"))
+from .fuzzing import fuzz_settings, no_hang
+
 RUN_S = 0.5
 """Simulated seconds of each short run."""
-HANG_S = 20
-"""Wall-clock seconds after which one example counts as a hang (a guard, not a timing)."""
 
 LIBRARY = {path.name: path.read_text() for path in sorted(LIBRARY_DIR.glob("*.toml"))}
 NUMBER = re.compile(r"(?<=[=\[,{ ])-?\d+(?:\.\d+)?(?:e[+-]?\d+)?(?=[\s,\]}])")
@@ -96,22 +91,6 @@ MUTATIONS = [_number] * 6 + [_string] * 3 + [_delete] * 2 + [_nest, _duplicate]
 """Mostly values (they reach the session), sometimes the file's structure."""
 
 
-@contextlib.contextmanager
-def no_hang(seconds: int) -> Iterator[None]:
-    """Fail, instead of waiting forever, when the body runs past ``seconds`` of wall time."""
-
-    def alarm(signum: int, frame: object) -> None:
-        raise TimeoutError(f"no answer after {seconds} s: a hang")
-
-    previous = signal.signal(signal.SIGALRM, alarm)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def check_then_run(path: Path, capsys: pytest.CaptureFixture[str]) -> int:
     """``oimi check`` in process; when it passes, a short run of the scenario. The exit code."""
     code = main(["check", str(path)])
@@ -132,19 +111,13 @@ def check_then_run(path: Path, capsys: pytest.CaptureFixture[str]) -> int:
     return 0 if result.ok else 1
 
 
-@settings(
-    max_examples=EXAMPLES,
-    derandomize=True,
-    deadline=None,
-    database=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
-)
+@fuzz_settings(60, suppress=[HealthCheck.function_scoped_fixture])
 @given(case=mutated())
 def test_mutated_library_scenarios_are_checked_or_run_never_crash(tmp_path, capsys, case):
     name, text = case
     path = tmp_path / name
     path.write_text(text)
-    with no_hang(HANG_S):
+    with no_hang(f"oimi check {name}, then a short run"):
         assert check_then_run(path, capsys) in (0, 1, 2)
 
 
@@ -165,7 +138,7 @@ GREETING = load_scenario(LIBRARY_DIR / "greeting.toml")
 KEYS = numeric_keys(msgspec.to_builtins(GREETING.scenario))
 
 
-@settings(max_examples=EXAMPLES, derandomize=True, deadline=None, database=None)
+@fuzz_settings(60)
 @given(
     overrides=st.dictionaries(
         st.sampled_from(KEYS), st.sampled_from(NUMBERS), min_size=1, max_size=3
@@ -173,7 +146,7 @@ KEYS = numeric_keys(msgspec.to_builtins(GREETING.scenario))
 )
 def test_params_are_refused_with_their_field_or_run(overrides):
     """``--param`` values go through the same validation: refused naming the field, or run."""
-    with no_hang(HANG_S):
+    with no_hang(f"the overrides {overrides}"):
         try:
             scenario = apply_overrides(GREETING.scenario, overrides)
         except ScenarioError as error:
