@@ -212,6 +212,7 @@ class Pipeline:
             self._operator_moved = True
             for line, note in zip(self.handler.deliver(notes), notes, strict=True):
                 emitter.log(Level.INFO, "generators", line, note.generator)
+            emitter.logs.extend(self.handler.take_failures())
 
         # 2. Publish progress (after this tick's reading, so it names the block in the works).
         self._publish_progress(outcome, emitter)
@@ -227,6 +228,7 @@ class Pipeline:
         outcome = ReadOutcome()
         if not result.reply.ok:
             emitter.log(Level.WARNING, "operator", result.reply.reason, str(command.id))
+        emitter.logs.extend(self.handler.take_failures())  # a generator's bug, said as such
         for effect in result.effects:
             match effect:
                 case PushScripts():

@@ -342,6 +342,11 @@ def guarded(name: str, what: str, call: Callable[..., _T], *args: object) -> _T:
         raise failed(name, f"{what}() raised {failure(error)}") from None
 
 
-def failed(name: str, what: str) -> GeneratorError:
-    """A :class:`GeneratorError` saying that generator ``name`` failed at ``what``."""
-    return GeneratorError(what, source=f"generator {name!r}")
+class GeneratorFailure(GeneratorError):
+    """A generator's code failed (it raised, overran, or made no valid script) rather than
+    refusing with a :class:`GeneratorError` of its own: a bug, which a session logs at ERROR."""
+
+
+def failed(name: str, what: str) -> GeneratorFailure:
+    """A :class:`GeneratorFailure` saying that generator ``name`` failed at ``what``."""
+    return GeneratorFailure(what, source=f"generator {name!r}")

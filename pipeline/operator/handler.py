@@ -5,7 +5,8 @@ the activity command button, and what the loop must do to the Block Reader's LIF
 reason and changes nothing. Its effects are typed messages the loop applies:
 :class:`PushScripts` and :class:`StopActivities`. Generators are user code: what one
 raises, or a ``generate`` that returns no valid script, refuses the command or is said in
-the reply or the log line (:func:`guarded`); it never leaves the handler.
+the reply or the log line (:func:`guarded`), and is kept for the loop to log at ERROR
+(:meth:`GeneratorHandler.take_failures`); it never leaves the handler.
 
 The button (``OperatorButton``)::
 
@@ -28,6 +29,8 @@ import msgspec
 from oimi.pipeline.events import (
     ActivityEntry,
     ActivityState,
+    Level,
+    LogEntry,
     OperatorButton,
     OperatorReply,
     OperatorState,
@@ -49,6 +52,7 @@ from oimi.pipeline.operator.generator import (
     Catalogue,
     Generator,
     GeneratorError,
+    GeneratorFailure,
     GeneratorInfo,
     GeneratorView,
     failed,
@@ -128,6 +132,7 @@ class GeneratorHandler:
         self._seen: tuple[WorldMap | None, int] = (None, 0)
         """The map and time of the command being handled (what generators see)."""
         self._running: list[str] = []
+        self._failures: list[LogEntry] = []
         """Names pushed at start and not finished yet, in run order (first = current)."""
 
     # ------------------------------------------------------------------ queries
@@ -206,6 +211,13 @@ class GeneratorHandler:
         self._button = OperatorButton.START
         return True
 
+    def take_failures(self) -> list[LogEntry]:
+        """The generators' failures since the last call (one raised or overran, or made no
+        valid script), one ERROR entry each; the reply or note line that met it says it too.
+        A generator's own ``GeneratorError`` (refusing its options) is not one."""
+        failures, self._failures = self._failures, []
+        return failures
+
     # ---------------------------------------------------------- loop callbacks
 
     def activity_started(self, name: str) -> bool:
@@ -252,7 +264,7 @@ class GeneratorHandler:
                 done.append(f"rule {note.rule!r}: generator {note.generator!r} is not selected")
                 continue
             if note.quiesce:
-                trouble = _shutdown(s)
+                trouble = self._shutdown(s)
                 if s.name in self._running:
                     s.quiesced = True  # its script runs on; Get Ready once the run ends
                 else:
@@ -262,7 +274,7 @@ class GeneratorHandler:
                 done.append(f"rule {note.rule!r} set generator {s.name!r} quiescent" + trouble)
                 continue
             hear = getattr(s.generator, "hear", None)
-            trouble = _reported(s.name, "hear", hear, note) if hear is not None else ""
+            trouble = self._reported(s.name, "hear", hear, note) if hear is not None else ""
             done.append(f"rule {note.rule!r} told generator {s.name!r}: {note.text}" + trouble)
         return done
 
@@ -293,6 +305,27 @@ class GeneratorHandler:
                 raise _Refused(f"cannot {verb} while the activities run; stop first")
             raise _Refused(f"cannot {verb} while the button shows {self._button.value}")
 
+    def _failed(self, name: str, error: GeneratorError) -> None:
+        """Keep ``error`` for :meth:`take_failures` when it is generator ``name``'s failure."""
+        if isinstance(error, GeneratorFailure):
+            self._failures.append(
+                LogEntry(level=Level.ERROR, source="generators", message=str(error), ref=name)
+            )
+
+    def _reported(self, name: str, what: str, call: Callable[..., object], *args: object) -> str:
+        """:func:`guarded`, for a call whose failure is only said: ``""``, or ``"; "`` and how
+        it failed (to append to a reply or a log line)."""
+        try:
+            guarded(name, what, call, *args)
+        except GeneratorError as error:
+            self._failed(name, error)
+            return f"; {error}"
+        return ""
+
+    def _shutdown(self, s: _Selected) -> str:
+        """Shut ``s``'s generator down; :meth:`_reported`."""
+        return self._reported(s.name, "shutdown", s.generator.shutdown)
+
     def _settle(self) -> None:
         """The button when nothing runs: ``start`` iff every selection has its script."""
         if self._selected and all(s.script is not None for s in self._selected):
@@ -318,6 +351,7 @@ class GeneratorHandler:
             options = resolve_options(info.options, cmd.options, source=name)
             generator = guarded(name, "create", self._catalogue.create, name)
         except GeneratorError as err:
+            self._failed(name, err)
             raise _Refused(str(err)) from None
         self._selected.append(_Selected(name, options, generator))
         self._button = OperatorButton.GET_READY
@@ -330,7 +364,7 @@ class GeneratorHandler:
             raise _Refused(f"{s.name!r} is running; stop first")
         if s.name in self._running:
             raise _Refused(f"{s.name!r} is queued to run; stop first")
-        trouble = _shutdown(s)
+        trouble = self._shutdown(s)
         self._selected.remove(s)
         if self._button is not OperatorButton.STOP:
             self._settle()
@@ -353,8 +387,10 @@ class GeneratorHandler:
             raise _Refused("no activities selected; add one first")
         activated: list[_Selected] = []
         scripts: dict[str, Script] = {}
+        name = ""  # the generator at work, for a failure's log entry
         try:
             for s in self._selected:
+                name = s.name
                 if s.script is not None:
                     scripts[s.name] = s.script
                     continue
@@ -363,14 +399,16 @@ class GeneratorHandler:
                 view = _view(world_map, now_ms) if world_map is not None else None
                 scripts[s.name] = generate_script(s.name, s.generator, s.options, view)
             owners: dict[str, str] = {}
-            for name, script in scripts.items():
-                other = owners.setdefault(script.activityname, name)
-                if other != name:
+            for activity, script in scripts.items():
+                other = owners.setdefault(script.activityname, activity)
+                if other != activity:
                     raise GeneratorError(
-                        f"its script is named {script.activityname!r} like {other!r}'s", source=name
+                        f"its script is named {script.activityname!r} like {other!r}'s",
+                        source=activity,
                     )
         except GeneratorError as err:
-            raise _Refused(str(err) + "".join(_shutdown(s) for s in activated)) from None
+            self._failed(name, err)
+            raise _Refused(str(err) + "".join(self._shutdown(s) for s in activated)) from None
         for s in self._selected:
             s.script = scripts[s.name]
         self._button = OperatorButton.LOADING
@@ -414,7 +452,7 @@ class GeneratorHandler:
 
     def _clear(self) -> _Outcome:
         self._refuse_while("clear", OperatorButton.LOADING, OperatorButton.STOP)
-        trouble = "".join(_shutdown(s) for s in self._selected)
+        trouble = "".join(self._shutdown(s) for s in self._selected)
         self._selected = []
         self._button = OperatorButton.GET_READY
         return "cleared" + trouble, ()
@@ -435,23 +473,8 @@ def generate_script(
         raise failed(name, f"generate() returned {kind}, not a Script")
     problems = [error.message for error in script_errors(script)]
     if problems:
-        raise GeneratorError("generated an invalid script: " + "; ".join(problems), source=name)
+        raise GeneratorFailure("generated an invalid script: " + "; ".join(problems), source=name)
     return script
-
-
-def _reported(name: str, what: str, call: Callable[..., object], *args: object) -> str:
-    """:func:`guarded`, for a call whose failure is only said: ``""``, or ``"; "`` and how
-    it failed (to append to a reply or a log line)."""
-    try:
-        guarded(name, what, call, *args)
-    except GeneratorError as error:
-        return f"; {error}"
-    return ""
-
-
-def _shutdown(s: _Selected) -> str:
-    """Shut ``s``'s generator down; :func:`_reported`."""
-    return _reported(s.name, "shutdown", s.generator.shutdown)
 
 
 def _view(world_map: WorldMap, now_ms: int) -> GeneratorView:

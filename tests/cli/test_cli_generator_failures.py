@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from cli_process import oimi
+from oimi.pipeline.events import Level
 
 from oimi import open_recording
 
@@ -87,4 +88,9 @@ def test_a_generator_failing_on_the_live_map_has_get_ready_refused(tmp_path: Pat
     frames = open_recording(out)
     log = frames["/log"].filter(frames["/log"]["source"] == "operator")["message"].to_list()
     assert "generator 'late': generate() raised KeyError: 'x' (late.py:12)" in log
+    errors = frames["/log"].filter(frames["/log"]["level"] == Level.ERROR)
+    assert errors.select("source", "message", "ref").rows() == [
+        ("generators", "generator 'late': generate() raised KeyError: 'x' (late.py:12)", "late")
+    ], "a bug in the generator is an error, beside the refused command"
+    assert "generators: generator 'late': generate() raised" in done.stdout
     assert frames["/operator/state"]["button"].to_list()[-1] == "get_ready"

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import pytest
+from oimi.pipeline.events import Level, LogEntry
 from oimi.pipeline.messages import GeneratorNote, Script, WorldMap
 from oimi.pipeline.operator.commands import Add, Clear, Command, GetReady, Remove, Start
 from oimi.pipeline.operator.generator import (
@@ -216,3 +217,57 @@ def test_a_catalogue_whose_generator_cannot_be_made_names_it() -> None:
     with pytest.raises(GeneratorError) as caught:
         Catalogue({"shy": lambda: Faulty("shy", [], fail="__init__")})
     assert str(caught.value) == "generator 'shy': create() raised " + BOOM % "init"
+
+
+def failure(name: str, text: str) -> LogEntry:
+    return LogEntry(level=Level.ERROR, source="generators", message=text, ref=name)
+
+
+def test_each_failure_is_kept_for_the_log_at_error_once() -> None:
+    env = Env(bad={"fail": "build shutdown"}, deaf={"fail": "hear"})
+    env.ok(Add, "bad")
+    env.refused(GetReady)
+    assert env.h.take_failures() == [
+        failure("bad", "generator 'bad': generate() raised " + BOOM % "build"),
+        failure("bad", "generator 'bad': shutdown() raised " + BOOM % "shutdown"),
+    ]
+    assert env.h.take_failures() == [], "taken once"
+    env.ok(Remove, "bad")
+    env.h.take_failures()
+    env.ok(Add, "deaf")
+    env.ok(GetReady)
+    assert env.h.take_failures() == []
+    env.h.deliver([note("deaf")])
+    assert env.h.take_failures() == [
+        failure("deaf", "generator 'deaf': hear() raised " + BOOM % "hear")
+    ]
+
+
+def test_an_invalid_script_is_a_failure() -> None:
+    env = Env(bad={"fail": "returns", "returns": None})
+    env.ok(Add, "bad")
+    env.refused(GetReady)
+    assert [e.message for e in env.h.take_failures()] == [
+        "generator 'bad': generate() returned None, not a Script"
+    ]
+
+
+class Refusing(BaseGenerator):
+    """Refuses every option set with its own GeneratorError: a refusal, not a failure."""
+
+    name = "picky"
+
+    def activate(self, options: Mapping[str, str]) -> None:
+        raise GeneratorError("not today", source=self.name)
+
+    def build(self, values: Mapping[str, OptionValue]) -> Script:
+        return script(self.name)
+
+
+def test_a_refusal_of_its_own_or_a_bad_option_is_no_failure() -> None:
+    h = GeneratorHandler(Catalogue({"picky": Refusing}))
+    assert not h.handle(Add(id=1, activity="picky", options={"x": "1"}), now_ms=0).reply.ok
+    assert h.handle(Add(id=2, activity="picky"), now_ms=0).reply.ok
+    reply = h.handle(GetReady(id=3), now_ms=0).reply
+    assert not reply.ok and reply.reason == "picky: not today"
+    assert h.take_failures() == []
