@@ -46,6 +46,7 @@ from oimi.pipeline.registries import Registries
 from oimi.pipeline.sense.producer import MapProducer
 from oimi.pipeline.sink import NS_PER_MS, Sink
 from oimi.pipeline.think.chain import RuleChain
+from oimi.pipeline.think.mapparts import mistyped
 from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
 
 
@@ -282,8 +283,8 @@ class Pipeline:
     ) -> tuple[ActuatorOutputs, SafetyIntervention | None]:
         """The safety supervisor's pass over the body's velocity, on the tick's final map
         (below every source of motion; no rule or script reaches it). A map it cannot read
-        (a value of the wrong type left by a rule) stops it moving, turning on the spot aside,
-        until it can again."""
+        (a value of the wrong type left by a rule, named in the log) stops it moving, turning
+        on the spot aside, until it can again."""
         outputs, requested = step.outputs, self.actuator.velocity
         try:
             verdict, event = self.safety.supervise(
@@ -295,7 +296,8 @@ class Pipeline:
             )
             self._unreadable = ""
         except Exception as error:  # never move on a map the supervisor cannot read
-            text = f"cannot read the map ({failure(error)}): the robot is stopped"
+            wrong = mistyped(self.map) or failure(error)
+            text = f"cannot read the map ({wrong}): the robot is stopped"
             if text != self._unreadable:
                 emitter.log(Level.ERROR, "safety", text)
             self._unreadable = text

@@ -79,7 +79,7 @@ class MapParts:
                 _put_back(self.world_map, part, before[part])
             self.forget()
             self.baseline = None
-            raise TypeError(f"{name}: {error}; the body's changes are undone") from None
+            raise TypeError(f"{type_error(name, error)}; the body's changes are undone") from None
         self.baseline = {**(self.baseline or {}), **after}
         return after
 
@@ -101,6 +101,24 @@ _TYPED: Final = {
     field.name: msgspec.msgpack.Decoder(field.type) for field in msgspec.structs.fields(WorldMap)
 }
 """Each top-level part's decoder: what checks a part's types after a body."""
+
+
+def type_error(name: str, error: Exception) -> str:
+    """What ``error`` found wrong in the map's part ``name``, said at its place
+    (``humans[0].positionrho: Expected `float`, got `str```)."""
+    text, _, at = str(error).partition(" - at `$")
+    return f"{name}{at.rstrip('`')}: {text}"
+
+
+def mistyped(world_map: WorldMap) -> str:
+    """The first place in the map whose value is not of its type, as :func:`type_error`
+    says it (``""`` when every part is of its type)."""
+    for name in FIELDS:
+        try:
+            _TYPED[name].decode(_encode(getattr(world_map, name)))
+        except (TypeError, ValueError, msgspec.ValidationError) as error:
+            return type_error(name, error)
+    return ""
 
 
 def _put_back(world_map: WorldMap, name: str, data: bytes) -> None:

@@ -334,8 +334,8 @@ def test_a_map_the_safety_supervisor_cannot_read_stops_the_robot_and_is_said_onc
     assert [(e.level, e.message) for e in said] == [
         (
             Level.ERROR,
-            "cannot read the map (TypeError: '<=' not supported between instances of 'int'"
-            " and 'str'): the robot is stopped",
+            "cannot read the map (humans[0].positionchangetime: Expected `int`, got `str`):"
+            " the robot is stopped",
         )
     ]
     p.map.humans[0].positionchangetime = 40

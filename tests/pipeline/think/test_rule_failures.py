@@ -11,6 +11,7 @@ from oimi.pipeline.script.dsl import compile_dsl
 from oimi.pipeline.think.chain import RuleChain
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionContext, FunctionRegistry, boolean, evaluation
+from oimi.pipeline.think.mapparts import mistyped
 from oimi.pipeline.think.reader import BlockReader, ScriptEntry
 from oimi.pipeline.think.rules import Effect, Rule, RuleRegistry
 from oimi.pipeline.think.stdlib import default_registry
@@ -185,7 +186,7 @@ def test_failure_masks_memory_addresses() -> None:
 @pytest.mark.parametrize(
     ("variables", "said"),
     [
-        ({}, "humans: Expected `float`, got `str` - at `$[0].positionrho`"),
+        ({}, "humans[0].positionrho: Expected `float`, got `str`"),
         (
             {"@rho": "1.5", "@object": "1"},
             "variables: Encoding objects of type object is unsupported",
@@ -209,3 +210,15 @@ def test_a_body_that_leaves_the_map_mistyped_is_undone_and_removed(
     [report] = chain.take_failures()
     undone = "the body's changes are undone; removed"
     assert report.message == f"rule 'r2004' (code 2004) raised TypeError: {said}; {undone}"
+
+
+def test_mistyped_names_the_first_place_whose_value_is_not_of_its_type() -> None:
+    world = WorldMap()
+    world.humans.append(Human(id="h1", creationtime=0, positionrho=0.7))
+    assert mistyped(world) == ""
+    world.humans[0].positionrho = "near"  # type: ignore[assignment]
+    assert mistyped(world) == "humans[0].positionrho: Expected `float`, got `str`"
+    world.robotstatus.batterytimeleft = 1.5  # type: ignore[assignment]
+    assert mistyped(world) == "robotstatus.batterytimeleft: Expected `int`, got `float`"
+    world.robotstatus = None  # type: ignore[assignment]
+    assert mistyped(world) == "robotstatus: Expected `object`, got `None`"
