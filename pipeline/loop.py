@@ -281,22 +281,22 @@ class Pipeline:
     def _supervise(
         self, step: ActuatorStep, emitter: _Emitter
     ) -> tuple[ActuatorOutputs, SafetyIntervention | None]:
-        """The safety supervisor's pass over the body's velocity, on the tick's final map
-        (below every source of motion; no rule or script reaches it). A map it cannot read
-        (a value of the wrong type left by a rule, named in the log) stops it moving, turning
-        on the spot aside, until it can again."""
+        """The safety supervisor's pass over the body's velocity, on the map as the sensors
+        alone made it (below every source of motion; no rule or script reaches it or that
+        map). A map it cannot read (a fault: the wrong place is named in the log) stops it
+        moving, turning on the spot aside, until it can again."""
         outputs, requested = step.outputs, self.actuator.velocity
         try:
             verdict, event = self.safety.supervise(
                 requested,
-                self.map,
+                self.producer.perceived,
                 tick=emitter.tick,
                 now_ms=emitter.time_ms,
                 source=self.actuator.motion_source,
             )
             self._unreadable = ""
         except Exception as error:  # never move on a map the supervisor cannot read
-            wrong = mistyped(self.map) or failure(error)
+            wrong = mistyped(self.producer.perceived) or failure(error)
             text = f"cannot read the map ({wrong}): the robot is stopped"
             if text != self._unreadable:
                 emitter.log(Level.ERROR, "safety", text)

@@ -1,8 +1,9 @@
 """The safety supervisor: speed and separation monitoring below every source of motion.
 
 In the spirit of ISO 13482 and ISO/TS 15066, it limits the robot's velocity
-*towards* each human by their surface-to-surface distance, taken from the map
-(what the sensors said, never the simulator's ground truth):
+*towards* each human by their surface-to-surface distance, taken from the map the
+sensors alone made (``MapProducer.perceived``: what they said, never the simulator's
+ground truth, and nothing a rule or script wrote):
 
 | zone (surface distance ``s``)      | velocity towards the human                      |
 |------------------------------------|-------------------------------------------------|

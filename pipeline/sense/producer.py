@@ -6,12 +6,19 @@ appendable value joins its register whatever its policy (stored history is never
 and a RobotStatus field is marked as set (``RobotStatus.setfields``).
 ``consume`` applies the pending updates, in order, at the simulated time ``now_ms``.
 A rejected update leaves the map exactly as it was and yields a ``Rejection``.
+
+Each update is applied to a second map too, :attr:`MapProducer.perceived`, which nothing
+else writes: the map as the sensors alone made it. Rules, scripts and their functions
+change the shared map freely (the thesis lets them); the safety supervisor reads the
+perceived one, so that no rule can hide a person from it, move one away or make an old
+reading look fresh.
 """
 
 from __future__ import annotations
 
 from typing import Final
 
+import msgspec
 from oimi.pipeline.messages import (
     MAP_LISTS,
     REGISTER_CAPACITY,
@@ -73,6 +80,9 @@ class MapProducer:
         if max_entities < 0:
             raise ValueError(f"max_entities must be at least 0, got {max_entities}")
         self.world_map = world_map
+        self.perceived = msgspec.convert(msgspec.to_builtins(world_map), WorldMap)
+        """The map as the sensors alone made it (a copy of ``world_map`` at the start, then
+        every update ``consume`` applies); nothing else writes it."""
         self.register_capacity = register_capacity
         self.script_root = check_script_root(script_root)
         self.max_entities = max_entities
@@ -111,15 +121,23 @@ class MapProducer:
         """Apply every pending update at simulated time ``now_ms``; the rejections, in order.
 
         Sets ``lastupdatetime`` to ``now_ms`` when at least one update was applied.
-        Raises ValueError if ``now_ms`` is earlier than the map's ``lastupdatetime``.
+        Raises ValueError if ``now_ms`` is earlier than the last time updates were applied.
         """
-        world = self.world_map
-        if now_ms < world.lastupdatetime:
+        perceived = self.perceived
+        if now_ms < perceived.lastupdatetime:
             raise ValueError(
-                f"now_ms {now_ms} is earlier than the map's lastupdatetime {world.lastupdatetime}"
+                f"now_ms {now_ms} is earlier than the map's lastupdatetime"
+                f" {perceived.lastupdatetime}"
             )
         pending, self._pending = self._pending, []
         self._pending_keys.clear()
+        self._apply_all(perceived, pending, now_ms)  # its rejections: the other's, said below
+        return self._apply_all(self.world_map, pending, now_ms)
+
+    def _apply_all(
+        self, world: WorldMap, pending: list[DecodedUpdate], now_ms: int
+    ) -> list[Rejection]:
+        """Apply ``pending`` to ``world``; the updates it has no room for."""
         index = _Index(world)
         rejections: list[Rejection] = []
         applied = False
@@ -139,16 +157,16 @@ class MapProducer:
                     )
                     continue
                 owner = index.allocate(decoded.target, now_ms)
-            self._apply(owner, decoded)
+            self._apply(world, owner, decoded)
             applied = True
         if applied:
             world.lastupdatetime = now_ms
         return rejections
 
-    def _apply(self, owner: State, decoded: DecodedUpdate) -> None:
+    def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:
         spec, value = decoded.spec, decoded.value
         if isinstance(value, ScriptVect):
-            info = self.world_map.scriptinfo
+            info = world.scriptinfo
             info.script_vect = list(value.paths)
             info.restart = value.restart
         elif spec.storage is Storage.UPDATEABLE:

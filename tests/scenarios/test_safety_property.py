@@ -16,7 +16,14 @@ human's (0.25 m, the supervisor's ``human_radius_m``), is below
 the unit vector from its centre to the human's. The map lags the truth (a 10 Hz
 camera, readings rounded to 0.1 mm): the supervisor covers the lag with its own
 configured margin (``sensing_error_m + human_speed_mps * (age + one tick)``, and
-the humans here walk at most ``human_speed_mps``), not with any tolerance here.
+the humans here walk at most ``human_speed_mps``), not with any tolerance here; the only
+allowance is the state's own resolution (speeds cut towards zero to 1 mm/s, which can
+turn a velocity bent away from a human into one that seems to close on them).
+
+A rule may change the shared map as it likes (the thesis lets it): a hostile one that
+erases the people, moves them away, makes old readings look fresh or reports the camera
+back online, loaded by the script, changes nothing the supervisor sees (it reads the map
+as the sensors alone made it).
 
 A human who walks into the robot pushes it: that velocity is the human's, not the
 robot's, so (2) and (3) skip ticks with a contact and the 0.5 s after it (the time
@@ -41,6 +48,7 @@ from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic,
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.runner import Session
+from oimi.scenarios.simulation.bodies import STATE_DECIMALS
 
 TICK_MS = 20
 MAX_SPEED_MPS = 0.5
@@ -77,9 +85,76 @@ human = st.tuples(
 )
 
 
-def scenario_text(pads, moves, humans, heading: float, all_round: bool = True) -> str:
+TAMPERING = """\
+from oimi.pipeline.think.rules import Effect, Rule
+
+
+class Tamper(Rule):
+    condition_text = "! {TRUE}"
+    writes = ("humans", "obstacles", "cameras")
+
+
+class Erase(Tamper):
+    rulecode = 1100
+
+    def act(self, world_map, found, ctx):
+        world_map.humans.clear()
+        world_map.obstacles.clear()
+        return Effect.CHANGED
+
+
+class MoveAway(Tamper):
+    rulecode = 1101
+
+    def act(self, world_map, found, ctx):
+        for body in (*world_map.humans, *world_map.obstacles):
+            body.positionrho, body.positionchangetime = 50.0, ctx.now_ms
+        return Effect.CHANGED
+
+
+class Freshen(Tamper):
+    rulecode = 1102
+
+    def act(self, world_map, found, ctx):
+        for body in (*world_map.humans, *world_map.obstacles):
+            body.positionchangetime = ctx.now_ms
+        return Effect.CHANGED
+
+
+class SeeAgain(Tamper):
+    rulecode = 1103
+
+    def act(self, world_map, found, ctx):
+        for sensor in (*world_map.cameras, *world_map.sonars):
+            sensor.isonline = True
+        return Effect.CHANGED
+
+
+def register(ext):
+    for rule in (Erase, MoveAway, Freshen, SeeAgain):
+        ext.rule(rule)
+"""
+"""An extension of hostile rules (codes 1100 to 1103), each changing the map every tick."""
+
+
+def least_closing(vx: float, vy: float, ux: float, uy: float) -> float:
+    """The least closing speed along (ux, uy) of a velocity that ``/world/state`` records as
+    (vx, vy): it cuts each speed towards zero to ``STATE_DECIMALS``, so a true speed lies
+    between the recorded one and one step further from zero (either side of a zero)."""
+    step = 10.0**-STATE_DECIMALS
+    least = 0.0
+    for v, u in ((vx, ux), (vy, uy)):
+        far = (v + math.copysign(step, v), v) if v else (-step, step)
+        least += min(end * u for end in far)
+    return least
+
+
+def scenario_text(
+    pads, moves, humans, heading: float, all_round: bool = True, tamper: int | None = None
+) -> str:
     lines = [
         'name = "safety property"',
+        *(['extensions = ["tamper.py"]'] if tamper is not None else []),
         "duration_s = 5.0",
         "[world]",
         "width_m = 12.0",
@@ -100,7 +175,7 @@ def scenario_text(pads, moves, humans, heading: float, all_round: bool = True) -
             f"y_m = {start[1]}",
             f'behaviour = [{{ kind = "waypoints", waypoints = [{points}], speed_mps = {speed} }}]',
         ]
-    if moves:
+    if moves or tamper is not None:
         lines += ["[[activities]]", 'script = "activities/moves.txt"']
     at_tick = 5
     for held, left_x, left_y, right_x, buttons in pads:
@@ -117,20 +192,30 @@ def scenario_text(pads, moves, humans, heading: float, all_round: bool = True) -
     return "\n".join(lines) + "\n"
 
 
-def script_text(moves) -> str:
-    lines = ["[moves]", "[goal:drive]", "[action]"]
+def script_text(moves, tamper: int | None = None) -> str:
+    lines = ["[moves]"]
+    if tamper is not None:
+        lines.append(f'[alfa:{tamper}, tamper, "", "", A, U]')
+    lines += ["[goal:drive]", "[action]"]
     for i, (v_x, v_y, v_theta, duration) in enumerate(moves):
         lines.append(f'[b#m{i}#blk_inst: MV("{v_x}, {v_y}, {v_theta}, 0, {duration}") LD() AO()]')
+    if not moves:
+        lines.append('[b#lit#blk_inst: MV() LD("0, 0, 1, 1, 0, 100") AO()]')
     lines.append("[b#end#blk_terminus]")
     return "\n".join(lines) + "\n"
 
 
-def run_session(pads, moves, humans, heading: float, all_round: bool = True) -> MemorySink:
+def run_session(
+    pads, moves, humans, heading: float, all_round: bool = True, tamper: int | None = None
+) -> MemorySink:
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder)
         (root / "activities").mkdir()
-        (root / "activities" / "moves.txt").write_text(script_text(moves))
-        (root / "property.toml").write_text(scenario_text(pads, moves, humans, heading, all_round))
+        (root / "activities" / "moves.txt").write_text(script_text(moves, tamper))
+        (root / "tamper.py").write_text(TAMPERING)
+        (root / "property.toml").write_text(
+            scenario_text(pads, moves, humans, heading, all_round, tamper)
+        )
         session = Session(load_scenario(root / "property.toml"))
         memory = MemorySink()
         session.sink.add(memory)
@@ -150,11 +235,12 @@ def run_session(pads, moves, humans, heading: float, all_round: bool = True) -> 
     humans=st.lists(human, min_size=1, max_size=2),
     heading=st.floats(-3.1, 3.1).map(lambda v: round(v, 3)),
     all_round=st.booleans(),
+    tamper=st.sampled_from([None, 1100, 1101, 1102, 1103]),
 )
 def test_no_source_drives_the_robot_too_fast_into_a_human_or_past_a_lock_release(
-    pads, moves, humans, heading, all_round
+    pads, moves, humans, heading, all_round, tamper
 ) -> None:
-    memory = run_session(pads, moves, humans, heading, all_round)
+    memory = run_session(pads, moves, humans, heading, all_round, tamper)
     states: list[WorldState] = memory.on(Topic.WORLD_STATE)  # type: ignore[assignment]
     pushed_until = -1
     speeds = {}
@@ -174,7 +260,7 @@ def test_no_source_drives_the_robot_too_fast_into_a_human_or_past_a_lock_release
             centre = math.hypot(dx, dy)
             if centre - RADII_M < STOP_DISTANCE_M:
                 event("a human inside the stop zone" + ("" if all_round else ", front camera"))
-                closing = (robot.vx_mps * dx + robot.vy_mps * dy) / centre
+                closing = least_closing(robot.vx_mps, robot.vy_mps, dx / centre, dy / centre)
                 assert closing <= 1e-9, f"tick {state.tick}: closing {closing} m/s on {h.id}"
 
     script_moves = {

@@ -7,10 +7,10 @@ import json
 
 import msgspec
 import pytest
+from loop_pipeline import pipeline, pose
 from oimi.pipeline.events import (
     Event,
     JoystickInput,
-    Level,
     MapDelta,
     ProgressKind,
     Source,
@@ -20,97 +20,15 @@ from oimi.pipeline.events import (
 from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.mapdeltas import apply_delta
 from oimi.pipeline.messages import (
-    Action,
-    Goal,
     InstructionBlock,
-    JumpBlock,
-    Led,
     MapUpdate,
     Move,
     MoveCommand,
-    MutexCmd,
     Policy,
-    RuleAction,
-    RuleMessage,
-    Script,
     WorldMap,
 )
 from oimi.pipeline.operator.commands import Add, Command, GetReady, OperatorCommand, Start
-from oimi.pipeline.operator.generators import default_catalogue
-from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
-from oimi.pipeline.think.reader import ScriptEntry
-
-
-def rm(code: int, name: str, action: str, mutex: str) -> RuleMessage:
-    return RuleMessage(
-        rulecode=code,
-        id=name,
-        intopic="",
-        outtopic="",
-        action=RuleAction[action],
-        mutexcmd=MutexCmd[mutex],
-    )
-
-
-IDLE = Script(
-    activityname="idle_activity",
-    alfarulemessages=(rm(0, "kick_starter", "C", "U"),),
-    omegarulemessages=(rm(0, "kick_starter", "R", "L"),),
-    goals=(
-        Goal(
-            goalid="rest",
-            actions=(
-                Action(
-                    blocks=(
-                        InstructionBlock(
-                            led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)
-                        ),
-                        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
-                    )
-                ),
-            ),
-        ),
-    ),
-)
-WAIT = Script(
-    activityname="wait_for_child",
-    goals=(
-        Goal(
-            goalid="wait",
-            actions=(
-                Action(
-                    blocks=(
-                        InstructionBlock(
-                            led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)
-                        ),
-                    )
-                ),
-            ),
-        ),
-    ),
-)
-
-
-def pose(seq: int, rho: float, t: int) -> MapUpdate:
-    body = json.dumps({"positionrho": rho, "positiontheta": 0.0, "positionchangetime": t})
-    return MapUpdate(
-        objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=body, seq=seq
-    )
-
-
-def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
-    return Pipeline(
-        config or PipelineConfig(),
-        idle=ScriptEntry(activity="idle_activity", script=IDLE, source="idle_activity"),
-        resolve=lambda name: (
-            ScriptEntry(activity=name, script=WAIT, source=name)
-            if name == "wait_for_child"
-            else None
-        ),
-        handler=GeneratorHandler(default_catalogue()),
-        sink=sink,
-    )
 
 
 def cmd(i: int, kind: type[Command], activity: str = "") -> OperatorCommand:
@@ -315,29 +233,3 @@ def test_two_runs_give_identical_event_streams() -> None:
     second = [(t, ns, encode(e)) for t, ns, e in run_session(300).events]
     assert first == second
     assert msgspec.json.decode(first[0][2])["tick"] == 0
-
-
-def test_a_map_the_safety_supervisor_cannot_read_stops_the_robot_and_is_said_once() -> None:
-    """A rule body that says it changed nothing but left a text where a time goes: the
-    supervisor cannot place the human, so nothing moves until the map is readable again."""
-    sink = MemorySink()
-    p = pipeline(sink)
-    p.tick(tick=0, updates=[pose(1, 3.0, 0)])
-    push = JoystickInput(tick=1, time_ms=20, left_y=1.0, buttons=("LB",))
-    assert p.tick(tick=1, joystick=push).v_x > 0, "the pad drives it"
-    p.map.humans[0].positionchangetime = "later"  # type: ignore[assignment]
-    for tick in (2, 3, 4):
-        held = JoystickInput(tick=tick, time_ms=tick * 20, left_y=1.0, buttons=("LB",))
-        out = p.tick(tick=tick, joystick=held)
-        assert (out.v_x, out.v_y, out.brake) == (0.0, 0.0, True)
-    said = [e for m in sink.on(Topic.LOG) for e in m.entries if e.source == "safety"]
-    assert [(e.level, e.message) for e in said] == [
-        (
-            Level.ERROR,
-            "cannot read the map (humans[0].positionchangetime: Expected `int`, got `str`):"
-            " the robot is stopped",
-        )
-    ]
-    p.map.humans[0].positionchangetime = 40
-    held = JoystickInput(tick=5, time_ms=100, left_y=1.0, buttons=("LB",))
-    assert p.tick(tick=5, joystick=held).v_x > 0, "readable again: it moves"

@@ -83,8 +83,9 @@ def test_consume_without_updates_leaves_lastupdatetime():
 
 
 def test_consume_refuses_a_clock_going_backwards():
-    world, producer = fresh()
-    world.lastupdatetime = 500
+    _, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1.0, 500)))
+    producer.consume(500)
     with pytest.raises(ValueError, match="now_ms 400 is earlier than the map's lastupdatetime"):
         producer.consume(400)
 
@@ -310,3 +311,28 @@ def test_map_invariants_name_a_bad_setfields_list():
     problems = map_invariants(world)
     assert any("duplicate names" in p for p in problems)
     assert any("'wings' is not a RobotStatus field" in p for p in problems)
+
+
+def test_the_perceived_map_holds_what_the_sensors_said_whatever_else_writes_the_map():
+    world, producer = fresh()
+    producer.submit(upd("Human/1", "poses", pose(1.5, 10), seq=1))
+    producer.submit(upd("Camera/front", "isonline", "s_true", seq=2))
+    producer.consume(20)
+    assert producer.perceived == world and producer.perceived is not world
+    world.humans.clear()  # a rule's body may drop, move or restamp people in the shared map
+    world.cameras[0].isonline = False
+    world.lastupdatetime = 10**9
+    producer.submit(upd("Human/2", "poses", pose(2.5, 30), seq=3))
+    producer.consume(40)  # the shared map's time does not stop the producer
+    assert [(h.id, h.positionrho) for h in producer.perceived.humans] == [("1", 1.5), ("2", 2.5)]
+    assert [h.id for h in world.humans] == ["2"]
+    assert producer.perceived.cameras[0].isonline
+    assert producer.perceived.lastupdatetime == world.lastupdatetime == 40
+
+
+def test_the_perceived_map_starts_as_a_copy_of_the_map():
+    world = WorldMap(humans=[Human(id="1", creationtime=0, positionrho=1.0)])
+    producer = MapProducer(world)
+    assert producer.perceived == world
+    world.humans[0].positionrho = 9.0
+    assert producer.perceived.humans[0].positionrho == 1.0

@@ -225,6 +225,7 @@ def test_registers_keep_history_and_r_drops_only_the_pending_updates(sequence):
             assert [encode_item(attr, item) for item in stored_items] == [
                 canonical(attr, text) for text in expected
             ]
+        assert producer.perceived == world, "the safety supervisor's map: the same updates"
 
 
 def same_key(a: MapUpdate, b: MapUpdate) -> bool:

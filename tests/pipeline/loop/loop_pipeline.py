@@ -1,0 +1,95 @@
+"""A pipeline to tick by hand: a minimal idle activity, a waiting script, a child's pose."""
+
+from __future__ import annotations
+
+import json
+
+from oimi.pipeline.loop import Pipeline, PipelineConfig
+from oimi.pipeline.messages import (
+    Action,
+    Goal,
+    InstructionBlock,
+    JumpBlock,
+    Led,
+    MapUpdate,
+    MutexCmd,
+    Policy,
+    RuleAction,
+    RuleMessage,
+    Script,
+)
+from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.handler import GeneratorHandler
+from oimi.pipeline.sink import MemorySink
+from oimi.pipeline.think.reader import ScriptEntry
+
+
+def rm(code: int, name: str, action: str, mutex: str) -> RuleMessage:
+    return RuleMessage(
+        rulecode=code,
+        id=name,
+        intopic="",
+        outtopic="",
+        action=RuleAction[action],
+        mutexcmd=MutexCmd[mutex],
+    )
+
+
+IDLE = Script(
+    activityname="idle_activity",
+    alfarulemessages=(rm(0, "kick_starter", "C", "U"),),
+    omegarulemessages=(rm(0, "kick_starter", "R", "L"),),
+    goals=(
+        Goal(
+            goalid="rest",
+            actions=(
+                Action(
+                    blocks=(
+                        InstructionBlock(
+                            led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)
+                        ),
+                        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
+                    )
+                ),
+            ),
+        ),
+    ),
+)
+WAIT = Script(
+    activityname="wait_for_child",
+    goals=(
+        Goal(
+            goalid="wait",
+            actions=(
+                Action(
+                    blocks=(
+                        InstructionBlock(
+                            led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)
+                        ),
+                    )
+                ),
+            ),
+        ),
+    ),
+)
+
+
+def pose(seq: int, rho: float, t: int) -> MapUpdate:
+    body = json.dumps({"positionrho": rho, "positiontheta": 0.0, "positionchangetime": t})
+    return MapUpdate(
+        objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=body, seq=seq
+    )
+
+
+def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
+    return Pipeline(
+        config or PipelineConfig(),
+        idle=ScriptEntry(activity="idle_activity", script=IDLE, source="idle_activity"),
+        resolve=lambda name: (
+            ScriptEntry(activity=name, script=WAIT, source=name)
+            if name == "wait_for_child"
+            else None
+        ),
+        handler=GeneratorHandler(default_catalogue()),
+        sink=sink,
+    )
