@@ -16,7 +16,7 @@ from typing import Final
 
 import msgspec
 import polars as pl
-from oimi.pipeline.act.safety import Interventions
+from oimi.pipeline.act.interventions import Interventions
 from oimi.pipeline.events import (
     ActuatorCommands,
     RuleDecisions,

@@ -59,6 +59,10 @@ from oimi.pipeline.messages import Entity, Message, WorldMap
 
 DEFAULT_ROBOT_RADIUS_M: Final = 0.3
 """The robot's radius when the configuration gives none (a pipeline without a scenario)."""
+DEFAULT_HUMAN_RADIUS_M: Final = 0.25
+"""The radius assumed for a human when the configuration gives none and no scenario a larger."""
+DEFAULT_HUMAN_SPEED_MPS: Final = 1.0
+"""The walking speed assumed when the configuration gives none and no scenario a faster."""
 
 
 class SafetyConfig(Message):
@@ -66,8 +70,9 @@ class SafetyConfig(Message):
 
     robot_radius_m: float | None = None
     """The robot's radius, m; None: the robot's own ``radius_m`` (0.3 without a scenario)."""
-    human_radius_m: float = 0.25
-    """Radius assumed for every human, m (set it to the largest human's)."""
+    human_radius_m: float | None = None
+    """Radius assumed for every human, m; None: the largest of 0.25 and the scenario's
+    humans' ``radius_m`` (a scenario may not set it below one of theirs)."""
     stop_distance_m: float = 0.1
     """Surface distance below which nothing moves towards the human (protective stop), m."""
     slow_distance_m: float = 0.5
@@ -76,10 +81,31 @@ class SafetyConfig(Message):
     """Largest closing speed in the slow zone, and largest speed when sensing is stale, m/s."""
     max_data_age_ms: int = 500
     """A human's position older than this (or a camera offline) is stale: slow-zone speed."""
-    human_speed_mps: float = 1.0
-    """Fastest a human is assumed to walk between readings (grows the uncertainty margin), m/s."""
+    human_speed_mps: float | None = None
+    """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
+    m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario
+    may not set it below one of theirs)."""
     sensing_error_m: float = 0.02
     """Largest error of a reported distance (noise, rounding), added to the margin, m."""
+
+    def filled(
+        self,
+        *,
+        robot_radius_m: float = DEFAULT_ROBOT_RADIUS_M,
+        human_radius_m: float = DEFAULT_HUMAN_RADIUS_M,
+        human_speed_mps: float = DEFAULT_HUMAN_SPEED_MPS,
+    ) -> SafetyConfig:
+        """This configuration with each size or speed it leaves open (None) given."""
+        return msgspec.structs.replace(
+            self,
+            robot_radius_m=_given(self.robot_radius_m, robot_radius_m),
+            human_radius_m=_given(self.human_radius_m, human_radius_m),
+            human_speed_mps=_given(self.human_speed_mps, human_speed_mps),
+        )
+
+
+def _given(value: float | None, default: float) -> float:
+    return default if value is None else value
 
 
 def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
@@ -153,10 +179,7 @@ class SafetySupervisor:
         problems = list(safety_problems(config))
         if problems:
             raise ValueError(problems[0][1])
-        self.config = config
-        self._robot_radius_m = (
-            config.robot_radius_m if config.robot_radius_m is not None else DEFAULT_ROBOT_RADIUS_M
-        )
+        self.config = config = config.filled()
         self._limits = limits
         self._tick_ms = tick_ms
         self._dt_s = tick_ms / 1000
@@ -312,7 +335,7 @@ class SafetySupervisor:
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
-        surface = distance - self._robot_radius_m - config.human_radius_m - margin
+        surface = distance - config.robot_radius_m - config.human_radius_m - margin
         if distance > 0:
             u_x, u_y = x / distance, y / distance
         else:
@@ -433,65 +456,3 @@ def _satisfied(c: _Constraint, v_x: float, v_y: float) -> bool:
     if c.sin_cone is None:
         return along <= c.cap_mps + _TOLERANCE
     return along <= -c.sin_cone * math.hypot(v_x, v_y) + _TOLERANCE
-
-
-class Intervention(msgspec.Struct, kw_only=True):
-    """One intervention episode, gathered from its ``/safety`` events (start to end)."""
-
-    started_ms: int
-    ended_ms: int | None = None
-    """None: still under way when the events stopped."""
-    source: MotionSource
-    """The source it first limited."""
-    sources: list[MotionSource]
-    """Every source it limited, in order."""
-    zones: list[SafetyZone]
-    """Every zone it reached, in order."""
-    humans: list[str]
-    min_surface_distance_m: float | None
-    requested_mps: float
-    """The fastest linear speed asked for during the episode."""
-    allowed_mps: float
-    """The linear speed let through when it started."""
-    changes: int = 0
-
-
-class Interventions:
-    """Folds the supervisor's ``/safety`` events into episodes: the one definition that
-    ``oimi run``'s summary and expectations and ``oimi analyse`` share."""
-
-    def __init__(self) -> None:
-        self.episodes: list[Intervention] = []
-        self._open: Intervention | None = None
-
-    def update(self, event: SafetyIntervention) -> None:
-        requested = math.hypot(event.requested[0], event.requested[1])
-        episode = self._open
-        if event.phase is SafetyPhase.START or episode is None:
-            episode = self._open = Intervention(
-                started_ms=event.time_ms,
-                source=event.source,
-                sources=[event.source],
-                zones=[event.zone],
-                humans=[event.human] if event.human else [],
-                min_surface_distance_m=event.surface_distance_m,
-                requested_mps=requested,
-                allowed_mps=math.hypot(event.allowed[0], event.allowed[1]),
-            )
-            self.episodes.append(episode)
-        else:
-            episode.changes += event.phase is SafetyPhase.CHANGE
-            for seen, new in ((episode.zones, event.zone), (episode.sources, event.source)):
-                if new not in seen:
-                    seen.append(new)
-            if event.human and event.human not in episode.humans:
-                episode.humans.append(event.human)
-            if event.surface_distance_m is not None:
-                low = episode.min_surface_distance_m
-                episode.min_surface_distance_m = (
-                    event.surface_distance_m if low is None else min(low, event.surface_distance_m)
-                )
-            episode.requested_mps = max(episode.requested_mps, requested)
-        if event.phase is SafetyPhase.END:
-            episode.ended_ms = event.time_ms
-            self._open = None

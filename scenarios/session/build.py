@@ -14,6 +14,7 @@ from importlib import metadata as package_metadata
 
 import msgspec
 from oimi.pipeline.act.limits import RobotLimits
+from oimi.pipeline.act.safety import DEFAULT_HUMAN_RADIUS_M, DEFAULT_HUMAN_SPEED_MPS
 from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.messages import FORMAT_VERSION, Script
 from oimi.pipeline.operator.handler import GeneratorHandler
@@ -34,11 +35,15 @@ from oimi.scenarios.session.expectations import Tracker
 
 
 def pipeline_config(scenario: Scenario) -> PipelineConfig:
-    """The pipeline's configuration for a scenario (tick length, robot limits and safety)."""
+    """The pipeline's configuration for a scenario (tick length, robot limits and safety:
+    the sizes and speed it leaves open cover the scenario's robot and humans)."""
     robot = scenario.robot
-    safety = robot.safety
-    if safety.robot_radius_m is None:
-        safety = msgspec.structs.replace(safety, robot_radius_m=robot.radius_m)
+    humans = scenario.humans
+    safety = robot.safety.filled(
+        robot_radius_m=robot.radius_m,
+        human_radius_m=max([DEFAULT_HUMAN_RADIUS_M, *(h.radius_m for h in humans)]),
+        human_speed_mps=max([DEFAULT_HUMAN_SPEED_MPS, *(h.max_speed_mps for h in humans)]),
+    )
     return PipelineConfig(
         tick_ms=scenario.tick_ms,
         limits=RobotLimits(

@@ -10,7 +10,7 @@ import math
 from typing import Final
 
 import msgspec
-from oimi.pipeline.act.safety import Interventions
+from oimi.pipeline.act.interventions import Interventions
 from oimi.pipeline.events import (
     REJECTING_SOURCES,
     ActuatorCommands,

@@ -15,7 +15,7 @@ def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
     config = pipeline_config(loaded.scenario)
-    assert config.safety == SafetyConfig(robot_radius_m=0.35)
+    assert config.safety == SafetyConfig(robot_radius_m=0.35).filled()
 
 
 def test_the_section_sets_the_zones() -> None:
@@ -57,3 +57,52 @@ def test_the_supervisor_configuration_is_recorded_with_the_pipeline() -> None:
     recorded = msgspec.json.decode(session.metadata().configuration.pipeline)
     assert recorded["safety"]["slow_speed_mps"] == 0.15
     assert recorded["safety"]["robot_radius_m"] == 0.3
+
+
+HUMANS = (
+    b'[[humans]]\nid = "ada"\nx_m = 1.0\ny_m = 1.0\n'
+    b'[[humans]]\nid = "dad"\nrole = "therapist"\nx_m = 2.0\ny_m = 1.0\nradius_m = 0.32\n'
+    b"max_speed_mps = 1.4\n"
+)
+
+
+def test_left_out_the_sizes_and_speed_cover_the_scenarios_bodies() -> None:
+    text = b'name = "x"\n[robot]\nradius_m = 0.35\n' + HUMANS
+    safety = pipeline_config(parse_scenario(text).scenario).safety
+    assert (safety.robot_radius_m, safety.human_radius_m, safety.human_speed_mps) == (
+        0.35,
+        0.32,
+        1.4,
+    )
+    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert (alone.human_radius_m, alone.human_speed_mps) == (0.25, 1.0), "never below these"
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        (
+            "human_radius_m = 0.3\n",
+            "robot.safety.human_radius_m (m): 0.3 is below the radius_m 0.32 of human 'dad'",
+        ),
+        (
+            "human_speed_mps = 1.0\n",
+            "robot.safety.human_speed_mps (m/s): 1.0 is below the max_speed_mps 1.4 of human 'dad'",
+        ),
+        (
+            "robot_radius_m = 0.2\n",
+            "robot.safety.robot_radius_m (m): 0.2 is below the robot's radius_m 0.3",
+        ),
+    ],
+)
+def test_a_size_or_speed_below_the_scenarios_own_is_a_located_error(body, message) -> None:
+    text = f'name = "x"\n[robot.safety]\n{body}'.encode() + HUMANS
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.toml")
+    assert str(caught.value).startswith(f"s.toml:3:1: {message}: the supervisor")
+
+
+def test_values_that_cover_the_scenario_are_kept() -> None:
+    text = b'name = "x"\n[robot.safety]\nhuman_radius_m = 0.4\nhuman_speed_mps = 2.0\n' + HUMANS
+    safety = pipeline_config(parse_scenario(text).scenario).safety
+    assert (safety.human_radius_m, safety.human_speed_mps) == (0.4, 2.0)
