@@ -38,6 +38,7 @@ from oimi.scenarios.extensions import (
     load_extensions,
 )
 from oimi.scenarios.profile import THESIS_ROBOT
+from oimi.scenarios.safety import below_needs
 from oimi.scenarios.schema import (
     BehaviourEvent,
     BehaviourSegment,
@@ -630,43 +631,6 @@ def _check_generator(
 # ------------------------------------------------------------------- checking
 
 
-def _check_safety_covers(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
-    """The safety supervisor's assumed sizes and speed must cover the scenario's bodies:
-    a robot it takes for smaller, or a human for smaller or slower, it could touch."""
-    robot, safety = scenario.robot, scenario.robot.safety
-    where = ("robot", "safety")
-    if safety.robot_radius_m is not None and safety.robot_radius_m < robot.radius_m:
-        yield (
-            (*where, "robot_radius_m"),
-            f"{safety.robot_radius_m!r} is below the robot's radius_m {robot.radius_m!r}: the"
-            " supervisor would let it touch people (leave it out to use the robot's)",
-        )
-    for name, field, what in (
-        (
-            "human_radius_m",
-            "radius_m",
-            "the supervisor would let the robot touch them (leave it out: the largest"
-            " human's is used)",
-        ),
-        (
-            "human_speed_mps",
-            "max_speed_mps",
-            "the supervisor's margin would not cover their walk (leave it out: the"
-            " fastest human's is used)",
-        ),
-    ):
-        assumed = getattr(safety, name)
-        if assumed is None or not scenario.humans:
-            continue
-        human = max(scenario.humans, key=lambda h: getattr(h, field))
-        if assumed < getattr(human, field):
-            yield (
-                (*where, name),
-                f"{assumed!r} is below the {field} {getattr(human, field)!r} of human"
-                f" {human.id!r}: {what}",
-            )
-
-
 def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     """Every problem the schema's ranges cannot express, as (path in the file, what is
     wrong), in order: places inside the arena, time order, references, the ceiling."""
@@ -690,7 +654,7 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
             )
     for name, message in safety_problems(robot.safety):
         yield ("robot", "safety", name), message
-    yield from _check_safety_covers(scenario)
+    yield from below_needs(scenario)
     rx = robot.x_m if robot.x_m is not None else world.width_m / 2
     ry = robot.y_m if robot.y_m is not None else world.height_m / 2
     if outside(rx, ry, robot.radius_m):

@@ -63,6 +63,8 @@ DEFAULT_HUMAN_RADIUS_M: Final = 0.25
 """The radius assumed for a human when the configuration gives none and no scenario a larger."""
 DEFAULT_HUMAN_SPEED_MPS: Final = 1.0
 """The walking speed assumed when the configuration gives none and no scenario a faster."""
+DEFAULT_SENSING_ERROR_M: Final = 0.02
+"""The sensing error assumed when the configuration gives none and no scenario's noise more."""
 
 
 class SafetyConfig(Message):
@@ -85,8 +87,10 @@ class SafetyConfig(Message):
     """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
     m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario
     may not set it below one of theirs)."""
-    sensing_error_m: float = 0.02
-    """Largest error of a reported distance (noise, rounding), added to the margin, m."""
+    sensing_error_m: float | None = None
+    """Largest error of a reported position (noise, rounding), added to the margin, m; None:
+    the larger of 0.02 and three times a scenario's sensor noise (a scenario may not set it
+    below that)."""
 
     def filled(
         self,
@@ -94,13 +98,15 @@ class SafetyConfig(Message):
         robot_radius_m: float = DEFAULT_ROBOT_RADIUS_M,
         human_radius_m: float = DEFAULT_HUMAN_RADIUS_M,
         human_speed_mps: float = DEFAULT_HUMAN_SPEED_MPS,
+        sensing_error_m: float = DEFAULT_SENSING_ERROR_M,
     ) -> SafetyConfig:
-        """This configuration with each size or speed it leaves open (None) given."""
+        """This configuration with each assumption it leaves open (None) given."""
         return msgspec.structs.replace(
             self,
             robot_radius_m=_given(self.robot_radius_m, robot_radius_m),
             human_radius_m=_given(self.human_radius_m, human_radius_m),
             human_speed_mps=_given(self.human_speed_mps, human_speed_mps),
+            sensing_error_m=_given(self.sensing_error_m, sensing_error_m),
         )
 
 

@@ -14,7 +14,6 @@ from importlib import metadata as package_metadata
 
 import msgspec
 from oimi.pipeline.act.limits import RobotLimits
-from oimi.pipeline.act.safety import DEFAULT_HUMAN_RADIUS_M, DEFAULT_HUMAN_SPEED_MPS
 from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.messages import FORMAT_VERSION, Script
 from oimi.pipeline.operator.handler import GeneratorHandler
@@ -29,6 +28,7 @@ from oimi.recorder.metadata import (
 )
 from oimi.scenarios.extensions import extension_attachments, extensions_metadata
 from oimi.scenarios.loader import LoadedScenario, apply_overrides
+from oimi.scenarios.safety import supervisor_config
 from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.activities import ACTIVITIES, ActivityLibrary
 from oimi.scenarios.session.expectations import Tracker
@@ -36,14 +36,8 @@ from oimi.scenarios.session.expectations import Tracker
 
 def pipeline_config(scenario: Scenario) -> PipelineConfig:
     """The pipeline's configuration for a scenario (tick length, robot limits and safety:
-    the sizes and speed it leaves open cover the scenario's robot and humans)."""
+    the supervisor's assumptions it leaves out cover its robot, humans and sensors)."""
     robot = scenario.robot
-    humans = scenario.humans
-    safety = robot.safety.filled(
-        robot_radius_m=robot.radius_m,
-        human_radius_m=max([DEFAULT_HUMAN_RADIUS_M, *(h.radius_m for h in humans)]),
-        human_speed_mps=max([DEFAULT_HUMAN_SPEED_MPS, *(h.max_speed_mps for h in humans)]),
-    )
     return PipelineConfig(
         tick_ms=scenario.tick_ms,
         limits=RobotLimits(
@@ -52,7 +46,7 @@ def pipeline_config(scenario: Scenario) -> PipelineConfig:
             max_accel_mps2=robot.max_accel_mps2,
             max_angular_accel_radps2=robot.max_angular_accel_radps2,
         ),
-        safety=safety,
+        safety=supervisor_config(scenario),
     )
 
 

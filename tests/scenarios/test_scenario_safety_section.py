@@ -106,3 +106,24 @@ def test_values_that_cover_the_scenario_are_kept() -> None:
     text = b'name = "x"\n[robot.safety]\nhuman_radius_m = 0.4\nhuman_speed_mps = 2.0\n' + HUMANS
     safety = pipeline_config(parse_scenario(text).scenario).safety
     assert (safety.human_radius_m, safety.human_speed_mps) == (0.4, 2.0)
+
+
+NOISY = b'name = "x"\n[sensors]\nnoise_rho_m = 0.02\nnoise_theta_rad = 0.01\n'
+
+
+def test_the_sensing_error_covers_three_times_the_sensors_noise() -> None:
+    safety = pipeline_config(parse_scenario(NOISY).scenario).safety
+    # 3 x (0.02 + 0.01 x (0.3 + 0.25 + 0.1)): the bearing's error at the stop zone's edge
+    assert safety.sensing_error_m == 0.0795
+    quiet = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert quiet.sensing_error_m == 0.02
+
+
+def test_a_sensing_error_below_the_noise_is_a_located_error() -> None:
+    text = NOISY.replace(b"[sensors]", b"[robot.safety]\nsensing_error_m = 0.05\n[sensors]")
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.toml")
+    assert str(caught.value).startswith(
+        "s.toml:3:1: robot.safety.sensing_error_m (m): 0.05 is below 3 times the sensors' noise"
+        " (0.0795 m: noise_rho_m 0.02, and noise_theta_rad 0.01 at the stop zone's 0.65 m)"
+    )

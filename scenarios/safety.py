@@ -1,0 +1,110 @@
+"""What a scenario implies for the safety supervisor's assumptions (``[robot.safety]``).
+
+The supervisor keeps the robot away from people by what it assumes of them and of its
+sensing: the robot's and the humans' radii, how fast a human walks, how far off a reading
+may be. In a simulated room those are known, and an assumption below them could let the
+robot touch someone. So each one a scenario leaves out is taken from the scenario (never
+below the supervisor's own default), and one it sets below the scenario's own is refused.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Final, NamedTuple
+
+from oimi.pipeline.act.safety import (
+    DEFAULT_HUMAN_RADIUS_M,
+    DEFAULT_HUMAN_SPEED_MPS,
+    DEFAULT_SENSING_ERROR_M,
+    SafetyConfig,
+)
+from oimi.scenarios.schema import Scenario
+
+NOISE_SIGMAS: Final = 3.0
+"""How many standard deviations of the sensors' noise the sensing error covers."""
+
+
+class Need(NamedTuple):
+    """The least value an assumption may take, and whose it is."""
+
+    least: float
+    why: str
+    """What it covers and what would go wrong below it, for a refusal."""
+
+
+def needs(scenario: Scenario) -> dict[str, Need]:
+    """The least value of each assumption the scenario implies (none it does not)."""
+    robot, humans, sensors = scenario.robot, scenario.humans, scenario.sensors
+    found = {
+        "robot_radius_m": Need(
+            robot.radius_m,
+            f"the robot's radius_m {robot.radius_m!r}: the supervisor would let it touch people",
+        )
+    }
+    if humans:
+        big = max(humans, key=lambda h: h.radius_m)
+        fast = max(humans, key=lambda h: h.max_speed_mps)
+        found["human_radius_m"] = Need(
+            big.radius_m,
+            f"the radius_m {big.radius_m!r} of human {big.id!r}: the supervisor would let the"
+            " robot touch them",
+        )
+        found["human_speed_mps"] = Need(
+            fast.max_speed_mps,
+            f"the max_speed_mps {fast.max_speed_mps!r} of human {fast.id!r}: the supervisor's"
+            " margin would not cover their walk",
+        )
+    if sensors.noise_rho_m or sensors.noise_theta_rad:
+        safety = robot.safety
+        radii = (
+            robot.radius_m if safety.robot_radius_m is None else safety.robot_radius_m,
+            _assumed(safety.human_radius_m, DEFAULT_HUMAN_RADIUS_M, found.get("human_radius_m")),
+        )
+        reach = sum(radii) + safety.stop_distance_m
+        exact = NOISE_SIGMAS * (sensors.noise_rho_m + sensors.noise_theta_rad * reach)
+        least = math.ceil(exact * 1e4 - 1e-6) / 1e4  # up to 0.1 mm, not for a float's dust
+        found["sensing_error_m"] = Need(
+            least,
+            f"{NOISE_SIGMAS:g} times the sensors' noise ({least!r} m: noise_rho_m"
+            f" {sensors.noise_rho_m!r}, and noise_theta_rad {sensors.noise_theta_rad!r} at the"
+            f" stop zone's {round(reach, 3)!r} m): the supervisor's margin would not cover"
+            " their errors",
+        )
+    return found
+
+
+def _assumed(value: float | None, default: float, need: Need | None) -> float:
+    """An assumption as the supervisor will take it: as set, else filled from the scenario."""
+    if value is not None:
+        return value
+    return max(default, need.least) if need is not None else default
+
+
+DEFAULTS: Final = {
+    "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
+    "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
+    "sensing_error_m": DEFAULT_SENSING_ERROR_M,
+}
+"""Below these, an assumption left out is not taken even when the scenario allows it."""
+
+
+def supervisor_config(scenario: Scenario) -> SafetyConfig:
+    """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario."""
+    filled = {
+        name: _assumed(None, DEFAULTS.get(name, 0.0), need)
+        for name, need in needs(scenario).items()
+    }
+    return scenario.robot.safety.filled(**filled)
+
+
+def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
+    """Each assumption the scenario sets below what it implies, as (path, message)."""
+    safety = scenario.robot.safety
+    for name, need in needs(scenario).items():
+        value = getattr(safety, name)
+        if value is not None and value < need.least:
+            yield (
+                ("robot", "safety", name),
+                f"{value!r} is below {need.why} (left out, it is taken from the scenario)",
+            )
