@@ -346,7 +346,8 @@ class SafetyZone(enum.StrEnum):
     STALE = "stale"
     """A human's data is older than ``max_data_age_ms``: speed capped at the slow speed."""
     BLIND = "blind"
-    """No camera online: speed capped at the slow speed."""
+    """No camera online, or no sonar: speed capped at the slow speed; every sensor reported
+    offline: no linear motion."""
 
 
 class SafetyPhase(enum.StrEnum):

@@ -9,7 +9,7 @@ import msgspec
 from oimi.pipeline.events import SafetyIntervention, SafetyZone, Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.schema import SensorSpec
+from oimi.scenarios.schema import FaultEvent, FaultMode, SensorKind, SensorSpec
 from oimi.scenarios.session.runner import Session
 
 COLLISION = Path(__file__).parents[1] / "analysis/scenarios/scripted_collision.toml"
@@ -47,3 +47,25 @@ def test_a_ring_too_short_to_reach_the_child_leaves_the_contact_to_the_analysis(
     summary = session.result().summary
     assert summary.robot_initiated_contacts == 1
     assert summary.max_closing_speed_mps > 0.3
+
+
+def test_with_every_sensor_offline_the_pad_cannot_reverse_into_the_child() -> None:
+    """Both the camera and the ring go offline before the operator reverses: nothing senses
+    the room, so the supervisor lets no linear motion through (before, it let the slow
+    speed through: 0.2 m/s towards a child nothing could see)."""
+    loaded = load_scenario(COLLISION)
+    faults = [
+        FaultEvent(at_s=0.5, sensor=sensor, mode=FaultMode.OFFLINE)
+        for sensor in (SensorKind.CAMERA, SensorKind.SONAR)
+    ]
+    scenario = msgspec.structs.replace(
+        loaded.scenario, sensors=SensorSpec(), events=[*loaded.scenario.events, *faults], expect=[]
+    )
+    session = Session(msgspec.structs.replace(loaded, scenario=scenario))
+    memory = MemorySink()
+    session.sink.add(memory)
+    session.run()
+    summary = session.result().summary
+    assert summary.contacts == 0 and summary.max_speed_mps < 1e-3
+    blind = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
+    assert blind and blind[0].zone is SafetyZone.BLIND and blind[0].allowed[:2] == (0.0, 0.0)

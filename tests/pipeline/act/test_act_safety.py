@@ -144,10 +144,36 @@ def test_stale_human_data_caps_every_direction_at_the_slow_speed() -> None:
     assert fresh.velocity == (-0.5, 0.0, 0.0)
 
 
-@pytest.mark.parametrize("cameras", [[Camera(id="front", isonline=False)], []])
-def test_without_a_camera_online_motion_is_capped_at_the_slow_speed(cameras) -> None:
-    verdict, event = supervise(Velocity(0.0, 0.5, 0.0), WorldMap(cameras=cameras))
+@pytest.mark.parametrize(
+    "sensors",
+    [
+        {
+            "cameras": [Camera(id="front", isonline=False)],
+            "sonars": [Sonar(id="ring", isonline=True)],
+        },
+        {},  # none reported yet
+    ],
+)
+def test_without_a_camera_online_motion_is_capped_at_the_slow_speed(sensors) -> None:
+    verdict, event = supervise(Velocity(0.0, 0.5, 0.0), WorldMap(**sensors))
     assert verdict.velocity == pytest.approx((0.0, 0.2, 0.0))
+    assert event is not None and event.zone is SafetyZone.BLIND
+
+
+@pytest.mark.parametrize(
+    "sensors",
+    [
+        {"cameras": [Camera(id="front", isonline=False)]},
+        {
+            "cameras": [Camera(id="front", isonline=False)],
+            "sonars": [Sonar(id="ring", isonline=False)],
+        },
+        {"sonars": [Sonar(id="ring", isonline=False)]},
+    ],
+)
+def test_with_every_sensor_offline_nothing_moves_but_turning(sensors) -> None:
+    verdict, event = supervise(Velocity(-0.3, 0.2, 0.5), WorldMap(**sensors))
+    assert verdict.velocity == (0.0, 0.0, 0.5)
     assert event is not None and event.zone is SafetyZone.BLIND
 
 
