@@ -346,8 +346,8 @@ class SafetyZone(enum.StrEnum):
     STALE = "stale"
     """A human's data is older than ``max_data_age_ms``: speed capped at the slow speed."""
     BLIND = "blind"
-    """No camera online, or no sonar: speed capped at the slow speed; every sensor reported
-    offline: no linear motion."""
+    """No camera online, or no sonar: speed capped at the slow speed; no sensor online at
+    all: no linear motion."""
 
 
 class SafetyPhase(enum.StrEnum):

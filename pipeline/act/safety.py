@@ -23,8 +23,8 @@ Between readings the robot's own motion since the reading is dead-reckoned from
 the velocities the supervisor let through, so a 10 Hz camera does not let it
 close in. With the camera offline (or none reported), every sonar reported
 offline, or a human's data older than ``max_data_age_ms``, all linear motion is
-capped at ``slow_speed_mps``; with every sensor reported offline (nothing senses the
-room), there is none.
+capped at ``slow_speed_mps``; with no sensor reported online (every one offline, or
+none reported yet: nothing senses the room), there is none.
 
 The front camera does not see behind the robot: a person it never saw is not among
 the map's humans. Bodies a sensor reports as obstacles that are not fixed
@@ -294,7 +294,7 @@ class SafetySupervisor:
         cameras, sonars = world_map.cameras, world_map.sonars
         seeing = any(camera.isonline for camera in cameras)
         sounding = any(sonar.isonline for sonar in sonars)
-        if not (seeing or sounding) and (cameras or sonars):  # every sensor says it is off
+        if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         blind = not seeing or (bool(sonars) and not sounding)
         stale = False

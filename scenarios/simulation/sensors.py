@@ -174,6 +174,7 @@ class Sensors:
                 updates.extend(self._read(self.sonar, bodies, pose, time_ms, range_m, math.tau))
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
+            updates.extend(self._sensor_status())
         if not updates:
             return []
         first = self._seq + 1
@@ -306,6 +307,19 @@ class Sensors:
             _Update("RobotStatus", "speed", Policy.R, _json(speed)),
             _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
             _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
+        ]
+
+    def _sensor_status(self) -> list[_Update]:
+        """Each sensor's ``isonline`` again, with the robot's status: a listener that missed
+        the first report (a bridge joining late) learns it within a status period."""
+        return [
+            _Update(
+                f"{kind}/{sensor.ident}",
+                "isonline",
+                Policy.R,
+                FALSE if sensor.mode is FaultMode.OFFLINE else TRUE,
+            )
+            for kind, sensor in (("Camera", self.camera), ("Sonar", self.sonar))
         ]
 
 

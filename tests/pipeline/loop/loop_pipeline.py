@@ -81,6 +81,14 @@ def pose(seq: int, rho: float, t: int) -> MapUpdate:
     )
 
 
+def camera(seq: int, *, online: bool = True) -> MapUpdate:
+    """The front camera's status (the safety supervisor moves nothing until a sensor is on)."""
+    state = "s_true" if online else "s_false"
+    return MapUpdate(
+        objectid="Camera/front", attributename="isonline", policy=Policy.R, jsonmsg=state, seq=seq
+    )
+
+
 def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
     return Pipeline(
         config or PipelineConfig(),
