@@ -62,8 +62,9 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             _assumed(safety.human_radius_m, DEFAULT_HUMAN_RADIUS_M, found.get("human_radius_m")),
         )
         reach = sum(radii) + safety.stop_distance_m
-        exact = NOISE_SIGMAS * (sensors.noise_rho_m + sensors.noise_theta_rad * reach)
-        least = math.ceil(exact * 1e4 - 1e-6) / 1e4  # up to 0.1 mm, not for a float's dust
+        scaled = NOISE_SIGMAS * (sensors.noise_rho_m + sensors.noise_theta_rad * reach) * 1e4
+        # up to 0.1 mm (not for a float's dust); a noise too large for any margin: infinite
+        least = math.ceil(scaled - 1e-6) / 1e4 if math.isfinite(scaled) else math.inf
         found["sensing_error_m"] = Need(
             least,
             f"{NOISE_SIGMAS:g} times the sensors' noise ({least!r} m: noise_rho_m"
@@ -102,6 +103,15 @@ def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     """Each assumption the scenario sets below what it implies, as (path, message)."""
     safety = scenario.robot.safety
     for name, need in needs(scenario).items():
+        if not math.isfinite(need.least):
+            sensors = scenario.sensors
+            yield (
+                ("sensors", "noise_rho_m"),
+                f"the sensors' noise (noise_rho_m {sensors.noise_rho_m!r}, noise_theta_rad"
+                f" {sensors.noise_theta_rad!r}) is too large: {NOISE_SIGMAS:g} times it is no"
+                " finite margin for the safety supervisor",
+            )
+            continue
         value = getattr(safety, name)
         if value is not None and value < need.least:
             yield (

@@ -71,6 +71,8 @@ Rate = Annotated[float, Meta(gt=0, le=MAX_RATE_HZ)]
 ScanRate = Annotated[int, Meta(gt=0, le=int(MAX_RATE_HZ))]
 SessionTime = Annotated[float, Meta(gt=0, le=MAX_SESSION_S)]
 BatteryTime = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
+Span = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
+"""A length of simulated time that may be zero, s (at most a day, as a session)."""
 HumanSpeed = Annotated[float, Meta(gt=0, le=MAX_HUMAN_SPEED_MPS)]
 Mass = Annotated[float, Meta(ge=MIN_MASS_KG, le=MAX_MASS_KG)]
 Radius = Annotated[float, Meta(ge=MIN_SIZE_M, le=MAX_ROOM_M)]
@@ -277,7 +279,7 @@ class Approach(Segment, tag="approach", kw_only=True):
 class Wander(Segment, tag="wander", kw_only=True):
     """Walk to random places in the arena, pausing at each."""
 
-    pause_s: NonNegative = 1.0
+    pause_s: Span = 1.0
     margin_m: NonNegative = 0.5
     """Keep targets this far from the walls, m."""
 
@@ -358,7 +360,7 @@ class JoystickEvent(EventSpec, tag="joystick", kw_only=True):
     right_x: Axis = 0.0
     """-1 to 1, right positive."""
     buttons: list[Button] = []
-    hold_s: NonNegative = 0.0
+    hold_s: Span = 0.0
 
     @property
     def pad(self) -> Pad:

@@ -190,7 +190,8 @@ class Session:
         return schedule
 
     def _tick_of(self, seconds: float) -> int:
-        return round(seconds * 1000) // self.tick_ms
+        """The tick at ``seconds`` (beyond 1e300 s, whose ms no float holds: 1e300 s)."""
+        return round(min(seconds, 1e300) * 1000) // self.tick_ms
 
     # -------------------------------------------------------------------- ticking
 

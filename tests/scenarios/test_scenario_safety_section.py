@@ -127,3 +127,13 @@ def test_a_sensing_error_below_the_noise_is_a_located_error() -> None:
         "s.toml:3:1: robot.safety.sensing_error_m (m): 0.05 is below 3 times the sensors' noise"
         " (0.0795 m: noise_rho_m 0.02, and noise_theta_rad 0.01 at the stop zone's 0.65 m)"
     )
+
+
+def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
+    text = b'name = "x"\n[sensors]\nnoise_rho_m = 1e308\nnoise_theta_rad = 1e308\n'
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.toml")
+    assert str(caught.value).startswith(
+        "s.toml:3:1: sensors.noise_rho_m (m): the sensors' noise (noise_rho_m 1e+308,"
+        " noise_theta_rad 1e+308) is too large: 3 times it is no finite margin"
+    )

@@ -85,6 +85,18 @@ BAD = [
         5,
     ),
     (
+        "hold beyond a day (its ms overflowed a float)",
+        '[[events]]\nat_s = 1.0\nkind = "joystick"\nhold_s = 1e308\n',
+        "events[0].hold_s (s): must be <= 86400.0, got 1e+308",
+        5,
+    ),
+    (
+        "pause beyond a day",
+        CHILD + 'behaviour = [{ kind = "wander", pause_s = 1e308 }]\n',
+        "humans[0].behaviour[0].pause_s (s): must be <= 86400.0, got 1e+308",
+        6,
+    ),
+    (
         "battery NaN",
         "[robot]\nbattery_s = nan\n",
         "robot.battery_s (s): must be a finite number, got nan",
@@ -455,3 +467,17 @@ def test_batch_tasks_carry_the_outside_paths_flag_to_their_runs(tmp_path):
         expand([path], **grid)
     (task,) = expand([path], **grid, allow_outside_paths=True)
     assert task.allow_outside_paths
+
+
+def test_a_deadline_whose_ms_no_float_holds_is_after_the_end(tmp_path) -> None:
+    """``by_s = 1e308`` once raised OverflowError (found by the fuzz's 1e308): it is a
+    deadline after any session's end."""
+    path = tmp_path / "late.toml"
+    path.write_text(
+        'name = "late"\nduration_s = 0.2\n'
+        '[[expect]]\nkind = "robot_in_arena"\n'
+        '[[expect]]\nkind = "goal_reached"\ngoal = "g"\nby_s = 1e308\n'
+    )
+    result = Session(load_scenario(path)).run()
+    assert [v.ok for v in result.verdicts] == [True, False]
+    assert result.verdicts[1].detail == "reached never"
