@@ -82,7 +82,11 @@ class MapProducer:
         self.world_map = world_map
         self.perceived = msgspec.convert(msgspec.to_builtins(world_map), WorldMap)
         """The map as the sensors alone made it (a copy of ``world_map`` at the start, then
-        every update ``consume`` applies); nothing else writes it."""
+        every update ``consume`` applies); nothing else writes it. Its entities and lists
+        are its own; a value an update brings (a pose in a register) is shared with the
+        other map, so a reader that must not be fooled reads the entities' own fields (the
+        supervisor reads ``positionrho``, ``positiontheta``, ``positionchangetime``,
+        ``isonline``, ``isfixed`` and whether ``poses`` is empty)."""
         self.register_capacity = register_capacity
         self.script_root = check_script_root(script_root)
         self.max_entities = max_entities
