@@ -57,9 +57,11 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         )
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
-        radii = (
+        radii = (  # as the supervisor will take them (supervisor_config)
             robot.radius_m if safety.robot_radius_m is None else safety.robot_radius_m,
-            _assumed(safety.human_radius_m, DEFAULT_HUMAN_RADIUS_M, found.get("human_radius_m")),
+            max([DEFAULT_HUMAN_RADIUS_M, *(h.radius_m for h in humans)])
+            if safety.human_radius_m is None
+            else safety.human_radius_m,
         )
         reach = sum(radii) + safety.stop_distance_m
         scaled = NOISE_SIGMAS * (sensors.noise_rho_m + sensors.noise_theta_rad * reach) * 1e4
@@ -75,13 +77,6 @@ def needs(scenario: Scenario) -> dict[str, Need]:
     return found
 
 
-def _assumed(value: float | None, default: float, need: Need | None) -> float:
-    """An assumption as the supervisor will take it: as set, else filled from the scenario."""
-    if value is not None:
-        return value
-    return max(default, need.least) if need is not None else default
-
-
 DEFAULTS: Final = {
     "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
     "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
@@ -92,10 +87,8 @@ DEFAULTS: Final = {
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario."""
-    filled = {
-        name: _assumed(None, DEFAULTS.get(name, 0.0), need)
-        for name, need in needs(scenario).items()
-    }
+    implied = needs(scenario).items()
+    filled = {name: max(DEFAULTS.get(name, 0.0), need.least) for name, need in implied}
     return scenario.robot.safety.filled(**filled)
 
 

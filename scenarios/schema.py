@@ -70,9 +70,8 @@ BodySize = Annotated[float, Meta(ge=0, le=MAX_ROOM_M)]
 Rate = Annotated[float, Meta(gt=0, le=MAX_RATE_HZ)]
 ScanRate = Annotated[int, Meta(gt=0, le=int(MAX_RATE_HZ))]
 SessionTime = Annotated[float, Meta(gt=0, le=MAX_SESSION_S)]
-BatteryTime = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
 Span = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]
-"""A length of simulated time that may be zero, s (at most a day, as a session)."""
+"""A time or length of simulated time that may be zero, s (at most a day, as a session)."""
 HumanSpeed = Annotated[float, Meta(gt=0, le=MAX_HUMAN_SPEED_MPS)]
 Mass = Annotated[float, Meta(ge=MIN_MASS_KG, le=MAX_MASS_KG)]
 Radius = Annotated[float, Meta(ge=MIN_SIZE_M, le=MAX_ROOM_M)]
@@ -211,7 +210,7 @@ class RobotSpec(Spec, kw_only=True):
     max_angular_speed_radps: Positive = 1.5
     max_accel_mps2: Positive = 1.0
     max_angular_accel_radps2: Positive = 3.0
-    battery_s: BatteryTime = 3600.0
+    battery_s: Span = 3600.0
     """Battery time at the start, s (reported as ``batterytimeleft`` in ms)."""
     safety: SafetyConfig = msgspec.field(default_factory=SafetyConfig)
     """The safety supervisor's zones (``[robot.safety]``; always on, see
@@ -253,7 +252,7 @@ class SensorSpec(Spec, kw_only=True):
 class Segment(Spec, tag_field="kind", kw_only=True):
     """A timed piece of a human's behaviour; it runs from ``at_s`` until the next one."""
 
-    at_s: NonNegative = 0.0
+    at_s: Span = 0.0
     speed_mps: HumanSpeed | None = None
     """Walking speed; None: the human's ``max_speed_mps``."""
 
@@ -340,7 +339,7 @@ class ActivitySpec(Spec, kw_only=True):
 class EventSpec(Spec, tag_field="kind", kw_only=True):
     """Something that happens at ``at_s`` of simulated time."""
 
-    at_s: NonNegative
+    at_s: Span
 
 
 class OperatorEvent(EventSpec, tag="operator", kw_only=True):
@@ -413,13 +412,13 @@ class ExpectSpec(Spec, tag_field="kind", kw_only=True):
 class GoalReached(ExpectSpec, tag="goal_reached", kw_only=True):
     goal: str
     """The goal's ``goalid``."""
-    by_s: NonNegative | None = None
+    by_s: Span | None = None
     """Deadline; None: by the end."""
 
 
 class ActivityCompleted(ExpectSpec, tag="activity_completed", kw_only=True):
     activity: str
-    by_s: NonNegative | None = None
+    by_s: Span | None = None
 
 
 class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
@@ -427,9 +426,9 @@ class RuleFired(ExpectSpec, tag="rule_fired", kw_only=True):
     """The rule instance's id."""
     at_least: Count = 1
     at_most: Count | None = None
-    after_s: NonNegative | None = None
+    after_s: Span | None = None
     """Count only the ticks from this time on; None: from the start."""
-    by_s: NonNegative | None = None
+    by_s: Span | None = None
     """Count only the ticks up to this time; None: to the end."""
 
 
@@ -471,7 +470,7 @@ class ActivityState(ExpectSpec, tag="activity_state", kw_only=True):
 
     activity: str
     state: str
-    at_s: NonNegative | None = None
+    at_s: Span | None = None
     """When to check; None: at the end."""
 
 

@@ -305,11 +305,10 @@ def _within(count: int, at_least: int, at_most: int | None) -> tuple[bool, str]:
 
 
 def _ms(seconds: float | None, default_ms: int) -> int | None:
-    """A deadline in ms; None when ``seconds`` is not a finite number (it never passes).
-    Beyond 1e300 s (whose ms no float holds) it is 1e300 s: after any session's end."""
+    """A deadline in ms; None when ``seconds`` is not a finite number (it never passes)."""
     if seconds is None:
         return default_ms
-    return round(min(seconds, 1e300) * 1000) if _finite(seconds) else None
+    return round(seconds * 1000) if _finite(seconds) else None
 
 
 def _s(time_ms: int | None) -> str:

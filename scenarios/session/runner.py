@@ -190,8 +190,7 @@ class Session:
         return schedule
 
     def _tick_of(self, seconds: float) -> int:
-        """The tick at ``seconds`` (beyond 1e300 s, whose ms no float holds: 1e300 s)."""
-        return round(min(seconds, 1e300) * 1000) // self.tick_ms
+        return round(seconds * 1000) // self.tick_ms
 
     # -------------------------------------------------------------------- ticking
 
