@@ -290,6 +290,7 @@ class Pipeline:
             verdict, event = self.safety.supervise(
                 requested,
                 self.producer.perceived,
+                heard=self.producer.heard,
                 tick=emitter.tick,
                 now_ms=emitter.time_ms,
                 source=self.actuator.motion_source,

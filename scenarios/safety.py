@@ -5,6 +5,8 @@ sensing: the robot's and the humans' radii, how fast a human walks, how far off 
 may be. In a simulated room those are known, and an assumption below them could let the
 robot touch someone. So each one a scenario leaves out is taken from the scenario (never
 below the supervisor's own default), and one it sets below the scenario's own is refused.
+So is a status age shorter than two of the scenario's status periods: the supervisor would
+take live sensors for dead between two reports, and stop the robot.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from typing import Final, NamedTuple
 from oimi.pipeline.act.safety import (
     DEFAULT_HUMAN_RADIUS_M,
     DEFAULT_HUMAN_SPEED_MPS,
+    DEFAULT_MAX_STATUS_AGE_MS,
     DEFAULT_SENSING_ERROR_M,
     SafetyConfig,
 )
@@ -55,6 +58,13 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             f"the max_speed_mps {fast.max_speed_mps!r} of human {fast.id!r}: the supervisor's"
             " margin would not cover their walk",
         )
+    period_s = sensors.status_period_s
+    two_periods_ms = math.ceil(2 * period_s * 1000 - 1e-6)
+    found["max_status_age_ms"] = Need(
+        two_periods_ms,
+        f"two of the sensors' status_period_s {period_s!r} ({two_periods_ms} ms): the"
+        " supervisor would take them for offline between two reports and stop the robot",
+    )
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
         radii = (  # as the supervisor will take them (supervisor_config)
@@ -81,6 +91,7 @@ DEFAULTS: Final = {
     "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
     "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
     "sensing_error_m": DEFAULT_SENSING_ERROR_M,
+    "max_status_age_ms": DEFAULT_MAX_STATUS_AGE_MS,
 }
 """Below these, an assumption left out is not taken even when the scenario allows it."""
 

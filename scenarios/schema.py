@@ -141,6 +141,9 @@ class FaultMode(enum.StrEnum):
     """Stops producing readings and reports ``isonline`` = ``s_false``."""
     FROZEN = "frozen"
     """Keeps reporting, but repeats its last reading (no status change)."""
+    SILENT = "silent"
+    """Its link dies: no more readings and no status at all (the map keeps its last
+    ``isonline``, as a robot's would)."""
     ONLINE = "online"
     """Back to normal; reports ``isonline`` = ``s_true``."""
 
@@ -243,7 +246,9 @@ class SensorSpec(Spec, kw_only=True):
     sonar_scan_hz: ScanRate = 5
     """Sonar scans per second (reported as ``scanfrequency``)."""
     status_period_s: SessionTime = 1.0
-    """How often the robot's status (speed, battery, elapsed time) is reported, s."""
+    """How often the robot's status (speed, battery, elapsed time) and each sensor's
+    ``isonline`` are reported, s (the safety supervisor takes a sensor whose status stops
+    coming for offline)."""
 
 
 # ---------------------------------------------------------------- behaviours
@@ -381,7 +386,7 @@ class TouchEvent(EventSpec, tag="touch", kw_only=True):
 
 
 class FaultEvent(EventSpec, tag="fault", kw_only=True):
-    """A sensor goes offline, freezes, or comes back online."""
+    """A sensor goes offline, freezes, falls silent, or comes back online."""
 
     sensor: SensorKind
     id: str | None = None

@@ -24,7 +24,9 @@ the velocities the supervisor let through, so a 10 Hz camera does not let it
 close in. With the camera offline (or none reported), every sonar reported
 offline, or a human's data older than ``max_data_age_ms``, all linear motion is
 capped at ``slow_speed_mps``; with no sensor reported online (every one offline, or
-none reported yet: nothing senses the room), there is none.
+none reported yet: nothing senses the room), there is none. A sensor counts as online
+only while its status keeps coming: one last heard more than ``max_status_age_ms`` ago
+(a dead link: its last word was "on") counts as offline.
 
 The front camera does not see behind the robot: a person it never saw is not among
 the map's humans. Bodies a sensor reports as obstacles that are not fixed
@@ -50,7 +52,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from typing import Final, NamedTuple
 
 import msgspec
@@ -66,6 +68,11 @@ DEFAULT_HUMAN_SPEED_MPS: Final = 1.0
 """The walking speed assumed when the configuration gives none and no scenario a faster."""
 DEFAULT_SENSING_ERROR_M: Final = 0.02
 """The sensing error assumed when the configuration gives none and no scenario's noise more."""
+DEFAULT_MAX_STATUS_AGE_MS: Final = 2000
+"""How long a sensor's status holds when the configuration gives no age and no scenario a
+longer status period (one report of a status repeated every second may be missed)."""
+_NEVER: Final = -math.inf
+"""When a sensor never heard from last reported (before any time)."""
 
 
 class SafetyConfig(Message):
@@ -92,6 +99,10 @@ class SafetyConfig(Message):
     """Largest error of a reported position (noise, rounding), added to the margin, m; None:
     the larger of 0.02 and three times a scenario's sensor noise (a scenario may not set it
     below that)."""
+    max_status_age_ms: int | None = None
+    """A sensor whose status (``isonline``) was last heard longer ago than this counts as
+    offline (its link is dead), ms; None: the longer of 2000 and two of a scenario's
+    ``status_period_s`` (a scenario may not set it below that)."""
 
     def filled(
         self,
@@ -100,6 +111,7 @@ class SafetyConfig(Message):
         human_radius_m: float = DEFAULT_HUMAN_RADIUS_M,
         human_speed_mps: float = DEFAULT_HUMAN_SPEED_MPS,
         sensing_error_m: float = DEFAULT_SENSING_ERROR_M,
+        max_status_age_ms: int = DEFAULT_MAX_STATUS_AGE_MS,
     ) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) given."""
         return msgspec.structs.replace(
@@ -108,6 +120,7 @@ class SafetyConfig(Message):
             human_radius_m=_given(self.human_radius_m, human_radius_m),
             human_speed_mps=_given(self.human_speed_mps, human_speed_mps),
             sensing_error_m=_given(self.sensing_error_m, sensing_error_m),
+            max_status_age_ms=_given(self.max_status_age_ms, max_status_age_ms),
         )
 
 
@@ -214,12 +227,15 @@ class SafetySupervisor:
         requested: Velocity,
         world_map: WorldMap,
         *,
+        heard: Mapping[tuple[str, str], int],
         tick: int,
         now_ms: int,
         source: MotionSource,
     ) -> Supervised:
         """The velocity allowed at ``now_ms`` for ``requested`` (body frame, from ``source``);
-        the robot is then taken to drive it for one tick (dead reckoning)."""
+        the robot is then taken to drive it for one tick (dead reckoning). ``heard``: when
+        each sensor's status was last heard, ms, by (``"Camera"`` or ``"Sonar"``, id)
+        (``MapProducer.heard``)."""
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self._pose))
         anchors = self._anchors
@@ -233,7 +249,7 @@ class SafetySupervisor:
             anchor = anchors.get(key)
             if anchor is None or anchor[0] != echo.positionchangetime:
                 self._anchor(key, echo)
-        verdict = self._limit(requested, world_map, echoes, now_ms)
+        verdict = self._limit(requested, world_map, echoes, heard, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -286,14 +302,22 @@ class SafetySupervisor:
         requested: Velocity,
         world_map: WorldMap,
         echoes: list[tuple[str, Entity]],
+        heard: Mapping[tuple[str, str], int],
         now_ms: int,
     ) -> Verdict:
         if requested.v_x == 0.0 and requested.v_y == 0.0:
             return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
-        seeing = any(camera.isonline for camera in cameras)
-        sounding = any(sonar.isonline for sonar in sonars)
+        since_ms = now_ms - config.max_status_age_ms  # an older status: a dead link
+        seeing = any(
+            camera.isonline and heard.get(("Camera", camera.id), _NEVER) >= since_ms
+            for camera in cameras
+        )
+        sounding = any(
+            sonar.isonline and heard.get(("Sonar", sonar.id), _NEVER) >= since_ms
+            for sonar in sonars
+        )
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         blind = not seeing or (bool(sonars) and not sounding)

@@ -93,6 +93,11 @@ class MapProducer:
         self._pending: list[DecodedUpdate] = []
         self._pending_keys: set[tuple[EntityClass, str, str]] = set()
         """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
+        self.heard: dict[tuple[str, str], int] = {}
+        """When each sensor's status (``isonline``) was last applied, ms, by (class, id):
+        a sensor whose status stops coming has a dead link, whatever it last said."""
+        self._statuses: list[Target] = []
+        """The sensors whose status is pending."""
 
     # ---------------------------------------------------------------- queue
 
@@ -107,6 +112,8 @@ class MapProducer:
             self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
         self._pending_keys.add(key)
+        if decoded.spec.name == "isonline":
+            self._statuses.append(decoded.target)
         return None
 
     @property
@@ -135,6 +142,9 @@ class MapProducer:
             )
         pending, self._pending = self._pending, []
         self._pending_keys.clear()
+        for target in self._statuses:
+            self.heard[target.klass.value, target.id] = now_ms
+        self._statuses.clear()
         self._apply_all(perceived, pending, now_ms)  # its rejections: the other's, said below
         return self._apply_all(self.world_map, pending, now_ms)
 

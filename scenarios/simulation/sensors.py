@@ -126,13 +126,16 @@ class Sensors:
     # --------------------------------------------------------------- inputs
 
     def fault(self, event: FaultEvent) -> None:
-        """Switch a sensor's mode; offline and online are reported as ``isonline``."""
+        """Switch a sensor's mode; offline and online are reported as ``isonline``, a
+        silent sensor says nothing."""
         sensor = self.camera if event.sensor is SensorKind.CAMERA else self.sonar
         sensor.mode = event.mode
         if event.mode is FaultMode.FROZEN:
             return
-        if event.mode is FaultMode.OFFLINE:
-            sensor.tracks.clear()
+        if event.mode is not FaultMode.ONLINE:
+            sensor.tracks.clear()  # no reading until it comes back: people appear again
+        if event.mode is FaultMode.SILENT:
+            return  # its link is dead: nothing said
         prefix = "Camera" if sensor is self.camera else "Sonar"
         online = TRUE if event.mode is FaultMode.ONLINE else FALSE
         self._pending.append(_Update(f"{prefix}/{sensor.ident}", "isonline", Policy.R, online))
@@ -213,7 +216,7 @@ class Sensors:
         fov_rad: float,
     ) -> list[_Update]:
         """One reading of a sensor: what it sees, or its last reading when frozen."""
-        if sensor.mode is FaultMode.OFFLINE:
+        if sensor.mode is FaultMode.OFFLINE or sensor.mode is FaultMode.SILENT:
             return []
         if sensor.mode is FaultMode.FROZEN:
             return list(sensor.last)
@@ -320,6 +323,7 @@ class Sensors:
                 FALSE if sensor.mode is FaultMode.OFFLINE else TRUE,
             )
             for kind, sensor in (("Camera", self.camera), ("Sonar", self.sonar))
+            if sensor.mode is not FaultMode.SILENT
         ]
 
 

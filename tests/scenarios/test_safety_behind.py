@@ -9,16 +9,23 @@ import msgspec
 from oimi.pipeline.events import SafetyIntervention, SafetyZone, Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
-from oimi.scenarios.schema import FaultEvent, FaultMode, SensorKind, SensorSpec
+from oimi.scenarios.schema import Event, FaultEvent, FaultMode, SensorKind, SensorSpec
 from oimi.scenarios.session.runner import Session
 
 COLLISION = Path(__file__).parents[1] / "analysis/scenarios/scripted_collision.toml"
 """The operator reverses at 0.4 m/s into a child standing 0.95 m behind the robot."""
 
 
-def reverse_into_the_child(sensors: SensorSpec) -> tuple[Session, MemorySink]:
+def reverse_into_the_child(
+    sensors: SensorSpec, *, events: list[Event] | None = None
+) -> tuple[Session, MemorySink]:
     loaded = load_scenario(COLLISION)
-    scenario = msgspec.structs.replace(loaded.scenario, sensors=sensors, expect=[])
+    scenario = msgspec.structs.replace(
+        loaded.scenario,
+        sensors=sensors,
+        events=loaded.scenario.events if events is None else events,
+        expect=[],
+    )
     session = Session(msgspec.structs.replace(loaded, scenario=scenario))
     memory = MemorySink()
     session.sink.add(memory)
@@ -49,23 +56,37 @@ def test_a_ring_too_short_to_reach_the_child_leaves_the_contact_to_the_analysis(
     assert summary.max_closing_speed_mps > 0.3
 
 
+def with_faults(mode: FaultMode) -> tuple[Session, MemorySink]:
+    """The collision with a default ring, both sensors switched to ``mode`` at 0.5 s."""
+    loaded = load_scenario(COLLISION)
+    faults = [
+        FaultEvent(at_s=0.5, sensor=sensor, mode=mode)
+        for sensor in (SensorKind.CAMERA, SensorKind.SONAR)
+    ]
+    events = [*loaded.scenario.events, *faults]
+    return reverse_into_the_child(SensorSpec(), events=events)
+
+
 def test_with_every_sensor_offline_the_pad_cannot_reverse_into_the_child() -> None:
     """Both the camera and the ring go offline before the operator reverses: nothing senses
     the room, so the supervisor lets no linear motion through (before, it let the slow
     speed through: 0.2 m/s towards a child nothing could see)."""
-    loaded = load_scenario(COLLISION)
-    faults = [
-        FaultEvent(at_s=0.5, sensor=sensor, mode=FaultMode.OFFLINE)
-        for sensor in (SensorKind.CAMERA, SensorKind.SONAR)
-    ]
-    scenario = msgspec.structs.replace(
-        loaded.scenario, sensors=SensorSpec(), events=[*loaded.scenario.events, *faults], expect=[]
-    )
-    session = Session(msgspec.structs.replace(loaded, scenario=scenario))
-    memory = MemorySink()
-    session.sink.add(memory)
-    session.run()
+    session, memory = with_faults(FaultMode.OFFLINE)
     summary = session.result().summary
     assert summary.contacts == 0 and summary.max_speed_mps < 1e-3
     blind = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
     assert blind and blind[0].zone is SafetyZone.BLIND and blind[0].allowed[:2] == (0.0, 0.0)
+
+
+def test_with_every_sensors_link_dead_the_pad_cannot_reverse_into_the_child() -> None:
+    """Both sensors fall silent (a dead link: their last word was "on") before the operator
+    reverses: two status periods later the supervisor takes them for offline and lets no
+    linear motion through (before, the robot reversed 1.4 m into the child)."""
+    session, memory = with_faults(FaultMode.SILENT)
+    summary = session.result().summary
+    assert summary.contacts == 0
+    assert summary.min_surface_distance_m["child"] > 0.5  # 0.4 m/s for at most 1.02 s
+    blind = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
+    assert blind and blind[0].zone is SafetyZone.BLIND and blind[0].allowed[:2] == (0.0, 0.0)
+    tick_ms = session.pipeline.config.tick_ms  # last heard at 0 (silent at 0.5 s): 2 s allowed
+    assert blind[0].time_ms == 2000 + tick_ms

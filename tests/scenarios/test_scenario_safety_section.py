@@ -137,3 +137,24 @@ def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
         "s.toml:3:1: sensors.noise_rho_m (m): the sensors' noise (noise_rho_m 1e+308,"
         " noise_theta_rad 1e+308) is too large: 3 times it is no finite margin"
     )
+
+
+def test_left_out_the_status_age_covers_two_status_periods() -> None:
+    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert alone.max_status_age_ms == 2000, "never below this"
+    slow = b'name = "x"\n[sensors]\nstatus_period_s = 1.5005\n'
+    assert pipeline_config(parse_scenario(slow).scenario).safety.max_status_age_ms == 3001
+
+
+def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> None:
+    text = (
+        b'name = "x"\n[robot.safety]\nmax_status_age_ms = 1500\n[sensors]\nstatus_period_s = 1.0\n'
+    )
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.toml")
+    assert str(caught.value).startswith(
+        "s.toml:3:1: robot.safety.max_status_age_ms (ms): 1500 is below two of the sensors'"
+        " status_period_s 1.0 (2000 ms): the supervisor would take them for offline"
+    )
+    kept = text.replace(b"1500", b"2000")
+    assert pipeline_config(parse_scenario(kept).scenario).safety.max_status_age_ms == 2000

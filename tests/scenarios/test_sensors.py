@@ -185,6 +185,20 @@ def test_camera_offline_stops_entity_updates_until_back_online():
     }
 
 
+def test_a_silent_camera_says_nothing_not_even_its_status_until_back_online():
+    world, sensors = setup()
+    ticks(world, sensors, 10)
+    sensors.fault(FaultEvent(at_s=0.2, sensor=SensorKind.CAMERA, mode=FaultMode.SILENT))
+    silent = ticks(world, sensors, 150, 10)  # 3 s: three robot statuses
+    assert len(of(silent, "RobotStatus", "speed")) == 3
+    assert of(silent, "Sonar/ring", "isonline")  # the ring's status still comes
+    assert not [u for u in silent if u.objectid.startswith(("Camera/", "Human/", "Object/"))]
+    sensors.fault(FaultEvent(at_s=3.2, sensor=SensorKind.CAMERA, mode=FaultMode.ONLINE))
+    back = ticks(world, sensors, 10, 160)
+    assert [u.jsonmsg for u in of(back, "Camera/front", "isonline")] == ["s_true"]
+    assert of(back, "Human/kid", "poses")
+
+
 def test_frozen_sonar_repeats_its_last_reading():
     world, sensors = setup()
     last = of(ticks(world, sensors, 1), "Obstacle/shelf", "poses")[-1]

@@ -55,17 +55,29 @@ def room(*humans: Human, camera: bool = True) -> WorldMap:
     return WorldMap(cameras=[Camera(id="front", isonline=camera)], humans=list(humans))
 
 
+def live(world_map: WorldMap, now_ms: int) -> dict[tuple[str, str], int]:
+    """Every sensor of the map heard from at ``now_ms`` (``MapProducer.heard``)."""
+    heard = {("Camera", camera.id): now_ms for camera in world_map.cameras}
+    return heard | {("Sonar", sonar.id): now_ms for sonar in world_map.sonars}
+
+
 def supervise(
     velocity: Velocity,
     world_map: WorldMap,
     *,
     now_ms: int = 0,
+    heard: dict[tuple[str, str], int] | None = None,
     source: MotionSource = MotionSource.SCRIPT,
     supervisor: SafetySupervisor | None = None,
 ):
     supervisor = supervisor or SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
     return supervisor.supervise(
-        velocity, world_map, tick=now_ms // TICK_MS, now_ms=now_ms, source=source
+        velocity,
+        world_map,
+        heard=live(world_map, now_ms) if heard is None else heard,
+        tick=now_ms // TICK_MS,
+        now_ms=now_ms,
+        source=source,
     )
 
 
@@ -172,6 +184,29 @@ def test_with_no_sensor_online_nothing_moves_but_turning(sensors) -> None:
     assert event is not None and event.zone is SafetyZone.BLIND
 
 
+def test_a_sensor_whose_status_stopped_coming_counts_as_offline() -> None:
+    """A dead link: the sensors last said "on", then nothing (default age 2 s)."""
+    world_map = room(seen(4.0, at_ms=2020))
+    world_map.sonars.append(Sonar(id="ring", isonline=True))
+    heard = live(world_map, 0)
+    request = Velocity(0.5, 0.0, 0.5)
+    assert supervise(request, world_map, now_ms=2000, heard=heard)[0].velocity == request
+    verdict, event = supervise(request, world_map, now_ms=2020, heard=heard)
+    assert verdict.velocity == (0.0, 0.0, 0.5)  # nothing heard from for too long: only turning
+    assert event is not None and event.zone is SafetyZone.BLIND
+    camera_only = heard | {("Camera", "front"): 2000}  # the ring's link alone is dead
+    verdict, _ = supervise(request, world_map, now_ms=2020, heard=camera_only)
+    assert verdict.velocity == pytest.approx((0.2, 0.0, 0.5))
+    assert verdict.zone is SafetyZone.BLIND
+
+
+def test_a_sensor_never_heard_from_counts_as_offline_whatever_the_map_says() -> None:
+    world_map = room(seen(4.0))
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), world_map, heard={})
+    assert verdict.velocity == (0.0, 0.0, 0.0)
+    assert verdict.zone is SafetyZone.BLIND
+
+
 def test_between_readings_the_robot_own_motion_is_dead_reckoned() -> None:
     # One reading, 1.2 m ahead, never refreshed (ages allowed long, no human motion): the
     # robot asks 0.5 m/s every tick and must still stop short of the stop zone.
@@ -180,12 +215,8 @@ def test_between_readings_the_robot_own_motion_is_dead_reckoned() -> None:
     world_map = room(seen(1.2))
     travelled = 0.0
     for tick in range(200):
-        verdict, _ = supervisor.supervise(
-            Velocity(0.5, 0.0, 0.0),
-            world_map,
-            tick=tick,
-            now_ms=tick * TICK_MS,
-            source=MotionSource.SCRIPT,
+        verdict, _ = supervise(
+            Velocity(0.5, 0.0, 0.0), world_map, now_ms=tick * TICK_MS, supervisor=supervisor
         )
         travelled += verdict.velocity.v_x * TICK_MS / 1000
     assert verdict.velocity.v_x == pytest.approx(0.0, abs=1e-3)
@@ -204,18 +235,12 @@ def test_dead_reckoning_follows_the_robot_turning(max_age_ms: int) -> None:
     world_map = room(seen(0.6))  # in the stop zone: 0.6 - 0.55 - 0.02 < 0.1
     spin = Velocity(0.0, 0.0, math.pi / 2)
     for tick in range(50):  # 1 s at pi/2 rad/s
-        supervisor.supervise(
-            spin, world_map, tick=tick, now_ms=tick * TICK_MS, source=MotionSource.SCRIPT
-        )
-    ahead, _ = supervisor.supervise(
-        Velocity(0.3, 0.0, 0.0), world_map, tick=50, now_ms=1000, source=MotionSource.SCRIPT
-    )
+        supervise(spin, world_map, now_ms=tick * TICK_MS, supervisor=supervisor)
+    ahead, _ = supervise(Velocity(0.3, 0.0, 0.0), world_map, now_ms=1000, supervisor=supervisor)
     top = 0.3 if max_age_ms > 1000 else config.slow_speed_mps  # stale: the slow speed
     assert ahead.velocity.v_x == pytest.approx(top, abs=1e-3)  # bent a hair away (left)
     assert ahead.velocity.v_y >= 0.0
-    right, _ = supervisor.supervise(
-        Velocity(0.0, -0.3, 0.0), world_map, tick=51, now_ms=1020, source=MotionSource.SCRIPT
-    )
+    right, _ = supervise(Velocity(0.0, -0.3, 0.0), world_map, now_ms=1020, supervisor=supervisor)
     assert right.velocity.v_y == pytest.approx(0.0, abs=1e-9)
 
 
@@ -225,12 +250,12 @@ def test_an_episode_is_recorded_when_it_starts_worsens_and_ends_not_every_tick()
     plan = [(centre_at(0.3), 0.5)] * 10 + [(centre_at(0.05), 0.5)] * 10 + [(3.0, 0.5)] * 40
     for tick, (rho, speed) in enumerate(plan):
         now = tick * TICK_MS
-        _, event = supervisor.supervise(
+        _, event = supervise(
             Velocity(speed, 0.0, 0.0),
             room(seen(rho, at_ms=now)),
-            tick=tick,
             now_ms=now,
             source=MotionSource.JOYSTICK,
+            supervisor=supervisor,
         )
         if event is not None:
             events.append(event)
@@ -299,8 +324,8 @@ def test_a_protective_stop_holds_while_fresh_frames_shrink_the_margin() -> None:
         now = tick * TICK_MS
         if tick % 5 == 0:
             world_map = room(seen(round(1.2 - x, 4), at_ms=now))
-        verdict, _ = supervisor.supervise(
-            Velocity(0.5, 0.0, 0.0), world_map, tick=tick, now_ms=now, source=MotionSource.SCRIPT
+        verdict, _ = supervise(
+            Velocity(0.5, 0.0, 0.0), world_map, now_ms=now, supervisor=supervisor
         )
         if stopped_at is None and verdict.zone is SafetyZone.STOP:
             stopped_at = tick

@@ -336,3 +336,18 @@ def test_the_perceived_map_starts_as_a_copy_of_the_map():
     assert producer.perceived == world
     world.humans[0].positionrho = 9.0
     assert producer.perceived.humans[0].positionrho == 1.0
+
+
+def test_heard_is_when_each_sensor_last_reported_its_status_whatever_it_said():
+    _, producer = fresh()
+    producer.submit(upd("Camera/front", "isonline", "s_true"))
+    producer.submit(upd("Sonar/ring", "isonline", "s_false"))
+    producer.consume(100)
+    producer.submit(upd("Camera/front", "isonline", "s_true"))
+    producer.submit(upd("Camera/front", "fps", "30"))  # not a status
+    producer.submit(upd("Sonar/ring", "scanfrequency", "5"))
+    producer.consume(1100)
+    producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
+    producer.consume(1200)
+    assert producer.heard == {("Camera", "front"): 1100, ("Sonar", "ring"): 100}
+    assert producer.perceived.sonars[0].isonline is False
