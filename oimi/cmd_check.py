@@ -72,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
                 "file": item.file,
                 "ok": not item.errors,
                 "errors": [_error_json(e) for e in item.errors],
+                "warnings": [_error_json(w) for w in item.warnings],
             }
         )
         if item.errors:

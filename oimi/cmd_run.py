@@ -9,6 +9,7 @@ Exit 0 when every expectation holds, 1 when one fails, 2 on bad input.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Final
@@ -51,15 +52,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     output = None if args.no_record else args.output or Path("out") / f"{args.scenario.stem}.mcap"
+    extensions = extensions_of(args)
+    loaded = api.load_scenario(
+        args.scenario, extensions=extensions, allow_outside=args.allow_outside_paths
+    )
+    for warning in loaded.warnings:
+        print(f"{warning} (warning)", file=sys.stderr)
     outcome = api.run(
-        args.scenario,
+        loaded,
         output=output,
         rrd=args.rrd,
         junit=args.junit,
         seed=args.seed,
         overrides=parse_params(args.param),
-        extensions=extensions_of(args),
-        allow_outside=args.allow_outside_paths,
         overwrite=args.overwrite,
         realtime=args.realtime,
         world_every_n_ticks=args.world_every,

@@ -22,11 +22,12 @@ from oimi.scenarios.session.activities import check_script_file
 
 
 class FileCheck(NamedTuple):
-    """One file's problems (none: it is fine) and warnings (rule codes the library lacks)."""
+    """One file's problems (none: it is fine) and warnings (rule codes the library lacks, a
+    scenario's sonar ring too short for the safety supervisor)."""
 
     file: str
     errors: list[LocatedError]
-    warnings: list[ScriptError]
+    warnings: Sequence[LocatedError]
 
 
 class ConditionCheck(NamedTuple):
@@ -67,8 +68,7 @@ def check_file(
     """Every problem found in one file, with these extensions (``toolkit``: already built
     from them)."""
     if path.suffix.lower() == ".toml":
-        errors = check_scenario_file(path, allow_outside=allow_outside, extensions=extensions)
-        return FileCheck(str(path), errors, [])
+        return _check_scenario(path, allow_outside=allow_outside, extensions=extensions)
     toolkit = toolkit or build_toolkit(load_extensions(extensions))
     parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
     warnings = [] if parsed is None else unknown_rule_codes(parsed, toolkit.registries.rules)
@@ -99,13 +99,19 @@ def check_scenario_file(
 ) -> list[LocatedError]:
     """A scenario's problems: everything ``oimi run`` would refuse, ranges, the robot's
     ceiling, its scripts and generators (``scenarios.loader.load_scenario`` checks it all)."""
+    return _check_scenario(path, allow_outside=allow_outside, extensions=extensions).errors
+
+
+def _check_scenario(path: Path, *, allow_outside: bool, extensions: Sequence[str]) -> FileCheck:
+    """A scenario's problems, or its warnings when it has none."""
     try:
-        load_scenario(path, allow_outside=allow_outside, extensions=extensions)
+        loaded = load_scenario(path, allow_outside=allow_outside, extensions=extensions)
     except LocatedError as error:
-        return [error, *error.also]
+        return FileCheck(str(path), [error, *error.also], [])
     except OSError as error:
-        return [LocatedError(f"cannot read the file: {error.strerror}", source=str(path))]
-    return []
+        problem = LocatedError(f"cannot read the file: {error.strerror}", source=str(path))
+        return FileCheck(str(path), [problem], [])
+    return FileCheck(str(path), [], list(loaded.warnings))
 
 
 def check_condition(text: str, number: int, toolkit: Toolkit | None = None) -> str:

@@ -38,7 +38,7 @@ from oimi.scenarios.extensions import (
     load_extensions,
 )
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.safety import below_needs
+from oimi.scenarios.safety import below_needs, coverage_gaps
 from oimi.scenarios.schema import (
     BehaviourEvent,
     BehaviourSegment,
@@ -79,6 +79,9 @@ class LoadedScenario(msgspec.Struct, frozen=True, kw_only=True):
     """The resolved script file of each activity (None for generators), in order."""
     toolkit: Toolkit = msgspec.field(default_factory=build_toolkit)
     """The built-ins plus the extensions the scenario (and the command line) named."""
+    warnings: tuple[ScenarioError, ...] = ()
+    """What the scenario may do but should know (``oimi check`` and ``oimi run`` say it):
+    a sonar ring too short for the safety supervisor (``scenarios.safety.coverage_gaps``)."""
 
 
 # ------------------------------------------------------------------ locating
@@ -319,10 +322,7 @@ def parse_scenario(
             scenario, scripts, (folder, folder / "activities", *toolkit.activity_folders)
         )
     except Invalid as problem:
-        errors = []
-        for each in (problem, *problem.others):
-            line, column = locator.locate(each.where)
-            errors.append(ScenarioError(each.message(), source=name, line=line, column=column))
+        errors = [_located(each, name, locator) for each in (problem, *problem.others)]
         errors[0].also = tuple(errors[1:])
         raise errors[0] from None
     except ExtensionError as error:
@@ -334,7 +334,16 @@ def parse_scenario(
         raw=raw,
         activity_paths=tuple(paths),
         toolkit=toolkit,
+        warnings=tuple(
+            _located(Invalid(where, what), name, locator) for where, what in coverage_gaps(scenario)
+        ),
     )
+
+
+def _located(problem: Invalid, source: str, locator: TomlLocator) -> ScenarioError:
+    """``problem`` at its line and column of the file."""
+    line, column = locator.locate(problem.where)
+    return ScenarioError(problem.message(), source=source, line=line, column=column)
 
 
 def _check_behaviours(scenario: Scenario, toolkit: Toolkit) -> None:

@@ -122,3 +122,34 @@ def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
                 ("robot", "safety", name),
                 f"{value!r} is below {need.why} (left out, it is taken from the scenario)",
             )
+
+
+def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
+    """Where the sensors see a person too late for the supervisor to keep them out of the
+    stop zone, as (path, message): warnings, not refusals (a scenario may study a faulty
+    sensor, as ``tests/analysis/scenarios/scripted_collision.toml`` does).
+
+    Beside and behind the robot only the sonar ring sees people. One who steps into its
+    range is reported at its next scan and acted on at the next tick; by then the robot,
+    at its top speed, and the person, walking at ``human_speed_mps``, may have closed in
+    by their speeds times that delay. The ring must reach farther than that, plus both
+    radii, the stop distance and the sensing error."""
+    sensors, robot = scenario.sensors, scenario.robot
+    config = supervisor_config(scenario)
+    assert config.human_speed_mps is not None and config.sensing_error_m is not None
+    assert config.robot_radius_m is not None and config.human_radius_m is not None
+    delay_s = 1 / sensors.sonar_scan_hz + 1 / scenario.tick_hz
+    closing_m = (robot.max_speed_mps + config.human_speed_mps) * delay_s
+    bodies_m = config.robot_radius_m + config.human_radius_m
+    least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m
+    if sensors.sonar_range_m < least:
+        yield (
+            ("sensors", "sonar_range_m"),
+            f"the sonar ring reaches {sensors.sonar_range_m!r} m, less than the"
+            f" {round(least, 3)!r} m in which the safety supervisor can keep a person beside"
+            f" or behind the robot out of its stop zone (both radii {round(bodies_m, 3)!r},"
+            f" stop_distance_m {config.stop_distance_m!r}, sensing_error_m"
+            f" {config.sensing_error_m!r}, and {round(closing_m, 3)!r} m closed in a scan"
+            f" and a tick at max_speed_mps {robot.max_speed_mps!r} and human_speed_mps"
+            f" {config.human_speed_mps!r}): the robot may touch someone it has not seen",
+        )

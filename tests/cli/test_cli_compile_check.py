@@ -170,6 +170,22 @@ def test_check_warns_about_rule_codes_the_library_does_not_know(capsys):
     assert err.rstrip().endswith("(warning)")
 
 
+def test_check_and_run_warn_about_a_sonar_ring_too_short_for_the_supervisor(tmp_path, capsys):
+    scenario = ROOT / "tests" / "analysis" / "scenarios" / "scripted_collision.toml"
+    assert main(["check", "--json", str(scenario)]) == 0, "a warning, not a failure"
+    captured = capsys.readouterr()
+    warning = f"{scenario}:14:1: sensors.sonar_range_m (m): the sonar ring reaches 0.4 m, less"
+    assert captured.err.startswith(warning)
+    first = captured.err.splitlines()[0]
+    assert first.endswith("the robot may touch someone it has not seen (warning)")
+    (checked,) = json.loads(captured.out)["checked"]
+    assert checked["ok"] and checked["warnings"][0]["line"] == 14
+    assert main(["run", "-q", "--no-record", str(scenario)]) in (0, 1)
+    assert capsys.readouterr().err.startswith(warning)
+    assert main(["check", str(ROOT / "scenarios" / "library" / "greeting.toml")]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_python_dash_m_oimi_compiles(tmp_path):
     out = tmp_path / "idle.json"
     result = subprocess.run(

@@ -114,7 +114,7 @@ def test_check_json_lists_each_file_and_condition(tmp_path) -> None:
     summary = one_json(done.stdout)
     assert summary["ok"] is False
     first, second = summary["checked"]
-    assert first == {"file": str(SCENARIO), "ok": True, "errors": []}
+    assert first == {"file": str(SCENARIO), "ok": True, "errors": [], "warnings": []}
     assert second["ok"] is False and second["errors"][0].startswith("<condition 1>:")
 
 

@@ -158,3 +158,17 @@ def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> No
     )
     kept = text.replace(b"1500", b"2000")
     assert pipeline_config(parse_scenario(kept).scenario).safety.max_status_age_ms == 2000
+
+
+def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
+    assert parse_scenario(b'name = "x"\n').warnings == ()  # the 3 m ring
+    # 0.3 + 0.25 + 0.1 + 0.02 + (0.5 + 1.0) x (1/5 + 1/50 s): 1.0 m
+    short = b'name = "x"\n[sensors]\nsonar_range_m = 0.99\n'
+    (warning,) = parse_scenario(short, source="s.toml").warnings
+    assert str(warning).startswith(
+        "s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches 0.99 m, less than the"
+        " 1.0 m in which the safety supervisor can keep a person beside or behind"
+    )
+    assert parse_scenario(short.replace(b"0.99", b"1.01")).warnings == ()
+    slow_scan = short.replace(b"0.99", b"1.01") + b"sonar_scan_hz = 4\n"
+    assert parse_scenario(slow_scan).warnings, "a slower scan needs a longer reach"
