@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterable
 
 from oimi import jsonout
 from oimi.extension_args import extensions_of
@@ -65,8 +66,7 @@ def run(args: argparse.Namespace) -> int:
             else:
                 print(f"<condition {item.number}>: ok")
             continue
-        for warning in item.warnings:
-            report(f"{warning} (warning)")
+        report_warnings(item.warnings)
         checked.append(
             {
                 "file": item.file,
@@ -97,6 +97,12 @@ def _error_json(error: LocatedError) -> dict[str, object]:
 
 def report(message: str) -> None:
     print(message, file=sys.stderr)
+
+
+def report_warnings(warnings: Iterable[LocatedError]) -> None:
+    """Each warning (``oimi check``, and a scenario's as ``oimi run`` or ``serve`` load it)."""
+    for warning in warnings:
+        report(f"{warning} (warning)")
 
 
 def report_error(error: LocatedError) -> None:

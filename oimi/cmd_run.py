@@ -9,7 +9,6 @@ Exit 0 when every expectation holds, 1 when one fails, 2 on bad input.
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Final
@@ -17,7 +16,7 @@ from typing import Final
 from oimi import api, console, jsonout
 from oimi.arg_types import add_world_every_argument
 from oimi.batch.spec import parse_param
-from oimi.cmd_check import add_outside_paths_argument
+from oimi.cmd_check import add_outside_paths_argument, report_warnings
 from oimi.extension_args import extensions_of
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
@@ -56,8 +55,7 @@ def run(args: argparse.Namespace) -> int:
     loaded = api.load_scenario(
         args.scenario, extensions=extensions, allow_outside=args.allow_outside_paths
     )
-    for warning in loaded.warnings:
-        print(f"{warning} (warning)", file=sys.stderr)
+    report_warnings(loaded.warnings)
     outcome = api.run(
         loaded,
         output=output,

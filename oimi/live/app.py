@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Final, NamedTuple
 
+from oimi.cmd_check import report_warnings
 from oimi.extension_args import extensions_of
 from oimi.live.server import Addresses, LiveServer, ServeConfig, listen
 from oimi.live.session import LiveSession
@@ -74,6 +75,7 @@ def serve(
     loaded = load_scenario(
         args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
     )
+    report_warnings(loaded.warnings)
     output = args.output or dated_path(
         Path("out"), f"{args.scenario.stem}{suffix}", ".mcap", now=datetime.datetime.now()
     )

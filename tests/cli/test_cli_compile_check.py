@@ -182,6 +182,9 @@ def test_check_and_run_warn_about_a_sonar_ring_too_short_for_the_supervisor(tmp_
     assert checked["ok"] and checked["warnings"][0]["line"] == 14
     assert main(["run", "-q", "--no-record", str(scenario)]) in (0, 1)
     assert capsys.readouterr().err.startswith(warning)
+    served = ["serve", str(scenario), "-o", str(tmp_path / "live.mcap"), "--duration-s", "0.2"]
+    assert main([*served, "--port", "0", "--http-port", "0"]) == 0
+    assert capsys.readouterr().err.startswith(warning)
     assert main(["check", str(ROOT / "scenarios" / "library" / "greeting.toml")]) == 0
     assert capsys.readouterr().err == ""
 
