@@ -26,7 +26,9 @@ offline, or a human's data older than ``max_data_age_ms``, all linear motion is
 capped at ``slow_speed_mps``; with no sensor reported online (every one offline, or
 none reported yet: nothing senses the room), there is none. A sensor counts as online
 only while its status keeps coming: one last heard more than ``max_status_age_ms`` ago
-(a dead link: its last word was "on") counts as offline.
+(a dead link: its last word was "on") counts as offline, and one last heard more than
+three quarters of that ago (a status late: the link may be dying) caps linear motion at
+``slow_speed_mps``.
 
 The front camera does not see behind the robot: a person it never saw is not among
 the map's humans. Bodies a sensor reports as obstacles that are not fixed
@@ -52,13 +54,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Final, NamedTuple
 
 import msgspec
 from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
-from oimi.pipeline.messages import Entity, Message, WorldMap
+from oimi.pipeline.messages import Camera, Entity, Message, Sonar, WorldMap
 
 DEFAULT_ROBOT_RADIUS_M: Final = 0.3
 """The robot's radius when the configuration gives none (a pipeline without a scenario)."""
@@ -101,7 +103,8 @@ class SafetyConfig(Message):
     below that)."""
     max_status_age_ms: int | None = None
     """A sensor whose status (``isonline``) was last heard longer ago than this counts as
-    offline (its link is dead), ms; None: the longer of 2000 and two of a scenario's
+    offline (its link is dead), and one heard more than three quarters of this ago caps
+    the speed at ``slow_speed_mps``, ms; None: the longer of 2000 and two of a scenario's
     ``status_period_s`` (a scenario may not set it below that)."""
 
     def filled(
@@ -309,18 +312,13 @@ class SafetySupervisor:
             return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
-        since_ms = now_ms - config.max_status_age_ms  # an older status: a dead link
-        seeing = any(
-            camera.isonline and heard.get(("Camera", camera.id), _NEVER) >= since_ms
-            for camera in cameras
-        )
-        sounding = any(
-            sonar.isonline and heard.get(("Sonar", sonar.id), _NEVER) >= since_ms
-            for sonar in sonars
-        )
+        max_age = config.max_status_age_ms
+        seeing = [age for age in _status_ages(cameras, "Camera", heard, now_ms) if age <= max_age]
+        sounding = [age for age in _status_ages(sonars, "Sonar", heard, now_ms) if age <= max_age]
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
-        blind = not seeing or (bool(sonars) and not sounding)
+        late = any(4 * age > 3 * max_age for age in (*seeing, *sounding))  # a link dying?
+        blind = not seeing or (bool(sonars) and not sounding) or late
         stale = False
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
@@ -456,6 +454,14 @@ class SafetySupervisor:
             y + dt * (sin * velocity.v_x + cos * velocity.v_y),
             theta + dt * velocity.v_theta,
         )
+
+
+def _status_ages(
+    sensors: Sequence[Camera | Sonar], klass: str, heard: Mapping[tuple[str, str], int], now_ms: int
+) -> list[float]:
+    """How long ago each of ``sensors`` that says it is on was last heard from, ms
+    (``inf``: never); one heard longer ago than ``max_status_age_ms`` is offline."""
+    return [now_ms - heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline]
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:

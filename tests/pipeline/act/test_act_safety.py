@@ -184,16 +184,21 @@ def test_with_no_sensor_online_nothing_moves_but_turning(sensors) -> None:
     assert event is not None and event.zone is SafetyZone.BLIND
 
 
-def test_a_sensor_whose_status_stopped_coming_counts_as_offline() -> None:
-    """A dead link: the sensors last said "on", then nothing (default age 2 s)."""
+def test_a_sensor_whose_status_stopped_coming_slows_then_counts_as_offline() -> None:
+    """A dead link: the sensors last said "on", then nothing (default age 2 s): 1.5 s
+    late, the speed is capped; two seconds late, they count as offline."""
     world_map = room(seen(4.0, at_ms=2020))
     world_map.sonars.append(Sonar(id="ring", isonline=True))
     heard = live(world_map, 0)
     request = Velocity(0.5, 0.0, 0.5)
-    assert supervise(request, world_map, now_ms=2000, heard=heard)[0].velocity == request
-    verdict, event = supervise(request, world_map, now_ms=2020, heard=heard)
-    assert verdict.velocity == (0.0, 0.0, 0.5)  # nothing heard from for too long: only turning
+    assert supervise(request, world_map, now_ms=1500, heard=heard)[0].velocity == request
+    late, event = supervise(request, world_map, now_ms=1520, heard=heard)
+    assert late.velocity == pytest.approx((0.2, 0.0, 0.5))
     assert event is not None and event.zone is SafetyZone.BLIND
+    assert supervise(request, world_map, now_ms=2000, heard=heard)[0].velocity == late.velocity
+    verdict, _ = supervise(request, world_map, now_ms=2020, heard=heard)
+    assert verdict.velocity == (0.0, 0.0, 0.5)  # nothing heard from for too long: only turning
+    assert verdict.zone is SafetyZone.BLIND
     camera_only = heard | {("Camera", "front"): 2000}  # the ring's link alone is dead
     verdict, _ = supervise(request, world_map, now_ms=2020, heard=camera_only)
     assert verdict.velocity == pytest.approx((0.2, 0.0, 0.5))
