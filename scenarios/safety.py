@@ -15,13 +15,7 @@ import math
 from collections.abc import Iterator
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.safety import (
-    DEFAULT_HUMAN_RADIUS_M,
-    DEFAULT_HUMAN_SPEED_MPS,
-    DEFAULT_MAX_STATUS_AGE_MS,
-    DEFAULT_SENSING_ERROR_M,
-    SafetyConfig,
-)
+from oimi.pipeline.act.safety import ASSUMED, DEFAULT_HUMAN_RADIUS_M, SafetyConfig
 from oimi.scenarios.schema import Scenario
 
 NOISE_SIGMAS: Final = 3.0
@@ -87,19 +81,15 @@ def needs(scenario: Scenario) -> dict[str, Need]:
     return found
 
 
-DEFAULTS: Final = {
-    "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
-    "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
-    "sensing_error_m": DEFAULT_SENSING_ERROR_M,
-    "max_status_age_ms": DEFAULT_MAX_STATUS_AGE_MS,
-}
-"""Below these, an assumption left out is not taken even when the scenario allows it."""
+NEVER_BELOW: Final = {name: value for name, value in ASSUMED.items() if name != "robot_radius_m"}
+"""Below the supervisor's own assumptions, one left out is not taken even when the scenario
+allows it (the robot's radius aside: it is the robot's own)."""
 
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario."""
     implied = needs(scenario).items()
-    filled = {name: max(DEFAULTS.get(name, 0.0), need.least) for name, need in implied}
+    filled = {name: max(NEVER_BELOW.get(name, 0.0), need.least) for name, need in implied}
     return scenario.robot.safety.filled(**filled)
 
 

@@ -107,28 +107,22 @@ class SafetyConfig(Message):
     the speed at ``slow_speed_mps``, ms; None: the longer of 2000 and two of a scenario's
     ``status_period_s`` (a scenario may not set it below that)."""
 
-    def filled(
-        self,
-        *,
-        robot_radius_m: float = DEFAULT_ROBOT_RADIUS_M,
-        human_radius_m: float = DEFAULT_HUMAN_RADIUS_M,
-        human_speed_mps: float = DEFAULT_HUMAN_SPEED_MPS,
-        sensing_error_m: float = DEFAULT_SENSING_ERROR_M,
-        max_status_age_ms: int = DEFAULT_MAX_STATUS_AGE_MS,
-    ) -> SafetyConfig:
-        """This configuration with each assumption it leaves open (None) given."""
-        return msgspec.structs.replace(
-            self,
-            robot_radius_m=_given(self.robot_radius_m, robot_radius_m),
-            human_radius_m=_given(self.human_radius_m, human_radius_m),
-            human_speed_mps=_given(self.human_speed_mps, human_speed_mps),
-            sensing_error_m=_given(self.sensing_error_m, sensing_error_m),
-            max_status_age_ms=_given(self.max_status_age_ms, max_status_age_ms),
-        )
+    def filled(self, **given: float) -> SafetyConfig:
+        """This configuration with each assumption it leaves open (None) taken from
+        ``given`` (by field name), else from :data:`ASSUMED`."""
+        values = ASSUMED | given
+        left_open = {name: values[name] for name in values if getattr(self, name) is None}
+        return msgspec.structs.replace(self, **left_open)
 
 
-def _given(value: float | None, default: float) -> float:
-    return default if value is None else value
+ASSUMED: Final[dict[str, float]] = {
+    "robot_radius_m": DEFAULT_ROBOT_RADIUS_M,
+    "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
+    "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
+    "sensing_error_m": DEFAULT_SENSING_ERROR_M,
+    "max_status_age_ms": DEFAULT_MAX_STATUS_AGE_MS,
+}
+"""What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
 
 def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
