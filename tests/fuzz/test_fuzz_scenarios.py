@@ -36,8 +36,8 @@ ASSIGNMENT = re.compile(r"^[ \t]*[A-Za-z_][\w.\"]*[ \t]*=[^\n]*\n", re.M)
 NUMBERS = ["nan", "inf", "-inf", "-1", "0", "0.0", "-0.5", "1e300", "-1e300", "1e308", "1e-300",
            "9223372036854775808", "2.0", "3", "1000"]  # fmt: skip
 STRINGS = ['""', '"../../x.txt"', '"/etc/passwd"', '"nope"', '"activities/none.txt"', '"nan"',
-           '"stand"', '"child"', '"camera"', '"offline"', '"add"', '"a/b"', '"test_dance"',
-           '"greeting"', '"activities/playroom.txt"', "1.5", "[]", "{}"]  # fmt: skip
+           '"stand"', '"child"', '"camera"', '"offline"', '"silent"', '"add"', '"a/b"',
+           '"test_dance"', '"greeting"', '"activities/playroom.txt"', "1.5", "[]", "{}"]  # fmt: skip
 LOCATED = re.compile(r"^(?P<file>.+?\.toml)(?::\d+:\d+)?: \S")
 
 
