@@ -37,7 +37,8 @@ NUMBERS = ["nan", "inf", "-inf", "-1", "0", "0.0", "-0.5", "1e300", "-1e300", "1
            "9223372036854775808", "2.0", "3", "1000"]  # fmt: skip
 STRINGS = ['""', '"../../x.txt"', '"/etc/passwd"', '"nope"', '"activities/none.txt"', '"nan"',
            '"stand"', '"child"', '"camera"', '"offline"', '"silent"', '"add"', '"a/b"',
-           '"test_dance"', '"greeting"', '"activities/playroom.txt"', "1.5", "[]", "{}"]  # fmt: skip
+           '"test_dance"', '"greeting"', '"activities/playroom.txt"', "1.5", "[]",
+           "{}"]  # fmt: skip
 LOCATED = re.compile(r"^(?P<file>.+?\.toml)(?::\d+:\d+)?: \S")
 
 
