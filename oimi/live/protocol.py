@@ -25,6 +25,7 @@ from oimi.pipeline.events import (
     Button,
     LogEntry,
     Pad,
+    SafetyIntervention,
 )
 from oimi.pipeline.operator.commands import OperatorCommand
 from oimi.pipeline.operator.generator import GeneratorInfo
@@ -221,6 +222,9 @@ class WorldMessage(Message, tag="world", kw_only=True):
     released: str = ""
     """Why the safety lock was last released by the session (the operator let go, the
     heartbeat was lost, the client disconnected); empty while engaged or never released."""
+    safety: SafetyIntervention | None = None
+    """The safety supervisor's episode under way (its zone, the person it keeps away, the
+    source it limits, as it started or last changed); None while it limits nothing."""
 
 
 AnyMessage = Reply | StateMessage | Hello | WorldMessage

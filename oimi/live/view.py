@@ -20,6 +20,8 @@ from oimi.pipeline.events import (
     OperatorState,
     ReaderProgress,
     RuleDecisions,
+    SafetyIntervention,
+    SafetyPhase,
     Topic,
     WorldState,
 )
@@ -32,7 +34,8 @@ LOG_LINES: Final = 8
 
 
 class LiveView:
-    """A sink keeping the latest world state, block, rules fired, log lines and replies."""
+    """A sink keeping the latest world state, block, rules fired, log lines, safety episode
+    and replies."""
 
     def __init__(self, handler: GeneratorHandler) -> None:
         self.handler = handler
@@ -44,6 +47,8 @@ class LiveView:
         """Replies to operator commands by command id; the server takes them after each tick."""
         self._fired: dict[str, int] = {}
         self._log: deque[LogEntry] = deque(maxlen=LOG_LINES)
+        self.safety: SafetyIntervention | None = None
+        """The supervisor's episode under way (None: it limits nothing)."""
 
     def record(self, topic: Topic, time_ns: int, message: Event) -> None:
         del time_ns
@@ -67,6 +72,8 @@ class LiveView:
                 self.world = message
             case LogEntries():
                 self._log.extend(e for e in message.entries if e.level >= Level.WARNING)
+            case SafetyIntervention():
+                self.safety = None if message.phase is SafetyPhase.END else message
 
     def take_replies(self) -> dict[int, OperatorReply]:
         replies, self.replies = self.replies, {}
@@ -105,4 +112,5 @@ class LiveView:
             log=tuple(self._log),
             joystick_engaged=joystick_engaged,
             released="" if joystick_engaged else released,
+            safety=self.safety,
         )

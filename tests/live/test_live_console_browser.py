@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -117,6 +118,19 @@ def test_console_runs_a_session_and_the_recording_replays_clean(browser_page, tm
         page.mouse.down()
         expect(page.locator("#engaged")).to_contain_text("engaged")
         page.mouse.up()
+        expect(page.locator("#engaged")).to_have_text("released: the operator let go of the lock")
+
+        # Drive at the child standing 1.7 m ahead (keyboard: Space and the up arrow): the
+        # safety supervisor slows the robot near them, and the console says so.
+        expect(page.locator("#safety")).to_have_text("–")
+        page.keyboard.down("Space")
+        page.keyboard.down("ArrowUp")
+        expect(page.locator("#safety")).to_have_text(
+            re.compile(r"(slowing near|protective stop: nothing moves towards) child \(joystick\)"),
+            timeout=15_000,
+        )
+        page.keyboard.up("ArrowUp")
+        page.keyboard.up("Space")
         expect(page.locator("#engaged")).to_have_text("released: the operator let go of the lock")
         live.stop()
     assert live.returncode == 0, live.errors

@@ -446,6 +446,9 @@ function drawWorld() {
     ? "engaged (operator drives)"
     : frame.released ? `released: ${frame.released}` : "released";
   $("engaged").textContent = engaged;
+  const safety = $("safety");
+  safety.textContent = safetyText(frame.safety);
+  safety.className = frame.safety ? `limiting ${frame.safety.zone}` : "";
   const lockState = $("lock-state");
   lockState.textContent = `Lock ${engaged}`;
   lockState.className = frame.joystick_engaged ? "engaged" : frame.released ? "dropped" : "";
@@ -455,6 +458,25 @@ function drawWorld() {
     const li = document.createElement("li");
     li.textContent = `${entry.source}: ${entry.message}`;
     log.append(li);
+  }
+}
+
+/** What the safety supervisor is doing, in words ("–": it limits nothing). */
+function safetyText(episode) {
+  if (!episode) return "–";
+  const who = episode.human.startsWith("Obstacle/") ? "someone the sonar hears" : episode.human;
+  const by = ` (${episode.source})`;
+  switch (episode.zone) {
+    case "stop":
+      return `protective stop: nothing moves towards ${who}${by}`;
+    case "slow":
+      return `slowing near ${who}${by}`;
+    case "stale":
+      return `slow: a person's position is old${by}`;
+    default: {
+      const still = episode.allowed[0] === 0 && episode.allowed[1] === 0;
+      return still ? `only turning: no sensor on${by}` : `slow: a sensor is off${by}`;
+    }
   }
 }
 
