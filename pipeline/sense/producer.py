@@ -94,8 +94,9 @@ class MapProducer:
         self._pending_keys: set[tuple[EntityClass, str, str]] = set()
         """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
         self.heard: dict[tuple[str, str], int] = {}
-        """When each sensor's status (``isonline``) was last applied, ms, by (class, id):
-        a sensor whose status stops coming has a dead link, whatever it last said."""
+        """When each sensor's status (``isonline``) was last applied, ms, by (class, id),
+        for the sensors the perceived map holds: a sensor whose status stops coming has a
+        dead link, whatever it last said."""
         self._statuses: list[Target] = []
         """The sensors whose status is pending."""
 
@@ -142,11 +143,22 @@ class MapProducer:
             )
         pending, self._pending = self._pending, []
         self._pending_keys.clear()
-        for target in self._statuses:
-            self.heard[target.klass.value, target.id] = now_ms
-        self._statuses.clear()
         self._apply_all(perceived, pending, now_ms)  # its rejections: the other's, said below
+        if self._statuses:
+            self._hear(now_ms)
         return self._apply_all(self.world_map, pending, now_ms)
+
+    def _hear(self, now_ms: int) -> None:
+        """Note the pending statuses as heard at ``now_ms``: only those of sensors the map
+        holds (one it had no room for is not kept: ``heard`` stays as bounded as the map)."""
+        perceived = self.perceived
+        held = {("Camera", camera.id) for camera in perceived.cameras}
+        held.update(("Sonar", sonar.id) for sonar in perceived.sonars)
+        for target in self._statuses:
+            key = (target.klass.value, target.id)
+            if key in held:
+                self.heard[key] = now_ms
+        self._statuses.clear()
 
     def _apply_all(
         self, world: WorldMap, pending: list[DecodedUpdate], now_ms: int

@@ -351,3 +351,12 @@ def test_heard_is_when_each_sensor_last_reported_its_status_whatever_it_said():
     producer.consume(1200)
     assert producer.heard == {("Camera", "front"): 1100, ("Sonar", "ring"): 100}
     assert producer.perceived.sonars[0].isonline is False
+
+
+def test_heard_keeps_only_the_sensors_the_map_has_room_for():
+    _, producer = fresh(max_entities=2)
+    for n in range(5):
+        producer.submit(upd(f"Camera/{n}", "isonline", "s_true"))
+    producer.consume(100)
+    assert producer.heard == {("Camera", "0"): 100, ("Camera", "1"): 100}
+    assert [c.id for c in producer.perceived.cameras] == ["0", "1"]
