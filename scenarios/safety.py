@@ -15,7 +15,7 @@ import math
 from collections.abc import Iterator
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.safety import ASSUMED, DEFAULT_HUMAN_RADIUS_M, SafetyConfig
+from oimi.pipeline.act.safety import ASSUMED, SafetyConfig
 from oimi.scenarios.schema import Scenario
 
 NOISE_SIGMAS: Final = 3.0
@@ -62,10 +62,8 @@ def needs(scenario: Scenario) -> dict[str, Need]:
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
         radii = (  # as the supervisor will take them (supervisor_config)
-            robot.radius_m if safety.robot_radius_m is None else safety.robot_radius_m,
-            max([DEFAULT_HUMAN_RADIUS_M, *(h.radius_m for h in humans)])
-            if safety.human_radius_m is None
-            else safety.human_radius_m,
+            _left_out(name, found) if (given := getattr(safety, name)) is None else given
+            for name in ("robot_radius_m", "human_radius_m")
         )
         reach = sum(radii) + safety.stop_distance_m
         scaled = NOISE_SIGMAS * (sensors.noise_rho_m + sensors.noise_theta_rad * reach) * 1e4
@@ -88,9 +86,15 @@ allows it (the robot's radius aside: it is the robot's own)."""
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario."""
-    implied = needs(scenario).items()
-    filled = {name: max(NEVER_BELOW.get(name, 0.0), need.least) for name, need in implied}
-    return scenario.robot.safety.filled(**filled)
+    implied = needs(scenario)
+    return scenario.robot.safety.filled(**{name: _left_out(name, implied) for name in implied})
+
+
+def _left_out(name: str, implied: dict[str, Need]) -> float:
+    """What the supervisor takes for assumption ``name`` when the scenario leaves it out:
+    the least the scenario implies, never below the supervisor's own."""
+    need = implied.get(name)
+    return max(NEVER_BELOW.get(name, 0.0), 0.0 if need is None else need.least)
 
 
 def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:

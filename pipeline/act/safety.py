@@ -307,11 +307,11 @@ class SafetySupervisor:
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
         max_age = config.max_status_age_ms
-        seeing = [age for age in _status_ages(cameras, "Camera", heard, now_ms) if age <= max_age]
-        sounding = [age for age in _status_ages(sonars, "Sonar", heard, now_ms) if age <= max_age]
+        seeing = _online(cameras, "Camera", heard, now_ms - max_age)
+        sounding = _online(sonars, "Sonar", heard, now_ms - max_age)
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
-        late = any(4 * age > 3 * max_age for age in (*seeing, *sounding))  # a link dying?
+        late = 4 * (now_ms - min(seeing + sounding)) > 3 * max_age  # a link dying?
         blind = not seeing or (bool(sonars) and not sounding) or late
         stale = False
         constraints: list[_Constraint] = []
@@ -450,12 +450,16 @@ class SafetySupervisor:
         )
 
 
-def _status_ages(
-    sensors: Sequence[Camera | Sonar], klass: str, heard: Mapping[tuple[str, str], int], now_ms: int
-) -> list[float]:
-    """How long ago each of ``sensors`` that says it is on was last heard from, ms
-    (``inf``: never); one heard longer ago than ``max_status_age_ms`` is offline."""
-    return [now_ms - heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline]
+def _online(
+    sensors: Sequence[Camera | Sonar],
+    klass: str,
+    heard: Mapping[tuple[str, str], int],
+    since_ms: int,
+) -> list[int]:
+    """When each of ``sensors`` that says it is on was last heard from, if at ``since_ms``
+    or later (one heard from before, or never, is offline: its link is dead), ms."""
+    times = (heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline)
+    return [at_ms for at_ms in times if at_ms >= since_ms]
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:

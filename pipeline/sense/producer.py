@@ -97,8 +97,6 @@ class MapProducer:
         """When each sensor's status (``isonline``) was last applied, ms, by (class, id),
         for the sensors the perceived map holds: a sensor whose status stops coming has a
         dead link, whatever it last said."""
-        self._statuses: list[Target] = []
-        """The sensors whose status is pending."""
 
     # ---------------------------------------------------------------- queue
 
@@ -113,8 +111,6 @@ class MapProducer:
             self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
         self._pending_keys.add(key)
-        if decoded.spec.name == "isonline":
-            self._statuses.append(decoded.target)
         return None
 
     @property
@@ -143,27 +139,21 @@ class MapProducer:
             )
         pending, self._pending = self._pending, []
         self._pending_keys.clear()
-        self._apply_all(perceived, pending, now_ms)  # its rejections: the other's, said below
-        if self._statuses:
-            self._hear(now_ms)
+        # its rejections are the other's, said below; its statuses applied are the ones heard
+        self._apply_all(perceived, pending, now_ms, heard=self.heard)
         return self._apply_all(self.world_map, pending, now_ms)
 
-    def _hear(self, now_ms: int) -> None:
-        """Note the pending statuses as heard at ``now_ms``: only those of sensors the map
-        holds (one it had no room for is not kept: ``heard`` stays as bounded as the map)."""
-        perceived = self.perceived
-        held = {("Camera", camera.id) for camera in perceived.cameras}
-        held.update(("Sonar", sonar.id) for sonar in perceived.sonars)
-        for target in self._statuses:
-            key = (target.klass.value, target.id)
-            if key in held:
-                self.heard[key] = now_ms
-        self._statuses.clear()
-
     def _apply_all(
-        self, world: WorldMap, pending: list[DecodedUpdate], now_ms: int
+        self,
+        world: WorldMap,
+        pending: list[DecodedUpdate],
+        now_ms: int,
+        *,
+        heard: dict[tuple[str, str], int] | None = None,
     ) -> list[Rejection]:
-        """Apply ``pending`` to ``world``; the updates it has no room for."""
+        """Apply ``pending`` to ``world``; the updates it has no room for. ``heard`` notes
+        each sensor status applied at ``now_ms`` (a sensor the map had no room for has none:
+        ``heard`` stays as bounded as the map)."""
         index = _Index(world)
         rejections: list[Rejection] = []
         applied = False
@@ -185,6 +175,8 @@ class MapProducer:
                 owner = index.allocate(decoded.target, now_ms)
             self._apply(world, owner, decoded)
             applied = True
+            if heard is not None and decoded.spec.name == "isonline":
+                heard[decoded.target.klass.value, decoded.target.id] = now_ms
         if applied:
             world.lastupdatetime = now_ms
         return rejections

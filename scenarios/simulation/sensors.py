@@ -136,9 +136,7 @@ class Sensors:
             sensor.tracks.clear()  # no reading until it comes back: people appear again
         if event.mode is FaultMode.SILENT:
             return  # its link is dead: nothing said
-        prefix = "Camera" if sensor is self.camera else "Sonar"
-        online = TRUE if event.mode is FaultMode.ONLINE else FALSE
-        self._pending.append(_Update(f"{prefix}/{sensor.ident}", "isonline", Policy.R, online))
+        self._pending.append(self._status_of(sensor))
 
     def touch(self, event: TouchEvent, *, time_ms: int) -> None:
         """A scheduled touch, reported at the next sample."""
@@ -315,16 +313,14 @@ class Sensors:
     def _sensor_status(self) -> list[_Update]:
         """Each sensor's ``isonline`` again, with the robot's status: a listener that missed
         the first report (a bridge joining late) learns it within a status period."""
-        return [
-            _Update(
-                f"{kind}/{sensor.ident}",
-                "isonline",
-                Policy.R,
-                FALSE if sensor.mode is FaultMode.OFFLINE else TRUE,
-            )
-            for kind, sensor in (("Camera", self.camera), ("Sonar", self.sonar))
-            if sensor.mode is not FaultMode.SILENT
-        ]
+        sensors = (self.camera, self.sonar)
+        return [self._status_of(s) for s in sensors if s.mode is not FaultMode.SILENT]
+
+    def _status_of(self, sensor: _Sensor) -> _Update:
+        """A sensor's ``isonline`` as its mode says."""
+        kind = "Camera" if sensor is self.camera else "Sonar"
+        online = FALSE if sensor.mode is FaultMode.OFFLINE else TRUE
+        return _Update(f"{kind}/{sensor.ident}", "isonline", Policy.R, online)
 
 
 def _period_ms(rate_hz: float) -> float:

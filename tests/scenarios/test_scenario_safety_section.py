@@ -11,6 +11,13 @@ from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session
 
 
+def refused(text: bytes) -> str:
+    """The located error the scenario ``text`` (read as ``s.toml``) is refused with."""
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.toml")
+    return str(caught.value)
+
+
 def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
@@ -97,9 +104,7 @@ def test_left_out_the_sizes_and_speed_cover_the_scenarios_bodies() -> None:
 )
 def test_a_size_or_speed_below_the_scenarios_own_is_a_located_error(body, message) -> None:
     text = f'name = "x"\n[robot.safety]\n{body}'.encode() + HUMANS
-    with pytest.raises(ScenarioError) as caught:
-        parse_scenario(text, source="s.toml")
-    assert str(caught.value).startswith(f"s.toml:3:1: {message}: the supervisor")
+    assert refused(text).startswith(f"s.toml:3:1: {message}: the supervisor")
 
 
 def test_values_that_cover_the_scenario_are_kept() -> None:
@@ -121,9 +126,7 @@ def test_the_sensing_error_covers_three_times_the_sensors_noise() -> None:
 
 def test_a_sensing_error_below_the_noise_is_a_located_error() -> None:
     text = NOISY.replace(b"[sensors]", b"[robot.safety]\nsensing_error_m = 0.05\n[sensors]")
-    with pytest.raises(ScenarioError) as caught:
-        parse_scenario(text, source="s.toml")
-    assert str(caught.value).startswith(
+    assert refused(text).startswith(
         "s.toml:3:1: robot.safety.sensing_error_m (m): 0.05 is below 3 times the sensors' noise"
         " (0.0795 m: noise_rho_m 0.02, and noise_theta_rad 0.01 at the stop zone's 0.65 m)"
     )
@@ -131,9 +134,7 @@ def test_a_sensing_error_below_the_noise_is_a_located_error() -> None:
 
 def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
     text = b'name = "x"\n[sensors]\nnoise_rho_m = 1e308\nnoise_theta_rad = 1e308\n'
-    with pytest.raises(ScenarioError) as caught:
-        parse_scenario(text, source="s.toml")
-    assert str(caught.value).startswith(
+    assert refused(text).startswith(
         "s.toml:3:1: sensors.noise_rho_m (m): the sensors' noise (noise_rho_m 1e+308,"
         " noise_theta_rad 1e+308) is too large: 3 times it is no finite margin"
     )
@@ -150,9 +151,7 @@ def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> No
     text = (
         b'name = "x"\n[robot.safety]\nmax_status_age_ms = 1500\n[sensors]\nstatus_period_s = 1.0\n'
     )
-    with pytest.raises(ScenarioError) as caught:
-        parse_scenario(text, source="s.toml")
-    assert str(caught.value).startswith(
+    assert refused(text).startswith(
         "s.toml:3:1: robot.safety.max_status_age_ms (ms): 1500 is below two of the sensors'"
         " status_period_s 1.0 (2000 ms): the supervisor would take them for offline"
     )

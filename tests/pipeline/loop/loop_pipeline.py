@@ -3,74 +3,46 @@
 from __future__ import annotations
 
 import json
+from typing import Any
 
 from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.messages import (
     Action,
+    Block,
     Goal,
     InstructionBlock,
     JumpBlock,
     Led,
     MapUpdate,
-    MutexCmd,
     Policy,
     RuleAction,
-    RuleMessage,
     Script,
 )
 from oimi.pipeline.operator.generators import default_catalogue
+from oimi.pipeline.operator.generators.build import alfa_messages, omega_messages
 from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
 from oimi.pipeline.think.reader import ScriptEntry
 
 
-def rm(code: int, name: str, action: str, mutex: str) -> RuleMessage:
-    return RuleMessage(
-        rulecode=code,
-        id=name,
-        intopic="",
-        outtopic="",
-        action=RuleAction[action],
-        mutexcmd=MutexCmd[mutex],
-    )
+def one_goal(name: str, goalid: str, *blocks: Block, **rules: Any) -> Script:
+    """A script of one goal of one action of ``blocks``."""
+    action = Action(blocks=blocks)
+    return Script(activityname=name, goals=(Goal(goalid=goalid, actions=(action,)),), **rules)
 
 
-IDLE = Script(
-    activityname="idle_activity",
-    alfarulemessages=(rm(0, "kick_starter", "C", "U"),),
-    omegarulemessages=(rm(0, "kick_starter", "R", "L"),),
-    goals=(
-        Goal(
-            goalid="rest",
-            actions=(
-                Action(
-                    blocks=(
-                        InstructionBlock(
-                            led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)
-                        ),
-                        JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
-                    )
-                ),
-            ),
-        ),
-    ),
+IDLE = one_goal(
+    "idle_activity",
+    "rest",
+    InstructionBlock(led=(Led(r=0, g=0, b=0.3, turnas=1, wait_t=0, duration=500),)),
+    JumpBlock(toparse="! {TRUE}", truejump="goal0/act0/blk0"),
+    alfarulemessages=alfa_messages((0, "kick_starter", RuleAction.C)),
+    omegarulemessages=omega_messages((0, "kick_starter", RuleAction.R)),
 )
-WAIT = Script(
-    activityname="wait_for_child",
-    goals=(
-        Goal(
-            goalid="wait",
-            actions=(
-                Action(
-                    blocks=(
-                        InstructionBlock(
-                            led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)
-                        ),
-                    )
-                ),
-            ),
-        ),
-    ),
+WAIT = one_goal(
+    "wait_for_child",
+    "wait",
+    InstructionBlock(led=(Led(r=1, g=1, b=0, turnas=1, wait_t=0, duration=200),)),
 )
 
 
