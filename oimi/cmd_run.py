@@ -19,6 +19,7 @@ from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument, report_warnings
 from oimi.extension_args import extensions_of
 from oimi.scenarios.errors import ScenarioError
+from oimi.scenarios.loader import warnings_with
 from oimi.scenarios.session.runner import RunResult
 
 MAX_ERRORS_SHOWN: Final = 5
@@ -55,14 +56,15 @@ def run(args: argparse.Namespace) -> int:
     loaded = api.load_scenario(
         args.scenario, extensions=extensions, allow_outside=args.allow_outside_paths
     )
-    report_warnings(loaded.warnings)
+    overrides = parse_params(args.param)
+    report_warnings(warnings_with(loaded, overrides))
     outcome = api.run(
         loaded,
         output=output,
         rrd=args.rrd,
         junit=args.junit,
         seed=args.seed,
-        overrides=parse_params(args.param),
+        overrides=overrides,
         overwrite=args.overwrite,
         realtime=args.realtime,
         world_every_n_ticks=args.world_every,

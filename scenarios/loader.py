@@ -810,6 +810,25 @@ def apply_overrides(scenario: Scenario, overrides: Mapping[str, str]) -> Scenari
         raise ScenarioError(f"override: {problem.message()}", source="<overrides>") from None
 
 
+def warnings_with(
+    loaded: LoadedScenario, overrides: Mapping[str, str]
+) -> tuple[ScenarioError, ...]:
+    """The scenario's warnings once ``overrides`` are applied (a ``--param`` may shorten the
+    sonar ring or speed the robot up): one about a field an override set is said of the
+    overrides, the others are located in the file and name the overrides. Bad overrides
+    raise as :func:`apply_overrides` does."""
+    if not overrides:
+        return loaded.warnings
+    given = ", ".join(f"{key}={value}" for key, value in overrides.items())
+    locator = TomlLocator(loaded.raw.decode("utf-8"))
+    return tuple(
+        ScenarioError(Invalid(where, what).message(), source="<overrides>")
+        if ".".join(map(str, where)) in overrides
+        else _located(Invalid(where, f"{what} (with {given})"), str(loaded.source), locator)
+        for where, what in coverage_gaps(apply_overrides(loaded.scenario, overrides))
+    )
+
+
 def _toml_value(text: str) -> Any:
     try:
         return tomllib.loads(f"value = {text}")["value"]

@@ -37,8 +37,10 @@ from oimi.batch.spec import (
     scenario_files,
 )
 from oimi.batch.tasks import ResultRow, finished_row, run_task
+from oimi.cmd_check import report_warnings
 from oimi.extension_args import extensions_of
 from oimi.recorder.outputs import check_output
+from oimi.scenarios.errors import ScenarioError
 
 SUMMARY = "summary.txt"
 JUNIT = "junit.xml"
@@ -113,6 +115,13 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
         raise SpecError(f"--seeds must be at least 1, got {args.seeds}", source="<command line>")
     tasks: list[Task] = []
     scenarios: list[Path] = []
+    said: set[str] = set()
+
+    def warn(warning: ScenarioError) -> None:  # once each, however many runs it concerns
+        if str(warning) not in said:
+            said.add(str(warning))
+            report_warnings([warning])
+
     for path in args.inputs:
         if path.is_file() and is_batch_spec(path):
             tasks += expand_spec(
@@ -125,6 +134,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
                 allow_outside_paths=args.allow_outside_paths,
                 extensions=extensions_of(args),
                 world_every_n_ticks=args.world_every,
+                warn=warn,
             )
         else:
             scenarios += scenario_files([path], base=Path.cwd())
@@ -138,6 +148,7 @@ def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
             allow_outside_paths=args.allow_outside_paths,
             extensions=extensions_of(args),
             world_every_n_ticks=args.world_every,
+            warn=warn,
         )
     check_unique(tasks)
     return tasks

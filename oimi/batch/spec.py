@@ -20,7 +20,7 @@ import itertools
 import math
 import re
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -32,8 +32,8 @@ from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import (
     TomlLocator,
     _located_validation_error,
-    apply_overrides,
     load_scenario,
+    warnings_with,
 )
 
 
@@ -221,16 +221,19 @@ def expand(
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
     world_every_n_ticks: int | None = None,
+    warn: Callable[[ScenarioError], None] = lambda warning: None,
 ) -> list[Task]:
     """Every scenario × grid combination × seed as a task. Loads each scenario and applies
-    each combination once, so bad files or overrides fail here, before anything runs.
+    each combination once, so bad files or overrides fail here, before anything runs;
+    ``warn`` hears each combination's warnings (``loader.warnings_with``).
     ``world_every_n_ticks``: None for the default sampling (every second tick)."""
     tasks: list[Task] = []
     combos = grid(params)
     for path in scenarios:
         loaded = load_scenario(path, allow_outside=allow_outside_paths, extensions=extensions)
         for combo in combos:
-            apply_overrides(loaded.scenario, dict(combo))
+            for warning in warnings_with(loaded, dict(combo)):
+                warn(warning)
             for seed in seeds_for(loaded.scenario.seed, seeds=seeds, seed_range=seed_range):
                 tasks.append(
                     Task(
@@ -258,10 +261,11 @@ def expand_spec(
     allow_outside_paths: bool = False,
     extensions: Sequence[str] = (),
     world_every_n_ticks: int | None = None,
+    warn: Callable[[ScenarioError], None] = lambda warning: None,
 ) -> list[Task]:
     """The tasks of every group of a spec file. ``params`` (TOML value texts) replace the
     groups' values of the same keys; ``seeds`` or ``seed_range`` replace the groups' seeds,
-    ``world_every_n_ticks`` their sampling of the world's state."""
+    ``world_every_n_ticks`` their sampling of the world's state; ``warn`` as :func:`expand`."""
     tasks: list[Task] = []
     for group in spec.groups():
         if group.seeds is not None and group.seed_range is not None:
@@ -293,6 +297,7 @@ def expand_spec(
             allow_outside_paths=allow_outside_paths,
             extensions=extensions,
             world_every_n_ticks=world_every_n_ticks or group.world_every_n_ticks,
+            warn=warn,
         )
     if not tasks:
         raise SpecError("the batch spec names no scenarios", source=str(source))

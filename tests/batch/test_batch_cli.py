@@ -151,6 +151,14 @@ def test_a_bad_param_is_bad_input_before_any_run(tmp_path: Path, capsys) -> None
     assert not (tmp_path / "out").exists()
 
 
+def test_a_param_that_shortens_the_sonar_ring_is_warned_of_once(tmp_path: Path, capsys) -> None:
+    argv = batch(tmp_path, "out", "--param", "sensors.sonar_range_m=0.5", "--seeds", "1", "-q")
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert err.count("<overrides>: sensors.sonar_range_m (m): the sonar ring reaches 0.5 m") == 1
+    assert err.count("(warning)") == 1, "once, not for each scenario or run"
+
+
 def test_ray_missing_says_how_to_install_it(tmp_path: Path, capsys, monkeypatch) -> None:
     monkeypatch.setitem(sys.modules, "ray", None)
     assert main(batch(tmp_path, "out", "--ray")) == 2

@@ -6,7 +6,7 @@ import msgspec
 import pytest
 from oimi.pipeline.act.safety import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.loader import parse_scenario, warnings_with
 from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session
 
@@ -171,3 +171,15 @@ def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> Non
     assert parse_scenario(short.replace(b"0.99", b"1.01")).warnings == ()
     slow_scan = short.replace(b"0.99", b"1.01") + b"sonar_scan_hz = 4\n"
     assert parse_scenario(slow_scan).warnings, "a slower scan needs a longer reach"
+
+
+def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:
+    loaded = parse_scenario(b'name = "x"\n[sensors]\nsonar_range_m = 1.01\n', source="s.toml")
+    assert warnings_with(loaded, {}) == () == warnings_with(loaded, {"seed": "2"})
+    (shortened,) = warnings_with(loaded, {"sensors.sonar_range_m": "0.5"})
+    assert str(shortened).startswith(
+        "<overrides>: sensors.sonar_range_m (m): the sonar ring reaches 0.5 m, less than the 1.0 m"
+    )
+    (faster,) = warnings_with(loaded, {"robot.max_speed_mps": "0.6"})  # the file's ring
+    assert str(faster).startswith("s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches")
+    assert str(faster).endswith("(with robot.max_speed_mps=0.6)")
