@@ -33,12 +33,13 @@ three quarters of that ago (a status late: the link may be dying) caps linear mo
 The front camera does not see behind the robot: a person it never saw is not among
 the map's humans. Bodies a sensor reports as obstacles that are not fixed
 (``isfixed`` false: the sonar ring's echoes of anything that moves, all around) are
-therefore kept at the same distances, as anonymous humans, while their reading is
-fresh (an echo older than ``max_data_age_ms`` is a body that left the sonar's range,
-since the ring scans all the time), unless the echo is a human the map tracks: placed
-within both readings' errors and the walk between them, and never farther than
-``human_radius_m``, of that human's fresh reading. Fixed obstacles (furniture) are
-not limited.
+therefore kept at the same distances, as anonymous humans, unless the echo is a human
+the map tracks: placed within both readings' errors and the walk between them, and never
+farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
+older than ``max_data_age_ms`` is a body that left the sonar's range (the ring scans all
+the time) once it is no longer reported; one still reported with an old reading is a
+sonar repeating itself (frozen) or lagging: it is kept, stale, and caps linear motion at
+``slow_speed_mps`` as a stale human does. Fixed obstacles (furniture) are not limited.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
@@ -231,8 +232,8 @@ class SafetySupervisor:
     ) -> Supervised:
         """The velocity allowed at ``now_ms`` for ``requested`` (body frame, from ``source``);
         the robot is then taken to drive it for one tick (dead reckoning). ``heard``: when
-        each sensor's status was last heard, ms, by (``"Camera"`` or ``"Sonar"``, id)
-        (``MapProducer.heard``)."""
+        each sensor's status and each obstacle's reading was last heard, ms, by
+        (``"Camera"``, ``"Sonar"`` or ``"Obstacle"``, id) (``MapProducer.heard``)."""
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self._pose))
         anchors = self._anchors
@@ -326,7 +327,11 @@ class SafetySupervisor:
                     seen.append(self._anchors[human.id])
         for key, echo in echoes:
             age_ms = now_ms - echo.positionchangetime
-            if age_ms <= config.max_data_age_ms and not self._explained(self._anchors[key], seen):
+            if age_ms > config.max_data_age_ms:
+                if now_ms - heard.get(("Obstacle", echo.id), _NEVER) > config.max_data_age_ms:
+                    continue  # no longer reported: the body left the ring's range
+                stale = True  # reported still, but long taken: a sonar repeating itself
+            if not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None

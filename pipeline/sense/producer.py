@@ -44,6 +44,8 @@ from oimi.pipeline.sense.updates import (
 MAX_ENTITIES: Final = 1024
 """Default number of entities a class (cameras, humans...) may hold in the map."""
 
+_HEARD: Final = frozenset({"isonline", "poses"})
+"""The attributes whose arrival :attr:`MapProducer.heard` notes."""
 _LISTED: Final = {EntityClass(m.name): (m.field, m.struct) for m in MAP_LISTS}
 """Classes kept as lists in the map: the WorldMap field and the Struct to allocate."""
 
@@ -94,9 +96,10 @@ class MapProducer:
         self._pending_keys: set[tuple[EntityClass, str, str]] = set()
         """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
         self.heard: dict[tuple[str, str], int] = {}
-        """When each sensor's status (``isonline``) was last applied, ms, by (class, id),
-        for the sensors the perceived map holds: a sensor whose status stops coming has a
-        dead link, whatever it last said."""
+        """When each sensor's status (``isonline``) and each entity's reading (``poses``)
+        was last applied, ms, by (class, id), for the entities the perceived map holds: a
+        sensor whose status stops coming has a dead link, whatever it last said; a reading
+        still coming but long taken is a sensor repeating itself (frozen) or lagging."""
 
     # ---------------------------------------------------------------- queue
 
@@ -152,8 +155,8 @@ class MapProducer:
         heard: dict[tuple[str, str], int] | None = None,
     ) -> list[Rejection]:
         """Apply ``pending`` to ``world``; the updates it has no room for. ``heard`` notes
-        each sensor status applied at ``now_ms`` (a sensor the map had no room for has none:
-        ``heard`` stays as bounded as the map)."""
+        each sensor status and reading applied at ``now_ms`` (an entity the map had no room
+        for has none: ``heard`` stays as bounded as the map)."""
         index = _Index(world)
         rejections: list[Rejection] = []
         applied = False
@@ -175,7 +178,7 @@ class MapProducer:
                 owner = index.allocate(decoded.target, now_ms)
             self._apply(world, owner, decoded)
             applied = True
-            if heard is not None and decoded.spec.name == "isonline":
+            if heard is not None and decoded.spec.name in _HEARD:
                 heard[decoded.target.klass.value, decoded.target.id] = now_ms
         if applied:
             world.lastupdatetime = now_ms

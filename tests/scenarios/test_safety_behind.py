@@ -93,3 +93,16 @@ def test_with_every_sensors_link_dead_the_pad_cannot_reverse_into_the_child() ->
     # from 1 s at most 0.4 m/s for half a second, the slow speed, nothing from 2 s + a tick
     travelled = 3.0 - session.world.robot_pose()[0]
     assert 0.1 < travelled < 0.4 * 0.5 + 0.2 * (500 + tick_ms) / 1000
+
+
+def test_with_every_sensor_frozen_the_pad_cannot_reverse_into_the_child() -> None:
+    """Both sensors freeze (they say "on" and repeat their last readings) before the operator
+    reverses: the ring's echo of the child keeps coming with an old reading, kept as stale,
+    so the robot is slowed at once and stopped short of the child (before, the echo was
+    taken for a body that left: the robot reversed 0.96 m into the child)."""
+    session, memory = with_faults(FaultMode.FROZEN)
+    summary = session.result().summary
+    assert summary.contacts == 0 and summary.min_surface_distance_m["child"] > 0.1
+    limited = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
+    assert limited and limited[0].zone is SafetyZone.STALE
+    assert summary.max_speed_mps <= 0.2 + 1e-6

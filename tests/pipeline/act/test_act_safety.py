@@ -375,6 +375,20 @@ def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
     assert supervise(Velocity(-0.5, 0.0, 0.0), gone, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
 
 
+def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
+    """A sonar repeating itself (frozen) or lagging: the echo keeps coming, its reading
+    600 ms old. It is not a body that left: it stops the robot reversing into it, and the
+    rest of its motion is capped at the slow speed."""
+    frozen = room(seen(4.0, at_ms=600))
+    frozen.obstacles.append(echo(0.6, at_ms=0))
+    heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
+    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
+    assert event is not None and event.human == "Obstacle/echo-0"
+    away, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    assert away.velocity == pytest.approx((0.2, 0.0, 0.0)) and away.zone is SafetyZone.STALE
+
+
 def test_a_sonar_offline_caps_motion_at_the_slow_speed() -> None:
     world_map = room(seen(4.0))
     world_map.sonars.append(Sonar(id="ring", isonline=False))

@@ -338,7 +338,7 @@ def test_the_perceived_map_starts_as_a_copy_of_the_map():
     assert producer.perceived.humans[0].positionrho == 1.0
 
 
-def test_heard_is_when_each_sensor_last_reported_its_status_whatever_it_said():
+def test_heard_is_when_each_status_and_reading_last_arrived_whatever_it_said():
     _, producer = fresh()
     producer.submit(upd("Camera/front", "isonline", "s_true"))
     producer.submit(upd("Sonar/ring", "isonline", "s_false"))
@@ -347,9 +347,15 @@ def test_heard_is_when_each_sensor_last_reported_its_status_whatever_it_said():
     producer.submit(upd("Camera/front", "fps", "30"))  # not a status
     producer.submit(upd("Sonar/ring", "scanfrequency", "5"))
     producer.consume(1100)
-    producer.submit(upd("Human/1", "poses", pose(1), Policy.A))
+    producer.submit(upd("Obstacle/echo", "poses", pose(1, t=300), Policy.A))  # taken at 300
+    producer.submit(upd("Obstacle/echo", "isfixed", "s_false"))  # not a reading
+    producer.submit(upd("Obstacle/shelf", "isfixed", "s_true"))
     producer.consume(1200)
-    assert producer.heard == {("Camera", "front"): 1100, ("Sonar", "ring"): 100}
+    assert producer.heard == {
+        ("Camera", "front"): 1100,
+        ("Sonar", "ring"): 100,
+        ("Obstacle", "echo"): 1200,  # when it arrived, not when it was taken
+    }
     assert producer.perceived.sonars[0].isonline is False
 
 
