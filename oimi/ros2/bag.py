@@ -296,11 +296,12 @@ def replay_rosbag(
             now = inputs.pop(tick, _Inputs())
             for update in now.updates:
                 sensors.receive(update)
+            time_ms = tick * session.tick_ms
             for odom in now.odometry:
                 body.odometry = odom
+                sensors.clock.odometry(odom, now_ms=time_ms)
             for at_s, joy in now.joys:
                 guard.receive(BAG_OWNER, pad_of(joy), now_s=at_s)
-            time_ms = tick * session.tick_ms
             taken = guard.take(now_s=time_ms / 1000)
             joystick = None
             if taken is not None:

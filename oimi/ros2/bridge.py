@@ -150,11 +150,13 @@ class BridgeSession(LiveSession):
         commands: Iterable[OperatorCommand] = (),
         joystick: JoystickInput | None = None,
     ) -> None:
-        """Take what arrived over DDS, run the tick, publish the body's command."""
+        """Take what arrived over DDS, run the tick, publish the body's command (the map
+        updates' times on the session's clock: ``remote.RobotClock``)."""
         for update in take_all(self._updates):
             self.remote_sensors.receive(update)  # type: ignore[arg-type]
         for odometry in take_all(self._odometry):
             self.body.odometry = odometry  # type: ignore[assignment]
+            self.remote_sensors.clock.odometry(odometry, now_ms=tick * self.tick_ms)  # type: ignore[arg-type]
         if self.guard is None:
             take_all(self._joy)  # no live server to drive: pad states are dropped
         for why in self.remote_sensors.refused:

@@ -2,7 +2,8 @@
 robot is reached over ROS 2 (``oimi bridge``) or read from a rosbag2 (``oimi replay``).
 
 ``RemoteSensors`` hands the session the map updates that arrived since the last tick,
-numbered in arrival order; ``RemoteBody`` keeps the robot's latest odometry for the
+numbered in arrival order, their times moved from the robot's clock to the session's
+(:class:`RobotClock`); ``RemoteBody`` keeps the robot's latest odometry for the
 recorded world state. Neither simulates anything: scenario touches, faults and people's
 behaviours belong to the real room and are ignored.
 """
@@ -10,19 +11,89 @@ behaviours belong to the real room and are ignored.
 from __future__ import annotations
 
 import math
+from collections import deque
+from collections.abc import Callable
+from typing import Final
+
+import msgspec
 
 from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
+from oimi.pipeline.sink import NS_PER_MS
 from oimi.ros2 import types
 from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
 
+CLOCK_WINDOW: Final = 50
+"""How many of the latest odometry messages the robot's clock is read from (a second at
+50 Hz: a robot whose clock jumps, restarted, is followed within it)."""
+TIMES: Final = {
+    "poses": ("positionchangetime",),
+    "tracking": ("appearanceon",),
+    "touch": ("startingtime",),
+    "led": ("startingtime",),
+    "audioout": ("startingtime",),
+    "speed": ("startingtime",),
+}
+"""The times (ms) in each attribute's JSON payload (tables 4.1 and 4.2; durations stay)."""
+BARE_TIMES: Final = frozenset({"startingtime"})
+"""The attributes whose payload is a bare time (the robot's ``startingtime``)."""
+
+
+class RobotClock:
+    """The robot's clock against the session's, from its odometry's header stamps.
+
+    A map update's times (a pose's ``positionchangetime``, a touch's ``startingtime``...)
+    are on the robot's clock, the clock of its odometry's stamps; the session's start at
+    0 when the session does. ``offset_ms`` is the least (session time at the tick that
+    took it - stamp) over the last ``CLOCK_WINDOW`` odometry messages: the clocks' offset
+    plus the shortest delivery, so a reading keeps the age it had on the robot (younger
+    by that delivery at most, within the tick of age the supervisor's margin adds)."""
+
+    def __init__(self) -> None:
+        self._offsets: deque[int] = deque(maxlen=CLOCK_WINDOW)
+
+    def odometry(self, odometry: types.Odometry, *, now_ms: int) -> None:
+        """An odometry message taken at the session's ``now_ms``."""
+        stamp = odometry.header.stamp
+        self._offsets.append(now_ms - (stamp.sec * 1000 + stamp.nanosec // NS_PER_MS))
+
+    @property
+    def offset_ms(self) -> int | None:
+        """Session time minus robot time, ms; None before any odometry."""
+        return min(self._offsets) if self._offsets else None
+
+
+def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdate:
+    """``update`` with each time its payload holds (:data:`TIMES`) taken through ``moved``
+    (robot time -> session time). A payload that does not read as the tables say is left
+    as it came, for the Map Producer to refuse with its reason."""
+    name, text = update.attributename, update.jsonmsg
+    if name in BARE_TIMES and text.isdigit():
+        return msgspec.structs.replace(update, jsonmsg=str(moved(int(text))))
+    keys = TIMES.get(name)
+    if keys is None:
+        return update
+    try:
+        payload = msgspec.json.decode(text)
+    except msgspec.DecodeError:
+        return update
+    if type(payload) is not dict:
+        return update
+    for key in keys:
+        if type(payload.get(key)) is int:
+            payload[key] = moved(payload[key])
+    return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
+
 
 class RemoteSensors:
-    """The map updates received, given to the session once, at the next tick."""
+    """The map updates received, given to the session once, at the next tick, their times
+    on the session's clock (``clock``, fed with the robot's odometry; before the first,
+    a time is the tick's that takes it)."""
 
     def __init__(self) -> None:
         self._inbox: list[MapUpdate] = []
         self._seq = 0
+        self.clock = RobotClock()
         self.refused: list[str] = []
         """Why an update was refused before it reached the pipeline (read and cleared)."""
 
@@ -48,9 +119,13 @@ class RemoteSensors:
         )
 
     def sample(self, world: object, *, tick: int, time_ms: int) -> list[MapUpdate]:
-        """The updates received since the last tick, in arrival order."""
+        """The updates received since the last tick, in arrival order, on the session's
+        clock."""
         updates, self._inbox = self._inbox, []
-        return updates
+        offset = self.clock.offset_ms
+        if offset is None:
+            return [on_session_clock(u, lambda _: time_ms) for u in updates]
+        return [on_session_clock(u, lambda at: max(0, at + offset)) for u in updates]
 
     def touch(self, event: TouchEvent, *, time_ms: int) -> None:
         """Touches come from the robot's own sensors."""
