@@ -88,7 +88,7 @@ def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdat
 class RemoteSensors:
     """The map updates received, given to the session once, at the next tick, their times
     on the session's clock (``clock``, fed with the robot's odometry; before the first,
-    a time is the tick's that takes it)."""
+    a time is the tick's that takes it), none later than that tick."""
 
     def __init__(self) -> None:
         self._inbox: list[MapUpdate] = []
@@ -125,7 +125,8 @@ class RemoteSensors:
         offset = self.clock.offset_ms
         if offset is None:
             return [on_session_clock(u, lambda _: time_ms) for u in updates]
-        return [on_session_clock(u, lambda at: max(0, at + offset)) for u in updates]
+        # never before the session, nor after the tick that takes it
+        return [on_session_clock(u, lambda at: min(max(0, at + offset), time_ms)) for u in updates]
 
     def touch(self, event: TouchEvent, *, time_ms: int) -> None:
         """Touches come from the robot's own sensors."""

@@ -39,7 +39,9 @@ farther than ``human_radius_m``, of that human's fresh reading. An echo whose re
 older than ``max_data_age_ms`` is a body that left the sonar's range (the ring scans all
 the time) once it is no longer reported; one still reported with an old reading is a
 sonar repeating itself (frozen) or lagging: it is kept, stale, and caps linear motion at
-``slow_speed_mps`` as a stale human does. Fixed obstacles (furniture) are not limited.
+``slow_speed_mps`` as a stale human does. A reading taken more than a tick after the
+supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles (furniture) are
+not limited.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
@@ -318,7 +320,7 @@ class SafetySupervisor:
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
-            age_ms = now_ms - human.positionchangetime
+            age_ms = self._age(human, now_ms)
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
@@ -326,7 +328,7 @@ class SafetySupervisor:
                 if age_ms <= config.max_data_age_ms:
                     seen.append(self._anchors[human.id])
         for key, echo in echoes:
-            age_ms = now_ms - echo.positionchangetime
+            age_ms = self._age(echo, now_ms)
             if age_ms > config.max_data_age_ms:
                 if now_ms - heard.get(("Obstacle", echo.id), _NEVER) > config.max_data_age_ms:
                     continue  # no longer reported: the body left the ring's range
@@ -357,6 +359,13 @@ class SafetySupervisor:
         if binding is not None:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
         return Verdict(allowed, zone)
+
+    def _age(self, reading: Entity, now_ms: int) -> int:
+        """How long ago ``reading`` was taken, ms. One taken more than a tick after
+        ``now_ms`` (a sensor whose clock is ahead of the session's) has no age that can be
+        trusted: it is taken for stale, else it would look fresh until the clock caught up."""
+        age_ms = now_ms - reading.positionchangetime
+        return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
 
     def _constraint(self, key: str, human: Entity, age_ms: int) -> _Constraint:
         """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it."""

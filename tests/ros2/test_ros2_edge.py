@@ -115,6 +115,7 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         update("RobotStatus", "touch", '{"touchtype": "C", "duration": 5, "startingtime": 100000}'),
         update("RobotStatus", "startingtime", "99000"),  # before the session: its start
         update("Camera/front", "isonline", "s_true"),
+        update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
         update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
     ]
     for each in received:
@@ -126,6 +127,7 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         '{"touchtype":"C","duration":5,"startingtime":40}',
         "0",
         "s_true",
+        pose_at(100),
         '{"positionrho": 1.5',
     ]
 

@@ -156,6 +156,16 @@ def test_stale_human_data_caps_every_direction_at_the_slow_speed() -> None:
     assert fresh.velocity == (-0.5, 0.0, 0.0)
 
 
+def test_a_reading_from_the_future_is_stale_not_fresh() -> None:
+    """A sensor whose clock is a second ahead: its reading would look fresh for a second
+    after it froze. Within a tick ahead (a clock read across a network) it is fresh."""
+    ahead = room(seen(centre_at(1.0), at_ms=1600))
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), ahead, now_ms=600)
+    assert verdict.velocity[:2] == pytest.approx((0.2, 0.0)) and verdict.zone is SafetyZone.STALE
+    just = room(seen(centre_at(1.0), at_ms=600 + TICK_MS))
+    assert supervise(Velocity(0.5, 0.0, 0.0), just, now_ms=600)[0].velocity == (0.5, 0.0, 0.0)
+
+
 def test_without_a_camera_online_motion_is_capped_at_the_slow_speed() -> None:
     sensors = {
         "cameras": [Camera(id="front", isonline=False)],
@@ -187,7 +197,7 @@ def test_with_no_sensor_online_nothing_moves_but_turning(sensors) -> None:
 def test_a_sensor_whose_status_stopped_coming_slows_then_counts_as_offline() -> None:
     """A dead link: the sensors last said "on", then nothing (default age 2 s): 1.5 s
     late, the speed is capped; two seconds late, they count as offline."""
-    world_map = room(seen(4.0, at_ms=2020))
+    world_map = room(seen(4.0, at_ms=1500))  # the child's readings stay fresh
     world_map.sonars.append(Sonar(id="ring", isonline=True))
     heard = live(world_map, 0)
     request = Velocity(0.5, 0.0, 0.5)
@@ -195,6 +205,7 @@ def test_a_sensor_whose_status_stopped_coming_slows_then_counts_as_offline() -> 
     late, event = supervise(request, world_map, now_ms=1520, heard=heard)
     assert late.velocity == pytest.approx((0.2, 0.0, 0.5))
     assert event is not None and event.zone is SafetyZone.BLIND
+    world_map.humans[0].positionchangetime = 2000
     assert supervise(request, world_map, now_ms=2000, heard=heard)[0].velocity == late.velocity
     verdict, _ = supervise(request, world_map, now_ms=2020, heard=heard)
     assert verdict.velocity == (0.0, 0.0, 0.5)  # nothing heard from for too long: only turning
