@@ -19,6 +19,7 @@ import msgspec
 
 from oimi.pipeline.events import BodyState, WorldState
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
+from oimi.pipeline.sense.updates import INT_MAX
 from oimi.pipeline.sink import NS_PER_MS
 from oimi.ros2 import types
 from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
@@ -68,7 +69,7 @@ def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdat
     (robot time -> session time). A payload that does not read as the tables say is left
     as it came, for the Map Producer to refuse with its reason."""
     name, text = update.attributename, update.jsonmsg
-    if name in BARE_TIMES and text.isdigit():
+    if name in BARE_TIMES and text.isascii() and text.isdigit() and _is_time(int(text)):
         return msgspec.structs.replace(update, jsonmsg=str(moved(int(text))))
     keys = TIMES.get(name)
     if keys is None:
@@ -77,12 +78,17 @@ def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdat
         payload = msgspec.json.decode(text)
     except msgspec.DecodeError:
         return update
-    if type(payload) is not dict:
+    if type(payload) is not dict or not all(_is_time(payload.get(key)) for key in keys):
         return update
     for key in keys:
-        if type(payload.get(key)) is int:
-            payload[key] = moved(payload[key])
+        payload[key] = moved(payload[key])
     return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
+
+
+def _is_time(value: object) -> bool:
+    """Whether ``value`` is a time as the tables allow it (what is not is left for the Map
+    Producer to refuse)."""
+    return type(value) is int and 0 <= value <= INT_MAX
 
 
 class RemoteSensors:

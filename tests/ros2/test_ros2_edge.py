@@ -117,6 +117,8 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         update("Camera/front", "isonline", "s_true"),
         update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
         update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
+        update("Human/c", "poses", '{"positionrho": 1, "positionchangetime": -5}'),  # likewise
+        update("RobotStatus", "startingtime", "\u0663"),  # a digit, not an ASCII one
     ]
     for each in received:
         sensors.receive(each)
@@ -129,6 +131,8 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         "s_true",
         pose_at(100),
         '{"positionrho": 1.5',
+        '{"positionrho": 1, "positionchangetime": -5}',
+        "\u0663",
     ]
 
 
