@@ -12,7 +12,8 @@ from collections.abc import Sequence
 import msgspec
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
 from oimi.pipeline.act.limits import RobotLimits, Velocity
-from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor, Verdict
+from oimi.pipeline.act.safety import SafetySupervisor, Verdict
+from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.errors import failure
 from oimi.pipeline.events import (
     ActuatorCommands,

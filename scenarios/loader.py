@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.act.safety import safety_problems
+from oimi.pipeline.act.safety_config import safety_problems
 from oimi.pipeline.messages import Script
 from oimi.pipeline.operator.commands import VERBS
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded

@@ -15,7 +15,7 @@ import math
 from collections.abc import Iterator
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.safety import ASSUMED, SafetyConfig
+from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
 from oimi.scenarios.schema import Scenario
 
 NOISE_SIGMAS: Final = 3.0

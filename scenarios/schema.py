@@ -23,7 +23,7 @@ from typing import Annotated, Final
 
 import msgspec
 from msgspec import Meta
-from oimi.pipeline.act.safety import SafetyConfig
+from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.events import Button, MotionSource, Pad, SafetyZone
 from oimi.pipeline.messages import TouchType
 from oimi.pipeline.operator.commands import OperatorCommand

@@ -4,7 +4,8 @@ safety supervisor below them."""
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
 from oimi.pipeline.act.joystick import Button, read_pad
 from oimi.pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
-from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor
+from oimi.pipeline.act.safety import SafetySupervisor
+from oimi.pipeline.act.safety_config import SafetyConfig
 
 __all__ = [
     "Actuator",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import msgspec
 import pytest
-from oimi.pipeline.act.safety import SafetyConfig
+from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import parse_scenario, warnings_with
 from oimi.scenarios.session.build import pipeline_config

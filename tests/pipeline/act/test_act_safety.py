@@ -7,7 +7,8 @@ import math
 import pytest
 from oimi.pipeline.act.actuator import Actuator
 from oimi.pipeline.act.limits import RobotLimits, Velocity
-from oimi.pipeline.act.safety import SafetyConfig, SafetySupervisor, safety_problems
+from oimi.pipeline.act.safety import SafetySupervisor
+from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.events import (
     JoystickInput,
     MotionSource,

@@ -1,0 +1,88 @@
+"""What the safety supervisor is told (the scenario's ``[robot.safety]``) and what it
+assumes where it is told nothing (:data:`ASSUMED`); the supervisor itself is
+:mod:`~pipeline.act.safety`."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Final
+
+import msgspec
+from oimi.pipeline.messages import Message
+
+DEFAULT_ROBOT_RADIUS_M: Final = 0.3
+"""The robot's radius when the configuration gives none (a pipeline without a scenario)."""
+DEFAULT_HUMAN_RADIUS_M: Final = 0.25
+"""The radius assumed for a human when the configuration gives none and no scenario a larger."""
+DEFAULT_HUMAN_SPEED_MPS: Final = 1.0
+"""The walking speed assumed when the configuration gives none and no scenario a faster."""
+DEFAULT_SENSING_ERROR_M: Final = 0.02
+"""The sensing error assumed when the configuration gives none and no scenario's noise more."""
+DEFAULT_MAX_STATUS_AGE_MS: Final = 2000
+"""How long a sensor's status holds when the configuration gives no age and no scenario a
+longer status period (one report of a status repeated every second may be missed)."""
+
+
+class SafetyConfig(Message):
+    """The supervisor's zones and assumptions (the scenario's ``[robot.safety]``)."""
+
+    robot_radius_m: float | None = None
+    """The robot's radius, m; None: the robot's own ``radius_m`` (0.3 without a scenario)."""
+    human_radius_m: float | None = None
+    """Radius assumed for every human, m; None: the largest of 0.25 and the scenario's
+    humans' ``radius_m`` (a scenario may not set it below one of theirs)."""
+    stop_distance_m: float = 0.1
+    """Surface distance below which nothing moves towards the human (protective stop), m."""
+    slow_distance_m: float = 0.5
+    """Surface distance below which the closing speed is capped at ``slow_speed_mps``, m."""
+    slow_speed_mps: float = 0.2
+    """Largest closing speed in the slow zone, and largest speed when sensing is stale, m/s."""
+    max_data_age_ms: int = 500
+    """A human's position older than this (or a camera offline) is stale: slow-zone speed."""
+    human_speed_mps: float | None = None
+    """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
+    m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario
+    may not set it below one of theirs)."""
+    sensing_error_m: float | None = None
+    """Largest error of a reported position (noise, rounding), added to the margin, m; None:
+    the larger of 0.02 and three times a scenario's sensor noise (a scenario may not set it
+    below that)."""
+    max_status_age_ms: int | None = None
+    """A sensor whose status (``isonline``) was last heard longer ago than this counts as
+    offline (its link is dead), and one heard more than three quarters of this ago caps
+    the speed at ``slow_speed_mps``, ms; None: the longer of 2000 and two of a scenario's
+    ``status_period_s`` (a scenario may not set it below that)."""
+
+    def filled(self, **given: float) -> SafetyConfig:
+        """This configuration with each assumption it leaves open (None) taken from
+        ``given`` (by field name), else from :data:`ASSUMED`."""
+        values = ASSUMED | given
+        left_open = {name: values[name] for name in values if getattr(self, name) is None}
+        return msgspec.structs.replace(self, **left_open)
+
+
+ASSUMED: Final[dict[str, float]] = {
+    "robot_radius_m": DEFAULT_ROBOT_RADIUS_M,
+    "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
+    "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
+    "sensing_error_m": DEFAULT_SENSING_ERROR_M,
+    "max_status_age_ms": DEFAULT_MAX_STATUS_AGE_MS,
+}
+"""What the supervisor assumes for each assumption a configuration leaves open (None)."""
+
+
+def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
+    """Every invalid value of ``config``, as (field, message)."""
+    for name in config.__struct_fields__:
+        value = getattr(config, name)
+        if value is None:
+            continue
+        if not math.isfinite(value) or value < 0:
+            yield name, f"safety {name} must be a non-negative number, got {value!r}"
+    if config.slow_distance_m < config.stop_distance_m:
+        yield (
+            "slow_distance_m",
+            f"safety slow_distance_m {config.slow_distance_m} is below stop_distance_m "
+            f"{config.stop_distance_m}: the slow zone must contain the stop zone",
+        )
