@@ -34,6 +34,9 @@ TIMES: Final = {
     "led": ("startingtime",),
     "audioout": ("startingtime",),
     "speed": ("startingtime",),
+    "goalreached": ("timestamp",),
+    "goalfailed": ("timestamp",),
+    "goalinterrupted": ("timestamp",),
 }
 """The times (ms) in each attribute's JSON payload (tables 4.1 and 4.2; durations stay)."""
 BARE_TIMES: Final = frozenset({"startingtime"})

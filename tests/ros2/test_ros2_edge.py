@@ -114,6 +114,7 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         update("Human/c", "tracking", '{"permanencetime": 900, "appearanceon": 99100}'),
         update("RobotStatus", "touch", '{"touchtype": "C", "duration": 5, "startingtime": 100000}'),
         update("RobotStatus", "startingtime", "99000"),  # before the session: its start
+        update("RobotStatus", "goalreached", '{"goalid": "g", "timestamp": 100030}'),
         update("Camera/front", "isonline", "s_true"),
         update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
         update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
@@ -128,6 +129,7 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         '{"permanencetime":900,"appearanceon":0}',
         '{"touchtype":"C","duration":5,"startingtime":40}',
         "0",
+        '{"goalid":"g","timestamp":70}',
         "s_true",
         pose_at(100),
         '{"positionrho": 1.5',
