@@ -37,9 +37,10 @@ therefore kept at the same distances, as anonymous humans, unless the echo is a 
 the map tracks: placed within both readings' errors and the walk between them, and never
 farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
 older than ``max_data_age_ms`` is a body that left the sonar's range (the ring scans all
-the time) once it is no longer reported; one still reported with an old reading is a
-sonar repeating itself (frozen) or lagging: it is kept, stale, and caps linear motion at
-``slow_speed_mps`` as a stale human does. A reading taken more than a tick after the
+the time) once it is no longer reported while a sonar is heard on; one still reported
+with an old reading (a sonar repeating itself, frozen, or lagging), or one no sonar
+heard on could report again (offline, silent, late), is kept, stale, and caps linear
+motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick after the
 supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles (furniture) are
 not limited.
 
@@ -241,6 +242,8 @@ class SafetySupervisor:
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         late = 4 * (now_ms - min(seeing + sounding)) > 3 * max_age  # a link dying?
         blind = not seeing or (bool(sonars) and not sounding) or late
+        # only a ring heard scanning tells a body that left it from one it cannot report
+        scanning = bool(sounding) and 4 * (now_ms - min(sounding)) <= 3 * max_age
         stale = False
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
@@ -255,9 +258,10 @@ class SafetySupervisor:
         for key, echo in echoes:
             age_ms = self._age(echo, now_ms)
             if age_ms > config.max_data_age_ms:
-                if now_ms - heard.get(("Obstacle", echo.id), _NEVER) > config.max_data_age_ms:
-                    continue  # no longer reported: the body left the ring's range
-                stale = True  # reported still, but long taken: a sonar repeating itself
+                reported_ms = now_ms - heard.get(("Obstacle", echo.id), _NEVER)
+                if scanning and reported_ms > config.max_data_age_ms:
+                    continue  # the ring scans and no longer reports it: the body left its range
+                stale = True  # an old reading repeated, or one the ring cannot update
             if not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import msgspec
+import pytest
 from oimi.pipeline.events import SafetyIntervention, SafetyZone, Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
@@ -106,3 +107,20 @@ def test_with_every_sensor_frozen_the_pad_cannot_reverse_into_the_child() -> Non
     limited = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
     assert limited and limited[0].zone is SafetyZone.STALE
     assert summary.max_speed_mps <= 0.2 + 1e-6
+
+
+@pytest.mark.parametrize("mode", [FaultMode.OFFLINE, FaultMode.SILENT, FaultMode.FROZEN])
+def test_with_the_ring_down_its_last_echo_of_the_child_still_stops_the_pad(mode) -> None:
+    """The ring alone fails (the camera, which never saw the child, stays on) and the
+    operator reverses for 6 s: the ring's last echo of the child is kept, since a ring that
+    is down cannot report that they left, and the robot stops short of them (before, the
+    echo was dropped half a second after its reading and the robot backed into the child
+    at the slow speed: 111 contact ticks with the ring offline)."""
+    loaded = load_scenario(COLLISION)
+    pad = msgspec.structs.replace(loaded.scenario.events[0], hold_s=6.0)
+    fault = FaultEvent(at_s=0.5, sensor=SensorKind.SONAR, mode=mode)
+    session, memory = reverse_into_the_child(SensorSpec(), events=[pad, fault])
+    summary = session.result().summary
+    assert summary.contacts == 0 and summary.min_surface_distance_m["child"] > 0.3
+    limited = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
+    assert any(e.human == "Obstacle/echo-0" for e in limited)

@@ -383,7 +383,8 @@ def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
     shelf.cameras[0].isonline = True
     assert supervise(Velocity(-0.5, 0.0, 0.0), shelf)[0].velocity == (-0.5, 0.0, 0.0)
     gone = room(seen(4.0, at_ms=600))
-    gone.obstacles.append(echo(0.6, at_ms=0))  # 600 ms old: the ring scans all the time
+    gone.sonars.append(Sonar(id="ring", isonline=True))  # heard on: it scans all the time
+    gone.obstacles.append(echo(0.6, at_ms=0))  # 600 ms old, and not reported since
     assert supervise(Velocity(-0.5, 0.0, 0.0), gone, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
 
 
@@ -399,6 +400,19 @@ def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
     assert event is not None and event.human == "Obstacle/echo-0"
     away, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert away.velocity == pytest.approx((0.2, 0.0, 0.0)) and away.zone is SafetyZone.STALE
+
+
+def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> None:
+    """The ring went offline: that it no longer reports the echo does not mean the body
+    left. Only a ring heard on and scanning tells that (the test above)."""
+    down = room(seen(4.0, at_ms=600))
+    down.sonars.append(Sonar(id="ring", isonline=False))
+    down.obstacles.append(echo(0.6, at_ms=0))  # last reported 600 ms ago
+    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)
+    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
+    assert event is not None and event.human == "Obstacle/echo-0"
+    down.sonars[0].isonline = True  # back on: not reported since, so gone
+    assert supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
 
 
 def test_a_sonar_offline_caps_motion_at_the_slow_speed() -> None:
