@@ -40,9 +40,9 @@ older than ``max_data_age_ms`` is a body that left the sonar's range (the ring s
 the time) once it is no longer reported while a sonar is heard on; one still reported
 with an old reading (a sonar repeating itself, frozen, or lagging), or one no sonar
 heard on could report again (offline, silent, late), is kept, stale, and caps linear
-motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick after the
-supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles (furniture) are
-not limited.
+motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
+after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
+(furniture) are not limited.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
@@ -240,10 +240,10 @@ class SafetySupervisor:
         sounding = _online(sonars, "Sonar", heard, now_ms - max_age)
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
-        late = 4 * (now_ms - min(seeing + sounding)) > 3 * max_age  # a link dying?
+        late = _late(seeing + sounding, now_ms, max_age)
         blind = not seeing or (bool(sonars) and not sounding) or late
         # only a ring heard scanning tells a body that left it from one it cannot report
-        scanning = bool(sounding) and 4 * (now_ms - min(sounding)) <= 3 * max_age
+        scanning = bool(sounding) and not _late(sounding, now_ms, max_age)
         stale = False
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
@@ -403,6 +403,12 @@ def _online(
     or later (one heard from before, or never, is offline: its link is dead), ms."""
     times = (heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline)
     return [at_ms for at_ms in times if at_ms >= since_ms]
+
+
+def _late(heard_ms: list[int], now_ms: int, max_age_ms: int) -> bool:
+    """Whether the oldest of ``heard_ms`` was heard more than three quarters of
+    ``max_age_ms`` ago (a status late: its link may be dying)."""
+    return 4 * (now_ms - min(heard_ms)) > 3 * max_age_ms
 
 
 def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
