@@ -1,6 +1,6 @@
 """The ROS 2 edge's small parts: the pad as joy_node reports it, the closed-by-default
-network, the remote sensors' refusals and clock, the bridge's session without a simulated
-world and its stop when a tick is late."""
+network, the remote sensors' refusals, the bridge's session without a simulated world and
+its stop when a tick is late (the robot's clock: ``test_ros2_clock.py``)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from oimi.ros2 import topics, types
 from oimi.ros2.bridge import BridgeSession
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.network import Network, NetworkError, domain_id_from
-from oimi.ros2.remote import RemoteBody, RemoteSensors, odometry
+from oimi.ros2.remote import RemoteBody, RemoteSensors
 
 ROOM = Path(__file__).with_name("ros2_room.toml")
 
@@ -86,56 +86,6 @@ def test_remote_sensors_number_updates_in_arrival_order_and_refuse_bad_policies(
         "map update for 'Human/c'/'poses' refused: policy 'X' is not 'R' or 'A'"
     ]
     assert sensors.sample(None, tick=1, time_ms=20) == []
-
-
-def update(objectid: str, attribute: str, jsonmsg: str) -> types.MapUpdate:
-    return types.MapUpdate(objectid=objectid, attributename=attribute, policy="A", jsonmsg=jsonmsg)
-
-
-def pose_at(time_ms: int) -> str:
-    return f'{{"positionrho":1.5,"positiontheta":0.1,"positionchangetime":{time_ms}}}'
-
-
-def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
-    """The robot started 100 s before the session: its readings' times are 100 s ahead of
-    the session's (taken as they came, a frozen reading would look fresh for 100 s)."""
-    sensors = RemoteSensors()
-    sensors.receive(update("Human/c", "poses", pose_at(99_980)))
-    (first,) = sensors.sample(None, tick=2, time_ms=40)  # no odometry yet: as it arrives
-    assert first.jsonmsg == pose_at(40)
-    for now_ms, robot_ms in ((60, 100_010), (80, 100_040), (100, 100_050)):  # the first late
-        sensors.clock.odometry(
-            odometry(time_ns=robot_ms * 1_000_000, pose=(0, 0, 0), velocity=(0, 0, 0)),
-            now_ms=now_ms,
-        )
-    assert sensors.clock.offset_ms == 80 - 100_040  # the promptest delivery
-    received = [
-        update("Human/c", "poses", pose_at(100_010)),
-        update("Human/c", "tracking", '{"permanencetime": 900, "appearanceon": 99100}'),
-        update("RobotStatus", "touch", '{"touchtype": "C", "duration": 5, "startingtime": 100000}'),
-        update("RobotStatus", "startingtime", "99000"),  # before the session: its start
-        update("RobotStatus", "goalreached", '{"goalid": "g", "timestamp": 100030}'),
-        update("Camera/front", "isonline", "s_true"),
-        update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
-        update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
-        update("Human/c", "poses", '{"positionrho": 1, "positionchangetime": -5}'),  # likewise
-        update("RobotStatus", "startingtime", "\u0663"),  # a digit, not an ASCII one
-    ]
-    for each in received:
-        sensors.receive(each)
-    moved = [u.jsonmsg for u in sensors.sample(None, tick=5, time_ms=100)]
-    assert moved == [
-        pose_at(50),
-        '{"permanencetime":900,"appearanceon":0}',
-        '{"touchtype":"C","duration":5,"startingtime":40}',
-        "0",
-        '{"goalid":"g","timestamp":70}',
-        "s_true",
-        pose_at(100),
-        '{"positionrho": 1.5',
-        '{"positionrho": 1, "positionchangetime": -5}',
-        "\u0663",
-    ]
 
 
 class _NoDds:

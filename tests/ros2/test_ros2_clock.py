@@ -1,0 +1,107 @@
+"""The robot's clock against the session's: the times a remote robot's map updates carry
+are moved from the clock of its odometry's stamps to the session's (``remote.RobotClock``),
+never before 0 nor after the tick that takes them, and nothing else of an update changes."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
+
+from oimi.pipeline.sense.updates import INT_MAX
+
+from oimi.ros2 import types
+from oimi.ros2.remote import TIMES, RemoteSensors, odometry
+
+
+def update(objectid: str, attribute: str, jsonmsg: str) -> types.MapUpdate:
+    return types.MapUpdate(objectid=objectid, attributename=attribute, policy="A", jsonmsg=jsonmsg)
+
+
+def pose_at(time_ms: int) -> str:
+    return f'{{"positionrho":1.5,"positiontheta":0.1,"positionchangetime":{time_ms}}}'
+
+
+def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
+    """The robot started 100 s before the session: its readings' times are 100 s ahead of
+    the session's (taken as they came, a frozen reading would look fresh for 100 s)."""
+    sensors = RemoteSensors()
+    sensors.receive(update("Human/c", "poses", pose_at(99_980)))
+    (first,) = sensors.sample(None, tick=2, time_ms=40)  # no odometry yet: as it arrives
+    assert first.jsonmsg == pose_at(40)
+    for now_ms, robot_ms in ((60, 100_010), (80, 100_040), (100, 100_050)):  # the first late
+        sensors.clock.odometry(
+            odometry(time_ns=robot_ms * 1_000_000, pose=(0, 0, 0), velocity=(0, 0, 0)),
+            now_ms=now_ms,
+        )
+    assert sensors.clock.offset_ms == 80 - 100_040  # the promptest delivery
+    received = [
+        update("Human/c", "poses", pose_at(100_010)),
+        update("Human/c", "tracking", '{"permanencetime": 900, "appearanceon": 99100}'),
+        update("RobotStatus", "touch", '{"touchtype": "C", "duration": 5, "startingtime": 100000}'),
+        update("RobotStatus", "startingtime", "99000"),  # before the session: its start
+        update("RobotStatus", "goalreached", '{"goalid": "g", "timestamp": 100030}'),
+        update("Camera/front", "isonline", "s_true"),
+        update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
+        update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
+        update("Human/c", "poses", '{"positionrho": 1, "positionchangetime": -5}'),  # likewise
+        update("RobotStatus", "startingtime", "\u0663"),  # a digit, not an ASCII one
+    ]
+    for each in received:
+        sensors.receive(each)
+    moved = [u.jsonmsg for u in sensors.sample(None, tick=5, time_ms=100)]
+    assert moved == [
+        pose_at(50),
+        '{"permanencetime":900,"appearanceon":0}',
+        '{"touchtype":"C","duration":5,"startingtime":40}',
+        "0",
+        '{"goalid":"g","timestamp":70}',
+        "s_true",
+        pose_at(100),
+        '{"positionrho": 1.5',
+        '{"positionrho": 1, "positionchangetime": -5}',
+        "\u0663",
+    ]
+
+
+time = st.integers(-(2**40), 2**64)
+payload = st.dictionaries(
+    st.sampled_from(["positionrho", "positionchangetime", "appearanceon", "startingtime", "x"]),
+    st.one_of(time, st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=3)),
+    max_size=4,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    attribute=st.sampled_from([*TIMES, "startingtime", "isonline", "fps"]),
+    jsonmsg=st.one_of(payload.map(lambda p: msgspec.json.encode(p).decode()), st.text(max_size=8)),
+    stamp_ms=st.integers(0, 2**40),
+    now_ms=st.integers(0, 2**30),
+)
+def test_only_valid_times_move_and_never_past_the_tick(attribute, jsonmsg, stamp_ms, now_ms):
+    sensors = RemoteSensors()
+    sensors.clock.odometry(
+        odometry(time_ns=stamp_ms * 1_000_000, pose=(0, 0, 0), velocity=(0, 0, 0)),
+        now_ms=now_ms,
+    )
+    sensors.receive(update("Human/c", attribute, jsonmsg))
+    (out,) = sensors.sample(None, tick=now_ms // 20, time_ms=now_ms)
+    assert (out.objectid, out.attributename, out.policy) == ("Human/c", attribute, "A")
+    if out.jsonmsg == jsonmsg:
+        return
+    keys = TIMES.get(attribute, ())
+    if not keys:  # a bare time
+        assert jsonmsg.isascii() and jsonmsg.isdigit() and 0 <= int(jsonmsg) <= INT_MAX
+        assert 0 <= int(out.jsonmsg) <= now_ms
+        return
+    before, after = msgspec.json.decode(jsonmsg), msgspec.json.decode(out.jsonmsg)
+    assert list(before) == list(after)
+    for key, value in after.items():
+        if key in keys:
+            assert 0 <= before[key] <= INT_MAX and 0 <= value <= now_ms
+        else:
+            assert value == before[key]
