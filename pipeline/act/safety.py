@@ -37,10 +37,10 @@ therefore kept at the same distances, as anonymous humans, unless the echo is a 
 the map tracks: placed within both readings' errors and the walk between them, and never
 farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
 older than ``max_data_age_ms`` is a body that left the sonar's range (the ring scans all
-the time) once it is no longer reported while a sonar is heard on; one still reported
-with an old reading (a sonar repeating itself, frozen, or lagging), or one no sonar
-heard on could report again (offline, silent, late), is kept, stale, and caps linear
-motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
+the time) once it is no longer reported while every sonar is heard on; one still
+reported with an old reading (a sonar repeating itself, frozen, or lagging), or one a
+sonar that is down (offline, silent, late) may have made, is kept, stale, and caps
+linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
 after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
 (furniture) are not limited.
 
@@ -242,8 +242,9 @@ class SafetySupervisor:
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         late = _late(seeing + sounding, now_ms, max_age)
         blind = not seeing or (bool(sonars) and not sounding) or late
-        # only a ring heard scanning tells a body that left it from one it cannot report
-        scanning = bool(sounding) and not _late(sounding, now_ms, max_age)
+        # only rings heard scanning tell a body that left them from one they cannot report
+        # (readings do not name their sonar: every one must be)
+        scanning = len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
         stale = False
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be

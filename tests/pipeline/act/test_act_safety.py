@@ -413,6 +413,9 @@ def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> Non
     assert event is not None and event.human == "Obstacle/echo-0"
     down.sonars[0].isonline = True  # back on: not reported since, so gone
     assert supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
+    down.sonars.append(Sonar(id="rear", isonline=False))  # but a second ring is down: it
+    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)  # may have made it
+    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
 
 
 def test_a_sonar_offline_caps_motion_at_the_slow_speed() -> None:
