@@ -36,11 +36,12 @@ the map's humans. Bodies a sensor reports as obstacles that are not fixed
 therefore kept at the same distances, as anonymous humans, unless the echo is a human
 the map tracks: placed within both readings' errors and the walk between them, and never
 farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
-older than ``max_data_age_ms`` is a body that left the sonar's range (the ring scans all
-the time) once it is no longer reported while every sonar is heard on; one still
-reported with an old reading (a sonar repeating itself, frozen, or lagging), or one a
-sonar that is down (offline, silent, late) may have made, is kept, stale, and caps
-linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
+older than ``max_data_age_ms`` and no longer reported is a body that left the sonar's
+range (the ring scans all the time) once every sonar has said it is on since it last
+reported it: until then (a link that may have died with it) it is kept where it was.
+One still reported with an old reading (a sonar repeating itself, frozen, or lagging),
+or one a sonar that is down (offline, silent, late) may have made, is kept too, stale:
+it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
 after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
 (furniture) are not limited.
 
@@ -259,10 +260,13 @@ class SafetySupervisor:
         for key, echo in echoes:
             age_ms = self._age(echo, now_ms)
             if age_ms > config.max_data_age_ms:
-                reported_ms = now_ms - heard.get(("Obstacle", echo.id), _NEVER)
-                if scanning and reported_ms > config.max_data_age_ms:
-                    continue  # the ring scans and no longer reports it: the body left its range
-                stale = True  # an old reading repeated, or one the ring cannot update
+                reported_ms = heard.get(("Obstacle", echo.id), _NEVER)
+                if now_ms - reported_ms <= config.max_data_age_ms:
+                    stale = True  # an old reading repeated: a ring frozen or lagging
+                elif scanning and min(sounding) > reported_ms:
+                    continue  # every ring said it was on since it last reported it: gone
+                elif not scanning:
+                    stale = True  # a ring that is down may have made it
             if not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y

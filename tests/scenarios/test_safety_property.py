@@ -34,8 +34,8 @@ or is the default front camera (2.2 rad, 5 m): then a human beside or behind the
 robot is only the sonar ring's echo (an obstacle that is not fixed, 5 scans a second,
 3 m all around), which the supervisor keeps at the same distances.
 
-With sensors failing (the ring goes offline or freezes, the camera may go offline,
-freeze, fall silent or come back), the same properties hold while the pad drives the
+With sensors failing (the ring goes offline, freezes or falls silent, and either may
+fail again or come back), the same properties hold while the pad drives the
 robot at someone standing where the sensors last saw them (people who walk on unseen
 are beyond any sensor: the margin of a stale reading is capped).
 """
@@ -105,19 +105,16 @@ def driving_at_someone(draw):
     return [*draw(st.lists(pad_state, max_size=2)), drive], humans, heading
 
 
-fault = st.one_of(
-    st.tuples(
-        st.floats(0.1, 4.0),
-        st.just("camera"),
-        st.sampled_from(["offline", "frozen", "silent", "online"]),
-    ),
-    st.tuples(
-        st.floats(0.1, 4.0), st.just("sonar"), st.sampled_from(["offline", "frozen", "online"])
-    ),
+fault = st.tuples(
+    st.floats(0.1, 4.0),
+    st.sampled_from(["camera", "sonar"]),
+    st.sampled_from(["offline", "frozen", "silent", "online"]),
 ).map(lambda f: (round(f[0], 2), f[1], f[2]))
 """A sensor fault: when (s), which sensor, what mode."""
 failing_sensors = st.tuples(
-    st.tuples(st.floats(0.1, 2.5), st.just("sonar"), st.sampled_from(["offline", "frozen"])),
+    st.tuples(
+        st.floats(0.1, 2.5), st.just("sonar"), st.sampled_from(["offline", "frozen", "silent"])
+    ),
     st.lists(fault, max_size=3),
 ).map(lambda f: [(round(f[0][0], 2), *f[0][1:]), *f[1]])
 """The ring failing within 2.5 s (only it sees beside and behind the robot), and maybe
@@ -319,10 +316,8 @@ def test_with_sensors_failing_the_robot_keeps_off_the_people_it_has_seen(
     scene, all_round, faults
 ) -> None:
     """The same, with the camera and the sonar ring going offline, freezing, falling silent
-    (the camera) and coming back at random times, the people standing where the sensors
-    last saw them: what a sensor reported before it failed still keeps the robot off them.
-    Not the ring falling silent: its echoes are dropped as bodies that left until its
-    status is late (1.5 s with the defaults), the dead link's window (docs)."""
+    and coming back at random times, the people standing where the sensors last saw them:
+    what a sensor reported before it failed still keeps the robot off them."""
     pads, humans, heading = scene
     assert_safe(run_session(pads, [], humans, heading, all_round, faults=faults), all_round)
 

@@ -388,6 +388,22 @@ def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
     assert supervise(Velocity(-0.5, 0.0, 0.0), gone, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
 
 
+def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_it() -> None:
+    """Not reported for 550 ms: the body left, or the ring's link died with it. Until the
+    ring says it is on again, the echo stays where it was (not stale: a ring that is up
+    slows nothing)."""
+    behind = room(seen(4.0, at_ms=600))
+    behind.sonars.append(Sonar(id="ring", isonline=True))
+    behind.obstacles.append(echo(0.6, at_ms=0))
+    heard = {("Camera", "front"): 600, ("Sonar", "ring"): 40, ("Obstacle", "echo-0"): 50}
+    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
+    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
+    away, _ = supervise(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
+    assert away.velocity == (0.5, 0.0, 0.0)
+    heard[("Sonar", "ring")] = 580  # it has said it is on since: the body left its range
+    assert supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is None
+
+
 def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
     """A sonar repeating itself (frozen) or lagging: the echo keeps coming, its reading
     600 ms old. It is not a body that left: it stops the robot reversing into it, and the
