@@ -64,6 +64,7 @@ def test_library_covers_every_part_of_the_thesis() -> None:
         "script_speed_clamped",
         "safety_script_without_rule",
         "safety_joystick_at_child",
+        "safety_ring_fault",
     }
     assert wanted <= set(LIBRARY)
 
