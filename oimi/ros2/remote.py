@@ -132,10 +132,11 @@ class RemoteSensors:
         clock."""
         updates, self._inbox = self._inbox, []
         offset = self.clock.offset_ms
-        if offset is None:
-            return [on_session_clock(u, lambda _: time_ms) for u in updates]
-        # never before the session, nor after the tick that takes it
-        return [on_session_clock(u, lambda at: min(max(0, at + offset), time_ms)) for u in updates]
+
+        def moved(at: int) -> int:  # never before the session, nor after the tick taking it
+            return time_ms if offset is None else min(max(0, at + offset), time_ms)
+
+        return [on_session_clock(u, moved) for u in updates]
 
     def touch(self, event: TouchEvent, *, time_ms: int) -> None:
         """Touches come from the robot's own sensors."""

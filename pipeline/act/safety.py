@@ -243,9 +243,13 @@ class SafetySupervisor:
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         late = _late(seeing + sounding, now_ms, max_age)
         blind = not seeing or (bool(sonars) and not sounding) or late
-        # only rings heard scanning tell a body that left them from one they cannot report
-        # (readings do not name their sonar: every one must be)
-        scanning = len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
+        # Since when every ring is known to scan (readings do not name their sonar): only
+        # then does one that stopped reporting a body say it left (None: a ring is down).
+        scanning_since = (
+            min(sounding)
+            if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
+            else None
+        )
         stale = False
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
@@ -261,12 +265,10 @@ class SafetySupervisor:
             age_ms = self._age(echo, now_ms)
             if age_ms > config.max_data_age_ms:
                 reported_ms = heard.get(("Obstacle", echo.id), _NEVER)
-                if now_ms - reported_ms <= config.max_data_age_ms:
-                    stale = True  # an old reading repeated: a ring frozen or lagging
-                elif scanning and min(sounding) > reported_ms:
+                if now_ms - reported_ms <= config.max_data_age_ms or scanning_since is None:
+                    stale = True  # an old reading repeated (frozen, lagging), or a ring down
+                elif scanning_since > reported_ms:
                     continue  # every ring said it was on since it last reported it: gone
-                elif not scanning:
-                    stale = True  # a ring that is down may have made it
             if not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y

@@ -179,7 +179,7 @@ class MapProducer:
             self._apply(world, owner, decoded)
             applied = True
             if heard is not None and decoded.spec.name in _HEARD:
-                heard[decoded.target.klass.value, decoded.target.id] = now_ms
+                heard[decoded.target.klass, decoded.target.id] = now_ms  # a str enum
         if applied:
             world.lastupdatetime = now_ms
         return rejections
