@@ -11,17 +11,15 @@ from typing import Final
 import msgspec
 from oimi.pipeline.messages import Message
 
-DEFAULT_ROBOT_RADIUS_M: Final = 0.3
-"""The robot's radius when the configuration gives none (a pipeline without a scenario)."""
-DEFAULT_HUMAN_RADIUS_M: Final = 0.25
-"""The radius assumed for a human when the configuration gives none and no scenario a larger."""
-DEFAULT_HUMAN_SPEED_MPS: Final = 1.0
-"""The walking speed assumed when the configuration gives none and no scenario a faster."""
-DEFAULT_SENSING_ERROR_M: Final = 0.02
-"""The sensing error assumed when the configuration gives none and no scenario's noise more."""
-DEFAULT_MAX_STATUS_AGE_MS: Final = 2000
-"""How long a sensor's status holds when the configuration gives no age and no scenario a
-longer status period (one report of a status repeated every second may be missed)."""
+ASSUMED: Final[dict[str, float]] = {
+    "robot_radius_m": 0.3,  # a pipeline without a scenario
+    "human_radius_m": 0.25,  # unless a scenario's humans are larger
+    "human_speed_mps": 1.0,  # unless a scenario's humans walk faster
+    "sensing_error_m": 0.02,  # unless a scenario's sensor noise needs more
+    "max_status_age_ms": 2000,  # unless a scenario's status period is longer: one report
+    # of a status repeated every second may be missed
+}
+"""What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
 
 class SafetyConfig(Message):
@@ -60,16 +58,6 @@ class SafetyConfig(Message):
         values = ASSUMED | given
         left_open = {name: values[name] for name in values if getattr(self, name) is None}
         return msgspec.structs.replace(self, **left_open)
-
-
-ASSUMED: Final[dict[str, float]] = {
-    "robot_radius_m": DEFAULT_ROBOT_RADIUS_M,
-    "human_radius_m": DEFAULT_HUMAN_RADIUS_M,
-    "human_speed_mps": DEFAULT_HUMAN_SPEED_MPS,
-    "sensing_error_m": DEFAULT_SENSING_ERROR_M,
-    "max_status_age_ms": DEFAULT_MAX_STATUS_AGE_MS,
-}
-"""What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
 
 def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
