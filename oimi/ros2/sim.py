@@ -16,6 +16,7 @@ from typing import Final, NamedTuple
 
 import msgspec
 
+from oimi.cmd_check import report_warnings
 from oimi.live.app import note
 from oimi.live.server import Addresses, LiveServer, ServeConfig
 from oimi.pipeline.errors import LocatedError
@@ -153,6 +154,7 @@ def simulate(args: argparse.Namespace) -> Simulated:
     the live server (no operator interfaces) until Ctrl-C or ``--duration-s``; with
     ``--output``, its world recorded."""
     loaded = load_scenario(args.scenario)
+    report_warnings(loaded.warnings)  # e.g. a sonar ring too short for the robot's speed
     network = network_from_args(args)
     if args.duration_s is not None and args.duration_s <= 0:
         raise LocatedError("--duration-s must be positive", source="oimi sim")

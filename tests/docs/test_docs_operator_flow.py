@@ -47,7 +47,7 @@ def test_get_ready_and_start_in_one_tick_start_is_refused_then_accepted_next_tic
     replies(p, 0, Add)
     both = replies(p, 1, GetReady, Start)
     assert both[0][0] and both[1] == (False, "cannot start while the button shows loading")
-    assert replies(p, 2, Start) == [(True, "started 1 activities")]
+    assert replies(p, 2, Start) == [(True, "started 1 activity")]
 
 
 def test_operator_md_lists_every_rule_code() -> None:

@@ -4,6 +4,7 @@ its stop when a tick is late (the robot's clock: ``test_ros2_clock.py``)."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -73,6 +74,17 @@ def test_a_bad_domain_id_is_refused_before_any_traffic(monkeypatch, capsys):
     room = str(ROOM)
     assert main(["sim", "--ros2", room, "--duration-s", "1"]) == 2
     assert "ROS_DOMAIN_ID: '999' is not a domain id" in capsys.readouterr().err
+
+
+def test_sim_warns_of_a_sonar_ring_too_short_for_the_robot(monkeypatch, capsys, tmp_path):
+    short = tmp_path / "short.toml"
+    short.write_text(ROOM.read_text() + "\n[sensors]\nsonar_range_m = 0.4\n")
+    shutil.copytree(ROOM.parent / "activities", tmp_path / "activities")
+    monkeypatch.setenv("ROS_DOMAIN_ID", "999")  # stops it before any traffic
+    assert main(["sim", "--ros2", str(short), "--duration-s", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "sensors.sonar_range_m (m): the sonar ring reaches 0.4 m" in err
+    assert "(warning)" in err
 
 
 def test_remote_sensors_number_updates_in_arrival_order_and_refuse_bad_policies():

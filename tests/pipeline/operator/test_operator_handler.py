@@ -131,7 +131,7 @@ def test_full_cycle_from_add_to_clear():
     assert h.activities()[0].options == {"level": "2"}
     assert h.activities()[1].options == {"level": "1"}
 
-    env.ok(GetReady)
+    assert env.ok(GetReady).reply.reason == "generated 2 scripts"
     assert h.button is OperatorButton.LOADING
     assert env.log == [
         "activate a {'level': '2'}",
@@ -143,6 +143,7 @@ def test_full_cycle_from_add_to_clear():
     assert h.button is OperatorButton.START
 
     start = env.ok(Start)
+    assert start.reply.reason == "started 2 activities"
     assert h.button is OperatorButton.STOP
     (push,) = start.effects
     assert isinstance(push, PushScripts)
@@ -184,6 +185,14 @@ def test_start_pushes_only_not_yet_completed_activities_in_list_order():
     assert [e.activity for e in push.entries] == ["b", "c"]
     assert [e.script.activityname for e in push.entries] == ["b_script", "c_script"]
     assert env.states() == [("a", DONE), ("b", CUR), ("c", NYC)]
+
+
+def test_replies_count_in_the_singular_for_one_activity():
+    env = Env()
+    env.ok(Add, "a")
+    assert env.ok(GetReady).reply.reason == "generated 1 script"
+    env.h.tick(40)
+    assert env.ok(Start).reply.reason == "started 1 activity"
 
 
 def test_last_activity_finished_turns_the_button_to_start_and_start_is_then_refused():
