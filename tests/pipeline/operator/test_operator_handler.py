@@ -187,14 +187,6 @@ def test_start_pushes_only_not_yet_completed_activities_in_list_order():
     assert env.states() == [("a", DONE), ("b", CUR), ("c", NYC)]
 
 
-def test_replies_count_in_the_singular_for_one_activity():
-    env = Env()
-    env.ok(Add, "a")
-    assert env.ok(GetReady).reply.reason == "generated 1 script"
-    env.h.tick(40)
-    assert env.ok(Start).reply.reason == "started 1 activity"
-
-
 def test_last_activity_finished_turns_the_button_to_start_and_start_is_then_refused():
     env = Env()
     env.ready("a")
@@ -425,15 +417,16 @@ def test_get_ready_refuses_two_scripts_with_the_same_activityname():
     assert env.h.button is OperatorButton.GET_READY
 
 
-def test_loading_lasts_until_the_next_tick():
+def test_loading_lasts_until_the_next_tick_and_replies_count_one_in_the_singular():
     env = Env()
     env.ok(Add, "a")
-    env.ok(GetReady)
+    assert env.ok(GetReady).reply.reason == "generated 1 script"
     assert env.h.state(1, 20).button == "loading"
     env.h.tick(20)
     assert env.h.state(2, 40).button == "start"
     env.h.tick(40)
     assert env.h.button is OperatorButton.START
+    assert env.ok(Start).reply.reason == "started 1 activity"
 
 
 # --------------------------------------------------------------- start / stop
