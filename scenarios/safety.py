@@ -79,15 +79,23 @@ def needs(scenario: Scenario) -> dict[str, Need]:
     return found
 
 
-NEVER_BELOW: Final = {name: value for name, value in ASSUMED.items() if name != "robot_radius_m"}
+NEVER_BELOW: Final = {
+    name: value
+    for name, value in ASSUMED.items()
+    if name not in ("robot_radius_m", "camera_fov_rad")
+}
 """Below the supervisor's own assumptions, one left out is not taken even when the scenario
-allows it (the robot's radius aside: it is the robot's own)."""
+allows it (the robot's radius and the camera's view aside: they are the robot's own)."""
 
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
-    """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario."""
+    """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario
+    (the camera's field of view: its camera's)."""
     implied = needs(scenario)
-    return scenario.robot.safety.filled(**{name: _left_out(name, implied) for name in implied})
+    return scenario.robot.safety.filled(
+        **{name: _left_out(name, implied) for name in implied},
+        camera_fov_rad=scenario.sensors.fov_rad,
+    )
 
 
 def _left_out(name: str, implied: dict[str, Need]) -> float:
@@ -98,8 +106,17 @@ def _left_out(name: str, implied: dict[str, Need]) -> float:
 
 
 def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
-    """Each assumption the scenario sets below what it implies, as (path, message)."""
+    """Each assumption the scenario sets below what it implies (or, for the camera's view,
+    wider than its camera's), as (path, message)."""
     safety = scenario.robot.safety
+    fov_rad = scenario.sensors.fov_rad
+    if safety.camera_fov_rad is not None and safety.camera_fov_rad > fov_rad:
+        yield (
+            ("robot", "safety", "camera_fov_rad"),
+            f"{safety.camera_fov_rad!r} is wider than the camera's fov_rad {fov_rad!r}: with"
+            " the sonar ring down the supervisor would let the robot drive where nothing"
+            " looks (left out, it is taken from the scenario)",
+        )
     for name, need in needs(scenario).items():
         if not math.isfinite(need.least):
             sensors = scenario.sensors

@@ -43,7 +43,10 @@ One still reported with an old reading (a sonar repeating itself, frozen, or lag
 or one a sonar that is down (offline, silent, late) may have made, is kept too, stale:
 it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
 after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
-(furniture) are not limited.
+(furniture) are not limited. While a sonar is down (offline, silent or late) nothing sees
+beside or behind the robot, where a child may have walked since: linear motion is kept
+inside the camera's field of view (``camera_fov_rad``, centred ahead), projected onto its
+nearer edge, so that the robot drives only where a working sensor looks.
 
 Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
 any point of the uncertainty disc, so the closing speed towards the true centre
@@ -109,6 +112,8 @@ class _Constraint(NamedTuple):
 
 
 _TOLERANCE: Final = 1e-12
+_ANGLE_TOLERANCE: Final = 1e-9
+"""A velocity projected onto the view's edge points along it, give or take rounding."""
 EPISODE_GAP_MS: Final = 500
 """An intervention episode ends after this long without a limited tick."""
 _SEVERITY: Final = {
@@ -279,6 +284,12 @@ class SafetySupervisor:
                 scale = config.slow_speed_mps / speed
                 v_x, v_y = v_x * scale, v_y * scale
                 zone = SafetyZone.BLIND if blind else SafetyZone.STALE
+        # A ring down: nothing sees beside or behind the robot; drive where the camera looks.
+        half_view = config.camera_fov_rad / 2 if sonars and scanning_since is None else math.pi
+        looking = _within_view(v_x, v_y, half_view)
+        if looking != (v_x, v_y):
+            v_x, v_y = looking
+            zone = SafetyZone.BLIND
         binding: _Constraint | None = None
         for _ in range(3):  # a few passes settle several humans; otherwise stop
             for constraint in constraints:
@@ -287,6 +298,7 @@ class SafetySupervisor:
                     v_x, v_y = limited
                     if binding is None or constraint.surface_m < binding.surface_m:
                         binding = constraint
+            v_x, v_y = _within_view(v_x, v_y, half_view)
             if all(_satisfied(c, v_x, v_y) for c in constraints):
                 break
         else:
@@ -442,6 +454,16 @@ def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
         new_along * c.u_x + new_across * p_x / across,
         new_along * c.u_y + new_across * p_y / across,
     )
+
+
+def _within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:
+    """(v_x, v_y) (body frame) when it points within ``half_view`` rad of straight ahead,
+    else its projection onto the nearer edge of that cone (none when it points away)."""
+    if half_view >= math.pi or abs(math.atan2(v_y, v_x)) <= half_view + _ANGLE_TOLERANCE:
+        return v_x, v_y
+    e_x, e_y = math.cos(half_view), math.copysign(math.sin(half_view), v_y)
+    along = v_x * e_x + v_y * e_y
+    return (along * e_x, along * e_y) if along > 0.0 else (0.0, 0.0)
 
 
 def _satisfied(c: _Constraint, v_x: float, v_y: float) -> bool:

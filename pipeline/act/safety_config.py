@@ -18,6 +18,7 @@ ASSUMED: Final[dict[str, float]] = {
     "sensing_error_m": 0.02,  # unless a scenario's sensor noise needs more
     "max_status_age_ms": 2000,  # unless a scenario's status period is longer: one report
     # of a status repeated every second may be missed
+    "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -51,6 +52,12 @@ class SafetyConfig(Message):
     offline (its link is dead), and one heard more than three quarters of this ago caps
     the speed at ``slow_speed_mps``, ms; None: the longer of 2000 and two of a scenario's
     ``status_period_s`` (a scenario may not set it below that)."""
+    camera_fov_rad: float | None = None
+    """The front camera's horizontal field of view, rad, centred ahead. While a sonar of
+    the ring is down (offline, silent or late) nothing sees beside or behind the robot, so
+    linear motion stays inside this cone: it drives only where a working sensor looks;
+    None: the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not
+    set it above its camera's; 2 pi or more: it sees all around)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

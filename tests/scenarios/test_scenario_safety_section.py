@@ -22,7 +22,7 @@ def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
     config = pipeline_config(loaded.scenario)
-    assert config.safety == SafetyConfig(robot_radius_m=0.35).filled()
+    assert config.safety == SafetyConfig(robot_radius_m=0.35).filled(camera_fov_rad=2.2)
 
 
 def test_the_section_sets_the_zones() -> None:
@@ -157,6 +157,21 @@ def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> No
     )
     kept = text.replace(b"1500", b"2000")
     assert pipeline_config(parse_scenario(kept).scenario).safety.max_status_age_ms == 2000
+
+
+def test_left_out_the_cameras_view_is_the_scenarios_camera_even_when_narrow() -> None:
+    narrow = b'name = "x"\n[sensors]\nfov_rad = 0.8\n'
+    assert pipeline_config(parse_scenario(narrow).scenario).safety.camera_fov_rad == 0.8
+
+
+def test_a_cameras_view_wider_than_the_scenarios_camera_is_a_located_error() -> None:
+    text = b'name = "x"\n[robot.safety]\ncamera_fov_rad = 2.5\n[sensors]\nfov_rad = 2.0\n'
+    assert refused(text).startswith(
+        "s.toml:3:1: robot.safety.camera_fov_rad (rad): 2.5 is wider than the camera's"
+        " fov_rad 2.0: with the sonar ring down the supervisor would let the robot drive"
+    )
+    kept = text.replace(b"2.5", b"1.5")
+    assert pipeline_config(parse_scenario(kept).scenario).safety.camera_fov_rad == 1.5
 
 
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:

@@ -420,28 +420,53 @@ def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
 
 def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> None:
     """The ring went offline: that it no longer reports the echo does not mean the body
-    left. Only a ring heard on and scanning tells that (the test above)."""
+    left. Only a ring heard on and scanning tells that (the test above). (A camera that
+    sees all around here, so that the ring's being down does not stop the robot first.)"""
+    all_round = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2 * math.pi)
+
+    def reverse(world_map: WorldMap):
+        supervisor = SafetySupervisor(all_round, LIMITS, tick_ms=TICK_MS)
+        return supervise(Velocity(-0.5, 0.0, 0.0), world_map, now_ms=600, supervisor=supervisor)
+
     down = room(seen(4.0, at_ms=600))
     down.sonars.append(Sonar(id="ring", isonline=False))
     down.obstacles.append(echo(0.6, at_ms=0))  # last reported 600 ms ago
-    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)
+    verdict, event = reverse(down)
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
     assert event is not None and event.human == "Obstacle/echo-0"
     down.sonars[0].isonline = True  # back on: not reported since, so gone
-    assert supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
+    assert reverse(down)[0].velocity == (-0.5, 0.0, 0.0)
     down.sonars.append(Sonar(id="rear", isonline=False))  # but a second ring is down: it
-    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), down, now_ms=600)  # may have made it
+    verdict, _ = reverse(down)  # may have made it
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
 
 
-def test_a_sonar_offline_caps_motion_at_the_slow_speed() -> None:
+def test_a_sonar_offline_keeps_motion_slow_and_where_the_camera_looks() -> None:
+    """Nothing sees beside or behind the robot: ahead, the slow speed; sideways, the part
+    along the camera's view's nearer edge (1 rad wide, assumed without a scenario); back,
+    none. Turning stays allowed."""
     world_map = room(seen(4.0))
     world_map.sonars.append(Sonar(id="ring", isonline=False))
-    verdict, event = supervise(Velocity(0.0, 0.5, 0.0), world_map)
-    assert verdict.velocity == pytest.approx((0.0, 0.2, 0.0))
+    verdict, event = supervise(Velocity(0.5, 0.0, 0.3), world_map)
+    assert verdict.velocity == pytest.approx((0.2, 0.0, 0.3))
     assert event is not None and event.zone is SafetyZone.BLIND
+    verdict, _ = supervise(Velocity(0.0, -0.5, 0.0), world_map)
+    edge = (math.cos(0.5), -math.sin(0.5))
+    assert verdict.velocity == pytest.approx((*(0.2 * math.sin(0.5) * e for e in edge), 0.0))
+    assert supervise(Velocity(-0.5, 0.1, 0.3), world_map)[0].velocity == (0.0, 0.0, 0.3)
     world_map.sonars[0].isonline = True
     assert supervise(Velocity(0.0, 0.5, 0.0), world_map)[0].velocity == (0.0, 0.5, 0.0)
+    assert supervise(Velocity(-0.5, 0.0, 0.0), world_map)[0].velocity == (-0.5, 0.0, 0.0)
+
+
+def test_a_sonar_heard_late_keeps_motion_where_the_camera_looks() -> None:
+    """The ring's status is late (its link may be dying): the same view, before it is
+    taken for offline."""
+    world_map = room(seen(4.0, at_ms=1600))
+    world_map.sonars.append(Sonar(id="ring", isonline=True))
+    heard = live(world_map, 1600) | {("Sonar", "ring"): 0}  # 1.6 s: three quarters of 2 s
+    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), world_map, now_ms=1600, heard=heard)
+    assert verdict.velocity == (0.0, 0.0, 0.0) and verdict.zone is SafetyZone.BLIND
 
 
 def test_the_echo_of_a_tracked_human_is_that_human_and_no_other() -> None:
