@@ -19,6 +19,7 @@ from oimi.batch.app import BatchReport, Interrupted, run_batch
 from oimi.batch.executors import default_workers
 from oimi.batch.replay import ReplayReport, replay_folder
 from oimi.cmd_check import add_outside_paths_argument
+from oimi.pipeline.plurals import counted
 
 GROUP_COLUMNS = (
     "scenario",
@@ -98,7 +99,8 @@ def print_replay(report: ReplayReport) -> int:
     """How many recordings replayed identically; each divergence and how to reproduce it."""
     failing = [row for row in report.rows if not row.ok]
     print(
-        f"replay: {len(report.rows)} recordings, {len(report.rows) - len(failing)} identical,"
+        f"replay: {counted(len(report.rows), 'recording')},"
+        f" {len(report.rows) - len(failing)} identical,"
         f" {len(failing)} diverged"
     )
     for row in failing:

@@ -18,6 +18,7 @@ from oimi.arg_types import add_world_every_argument
 from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument, report_warnings
 from oimi.extension_args import extensions_of
+from oimi.pipeline.plurals import counted
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import warnings_with
 from oimi.scenarios.session.runner import RunResult
@@ -126,13 +127,14 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
     pushed = f" {s.pushed_contacts} pushed by another person," if s.pushed_contacts else ""
     print(
         f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest (surface to surface)"
-        f" {closest or '-'}, {s.contact_episodes} contact episodes"
+        f" {closest or '-'}, {counted(s.contact_episodes, 'contact episode')}"
         f" ({s.robot_initiated_contacts} robot-initiated,{pushed}"
-        f" fastest closing {s.max_closing_speed_mps:.2f} m/s), {s.rejected_inputs} rejected inputs"
+        f" fastest closing {s.max_closing_speed_mps:.2f} m/s),"
+        f" {counted(s.rejected_inputs, 'rejected input')}"
     )
     print(
-        f"  safety supervisor: {s.safety_interventions} interventions, "
-        f"{s.protective_stops} protective stops"
+        f"  safety supervisor: {counted(s.safety_interventions, 'intervention')}, "
+        f"{counted(s.protective_stops, 'protective stop')}"
     )
     for error in s.errors[:MAX_ERRORS_SHOWN]:
         print(f"  ERROR at {error}")

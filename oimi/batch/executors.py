@@ -17,6 +17,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Final, Protocol, TypeVar
 
+from oimi.pipeline.plurals import counted
 from oimi.scenarios.errors import ScenarioError
 
 Item = TypeVar("Item")
@@ -77,7 +78,8 @@ class ProcessPool:
                 losses += 1
                 if losses > self.retries:
                     raise ExecutorError(
-                        f"lost a worker process {losses} times; {len(pending)} runs unfinished",
+                        f"lost a worker process {counted(losses, 'time')};"
+                        f" {counted(len(pending), 'run')} unfinished",
                         source="<process pool>",
                     ) from error
             finally:

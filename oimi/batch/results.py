@@ -24,6 +24,7 @@ from typing import Any, Final
 import polars as pl
 
 from oimi.batch.tasks import ResultRow
+from oimi.pipeline.plurals import counted
 
 PARQUET: Final = "results.parquet"
 CSV: Final = "results.csv"
@@ -106,7 +107,8 @@ def reproduce_command(row: ResultRow) -> str:
 def summary_text(rows: Sequence[ResultRow]) -> str:
     """Pass/fail counts and, for each failing run, what failed and how to reproduce it."""
     failing = [row for row in rows if not row.ok]
-    lines = [f"batch: {len(rows)} runs, {len(rows) - len(failing)} passed, {len(failing)} failed"]
+    passed = len(rows) - len(failing)
+    lines = [f"batch: {counted(len(rows), 'run')}, {passed} passed, {len(failing)} failed"]
     for row in failing:
         lines.append(f"FAIL {row.task.name}")
         lines += [f"  {v.name}: {v.detail}" for v in row.result.verdicts if not v.ok]

@@ -59,6 +59,7 @@ from oimi.pipeline.operator.generator import (
     guarded,
     resolve_options,
 )
+from oimi.pipeline.plurals import counted
 from oimi.pipeline.script.validate import script_errors
 
 
@@ -412,7 +413,7 @@ class GeneratorHandler:
         for s in self._selected:
             s.script = scripts[s.name]
         self._button = OperatorButton.LOADING
-        return f"generated {_counted(len(scripts), 'script')}", ()
+        return f"generated {counted(len(scripts), 'script')}", ()
 
     def _start(self) -> _Outcome:
         if self._button is not OperatorButton.START:
@@ -431,7 +432,7 @@ class GeneratorHandler:
         self._running = [s.name for s in todo]
         todo[0].state = ActivityState.CURRENT
         self._button = OperatorButton.STOP
-        return f"started {_counted(len(todo), 'activity')}", (PushScripts(entries=entries),)
+        return f"started {counted(len(todo), 'activity')}", (PushScripts(entries=entries),)
 
     def _stop(self) -> _Outcome:
         if self._button is not OperatorButton.STOP:
@@ -481,10 +482,3 @@ def _view(world_map: WorldMap, now_ms: int) -> GeneratorView:
     """A view on a deep copy of the map, so that a generator cannot change the loop's."""
     copy = msgspec.json.decode(msgspec.json.encode(world_map), type=WorldMap)
     return GeneratorView(world_map=copy, now_ms=now_ms)
-
-
-def _counted(count: int, noun: str) -> str:
-    """``1 script``, ``2 scripts``, ``3 activities``."""
-    if count == 1:
-        return f"1 {noun}"
-    return f"{count} {noun[:-1]}ies" if noun.endswith("y") else f"{count} {noun}s"

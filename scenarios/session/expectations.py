@@ -24,6 +24,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
+from oimi.pipeline.plurals import counted
 from oimi.pipeline.proximity import ContactEpisode, Initiator, ProximityTracker
 from oimi.pipeline.think.episodes import RuleEpisodes
 from oimi.scenarios.schema import (
@@ -218,7 +219,7 @@ class Tracker:
                     e,
                     f"safety supervisor intervened ({what or 'any'}) {bound} times",
                     ok,
-                    f"{count} episodes",
+                    counted(count, "episode"),
                 )
             case MinDistance():
                 centres_m = self.min_distance_m
@@ -279,7 +280,7 @@ class Tracker:
                     e,
                     f"no robot-initiated contact with {e.human or 'anyone'}",
                     not robot,
-                    f"{len(robot)} of {len(episodes)} contacts robot-initiated{where}",
+                    f"{len(robot)} of {counted(len(episodes), 'contact')} robot-initiated{where}",
                 )
             case ClosingSpeedAtContact():
                 episodes = self.contact_episodes(e.human)
@@ -288,7 +289,7 @@ class Tracker:
                     e,
                     f"closing speed at contact <= {e.at_most_mps} m/s",
                     fastest <= e.at_most_mps + 1e-9,
-                    f"{len(episodes)} contacts, fastest {fastest:.3f} m/s",
+                    f"{counted(len(episodes), 'contact')}, fastest {fastest:.3f} m/s",
                 )
         raise AssertionError(f"unhandled expectation {e!r}")
 

@@ -38,5 +38,5 @@ def test_a_task_lost_with_its_worker_runs_again(tmp_path: Path) -> None:
 
 
 def test_a_pool_that_keeps_losing_workers_gives_up_with_a_clear_error() -> None:
-    with pytest.raises(ExecutorError, match="lost a worker process 2 times; 1 runs unfinished"):
+    with pytest.raises(ExecutorError, match="lost a worker process 2 times; 1 run unfinished"):
         list(ProcessPool(workers=1, retries=1).map(always_die, ["x"]))
