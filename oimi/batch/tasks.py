@@ -3,8 +3,9 @@
 ``run_task`` is a top-level function of an importable module, so a spawned
 process or a Ray worker can run it. Its outputs depend only on the task: a
 retried task (a lost worker) writes the same recording and returns the same row.
-The recording is written as ``NAME.mcap.part`` and renamed when complete; then
-the row is written beside it as ``NAME.result.json``. A run is finished exactly
+The recording is written as ``NAME.partial.mcap`` and renamed when closed, as
+every recording is (a killed worker leaves that file); then the row is written
+beside it as ``NAME.result.json``. A run is finished exactly
 when that file exists (``finished_row``), which is what ``--resume`` checks.
 """
 
@@ -45,7 +46,6 @@ class ResultRow(msgspec.Struct, frozen=True, kw_only=True):
 def run_task(task: Task) -> ResultRow:
     """Run one task to its end, recording it; a crash becomes a failed row, not an exception."""
     mcap = task.mcap
-    part = mcap.with_name(mcap.name + ".part")
     try:
         session = Session(
             load_scenario(
@@ -56,15 +56,21 @@ def run_task(task: Task) -> ResultRow:
             seed=task.seed,
             overrides=dict(task.overrides),
         )
-        with recorded(session, mcap=part, rrd=None, world_every_n_ticks=task.world_every_n_ticks):
+        # a retried or resumed task replaces its own unfinished recording
+        with recorded(
+            session,
+            mcap=mcap,
+            rrd=None,
+            overwrite=True,
+            world_every_n_ticks=task.world_every_n_ticks,
+        ):
             result = session.run()
-        os.replace(part, mcap)
         row = ResultRow(task=task, result=result, recording=mcap.name)
     except Exception:
-        part.unlink(missing_ok=True)
+        mcap.unlink(missing_ok=True)
         row = crashed_row(task, traceback.format_exc())
-    except BaseException:  # interrupted: leave no half-written file behind
-        part.unlink(missing_ok=True)
+    except BaseException:  # interrupted: leave no unfinished run's recording behind
+        mcap.unlink(missing_ok=True)
         raise
     _write_atomically(task.result_file, msgspec.json.encode(row))
     return row

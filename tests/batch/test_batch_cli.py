@@ -122,6 +122,22 @@ def test_a_finished_run_of_other_inputs_is_not_taken_for_this_one(tmp_path: Path
     assert finished_row(task) is None
 
 
+def test_a_run_replaces_its_unfinished_recording_and_leaves_only_its_two_files(
+    tmp_path: Path,
+) -> None:
+    from oimi.batch.spec import expand
+    from oimi.batch.tasks import run_task
+
+    path = write_scenario(tmp_path, "alpha")
+    out = tmp_path / "out"
+    out.mkdir()
+    task = expand([path], params={}, seeds=1, seed_range=None, out_dir=out)[0]
+    task.mcap.write_bytes(b"a lost worker's recording, without its row")
+    assert run_task(task).ok
+    assert sorted(p.name for p in out.iterdir()) == ["alpha-s1.mcap", "alpha-s1.result.json"]
+    assert open_recording(task.mcap).meta.oimi.world_every == task.world_every_n_ticks
+
+
 def test_world_every_sets_each_runs_sampling_and_a_resume_with_another_runs_again(
     tmp_path: Path, capsys
 ) -> None:
