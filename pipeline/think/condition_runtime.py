@@ -167,7 +167,14 @@ def to_number(value: object) -> object:
     return MISSING
 
 
-_TRUE_TEXTS: Final = {"true": True, "1": True, "false": False, "0": False}
+_TRUE_TEXTS: Final = {
+    "true": True,
+    "1": True,
+    "s_true": True,  # the thesis's booleans (tables 4.1 and 4.2)
+    "false": False,
+    "0": False,
+    "s_false": False,
+}
 
 
 def to_bool(value: object) -> object:

@@ -387,7 +387,16 @@ def test_number_like_text_field_compares_numerically_with_a_number():
 
 @pytest.mark.parametrize(
     ("value", "expected"),
-    [('"true"', True), ('"1"', True), ("1", True), ('"false"', False), ('"maybe"', False)],
+    [
+        ('"true"', True),
+        ('"1"', True),
+        ("1", True),
+        ('"s_true"', True),  # the thesis's spelling (tables 4.1 and 4.2)
+        ("s_true", True),
+        ('"false"', False),
+        ('"s_false"', False),
+        ('"maybe"', False),
+    ],
 )
 def test_boolean_field_casts_texts_and_numbers(value, expected):
     world = WorldMap(obstacles=[Obstacle(id="w", creationtime=0, isfixed=True)])
