@@ -105,7 +105,7 @@ def _episodes(episodes: int, fired: int) -> str:
     """`` (3 episodes)`` when a rule's firings came in fewer episodes than firings."""
     if episodes == fired or not episodes:
         return ""
-    return f" ({episodes} episode{'s' if episodes != 1 else ''})"
+    return f" ({counted(episodes, 'episode')})"
 
 
 def print_result(result: RunResult, *, live: bool = False) -> None:

@@ -38,7 +38,7 @@ from oimi.scenarios.extensions import (
     load_extensions,
 )
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.safety import below_needs, coverage_gaps
+from oimi.scenarios.safety import coverage_gaps, unsafe_assumptions
 from oimi.scenarios.schema import (
     BehaviourEvent,
     BehaviourSegment,
@@ -663,7 +663,7 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
             )
     for name, message in safety_problems(robot.safety):
         yield ("robot", "safety", name), message
-    yield from below_needs(scenario)
+    yield from unsafe_assumptions(scenario)
     rx = robot.x_m if robot.x_m is not None else world.width_m / 2
     ry = robot.y_m if robot.y_m is not None else world.height_m / 2
     if outside(rx, ry, robot.radius_m):

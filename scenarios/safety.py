@@ -105,9 +105,10 @@ def _left_out(name: str, implied: dict[str, Need]) -> float:
     return max(NEVER_BELOW.get(name, 0.0), 0.0 if need is None else need.least)
 
 
-def below_needs(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
-    """Each assumption the scenario sets below what it implies (or, for the camera's view,
-    wider than its camera's), as (path, message)."""
+def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
+    """Each assumption the scenario sets where the supervisor could let the robot touch
+    someone: below what the scenario implies, or a camera's view wider than its camera's,
+    as (path, message)."""
     safety = scenario.robot.safety
     fov_rad = scenario.sensors.fov_rad
     if safety.camera_fov_rad is not None and safety.camera_fov_rad > fov_rad:
