@@ -221,6 +221,8 @@ class RerunSink:
         first state in it (a recording's states need not fall on its first tick)."""
         self._series: dict[tuple[str, type], _Series] = {}
         self._seen: set[str] = set()
+        self._present: tuple[str, ...] = ()
+        """The people in the room at the last sample, in order."""
         self._people = palette.PersonColours()
         """People seen of each kind: their colours go by order of appearance."""
         self._led: tuple[float, float, float] | None = None
@@ -458,6 +460,7 @@ class RerunSink:
         self._trail("world/robot/trail", robot)
         if state.contacts:
             self._contact(state)
+        self._departures(state)
         for human in state.humans:
             self._first_sight(human, person=True)
             path = f"world/humans/{human.id}"
@@ -516,6 +519,23 @@ class RerunSink:
                 draw_order=_MARK,
             ),
         )
+
+    def _departures(self, state: WorldState) -> None:
+        """Clear the people who left the room since the last sample: their body, name,
+        zones, trail and distance plot end there (drawn anew if they come back)."""
+        present = tuple(h.id for h in state.humans)
+        if present == self._present:
+            return
+        for human_id in self._present:
+            if human_id in present:
+                continue
+            path = f"world/humans/{human_id}"
+            self._emit(path, rr.Clear(recursive=True))
+            self._emit(f"robot/distance/{human_id}", rr.Clear(recursive=False))
+            self._trails.pop(f"{path}/trail", None)
+            self._looks.pop(f"{path}/zones", None)
+            self._say("log/world", f"{human_id} left the room")
+        self._present = present
 
     def _moved(self, path: str, body: BodyState) -> None:
         """Place ``path``'s origin at ``body`` for this sample."""

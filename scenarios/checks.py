@@ -2,7 +2,8 @@
 them (``oimi check``): every problem, located, and warnings that are not failures.
 
 A rule code the rule library does not know is a warning (the chain will refuse that
-message at run time), not a failure.
+message at run time), not a failure; so is an alfa message whose change no omega message
+undoes (thesis 4.4: when the script is over, its omega restores the previous situation).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.messages import RuleAction
 from oimi.pipeline.script import ParsedScript, ScriptError
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
@@ -71,7 +73,11 @@ def check_file(
         return _check_scenario(path, allow_outside=allow_outside, extensions=extensions)
     toolkit = toolkit or build_toolkit(load_extensions(extensions))
     parsed, errors = check_script_file(path, functions=toolkit.registries.functions)
-    warnings = [] if parsed is None else unknown_rule_codes(parsed, toolkit.registries.rules)
+    warnings = (
+        []
+        if parsed is None
+        else unknown_rule_codes(parsed, toolkit.registries.rules) + unrestored_rules(parsed)
+    )
     return FileCheck(str(path), errors, warnings)
 
 
@@ -91,6 +97,36 @@ def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[Script
         )
         for index, message in enumerate(messages)
         if message.rulecode not in rules
+    ]
+
+
+_LEFT: dict[RuleAction, tuple[str, str]] = {
+    RuleAction.A: ("adds", "in"),
+    RuleAction.B: ("brings back", "in"),
+    RuleAction.C: ("recovers", "in"),
+    RuleAction.R: ("removes", "out of"),
+}
+"""What an alfa message leaves behind when no omega message names its rule. ``D`` is not
+there: a rule delayed "for a future usage" (thesis 4.4) outlives its script by design."""
+
+
+def unrestored_rules(parsed: ParsedScript) -> list[ScriptError]:
+    """Alfa messages on a rule that no omega message names: the change stays after the
+    script ends, for the activities that follow (the thesis's own ``example_act`` adds
+    ``my_rule`` this way)."""
+    script = parsed.script
+    restored = {message.id for message in script.omegarulemessages}
+    return [
+        parsed.sourcemap.place(
+            ScriptError(
+                f"the alfa {_LEFT[message.action][0]} {message.id} ({message.action.name}) "
+                f"and no omega message names it: it stays {_LEFT[message.action][1]} the "
+                "chain after the script ends",
+                path=f"alfarulemessages[{index}].id",
+            )
+        )
+        for index, message in enumerate(script.alfarulemessages)
+        if message.id not in restored and message.action in _LEFT
     ]
 
 

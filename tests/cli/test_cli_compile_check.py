@@ -163,6 +163,41 @@ def test_check_places_a_bad_json_condition_at_its_value(tmp_path, capsys):
     assert capsys.readouterr().err.startswith(f"{script}:{line_no}:{column + inner - 1}: ")
 
 
+def test_check_warns_about_an_alfa_change_no_omega_restores(capsys):
+    assert main(["check", str(ACTIVITIES / "example_act.txt")]) == 0, "a warning, not a failure"
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[1] == (
+        f"{ACTIVITIES / 'example_act.txt'}:5:10: the alfa adds my_rule (A) and no omega message"
+        " names it: it stays in the chain after the script ends (warning)"
+    ), "kick_starter, which the omega recovers, is not named"
+    assert len(lines) == 2
+
+
+@pytest.mark.parametrize(
+    ("alfa", "omega", "warned"),
+    [
+        (
+            "[alfa:1, r, , , R, U]",
+            "",
+            "the alfa removes r (R) and no omega message names it: it stays out of the chain",
+        ),
+        ("[alfa:1, r, , , C, U]", "", "the alfa recovers r (C)"),
+        ("[alfa:1, r, , , B, U]", "", "the alfa brings back r (B)"),
+        ("[alfa:1, r, , , A, U]", "[omega:1, r, , , R, L]", None),
+        ("[alfa:1, r, , , D, U]", "", None),  # held for a future usage, by design
+    ],
+)
+def test_check_names_each_alfa_change_left_after_the_script(tmp_path, capsys, alfa, omega, warned):
+    script = tmp_path / "s.txt"
+    script.write_text(f"[s]\n{alfa}\n{omega}\n[goal:g]\n[action]\n[b##blk_terminus]\n")
+    assert main(["check", str(script)]) == 0
+    err = capsys.readouterr().err
+    if warned is None:
+        assert err == ""
+    else:
+        assert err.startswith(f"{script}:2:10: {warned}")
+
+
 def test_check_warns_about_rule_codes_the_library_does_not_know(capsys):
     assert main(["check", str(ACTIVITIES / "example_act.txt")]) == 0, "a warning, not a failure"
     err = capsys.readouterr().err

@@ -178,6 +178,30 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
     ]
 
 
+def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path: Path) -> None:
+    path = tmp_path / "left.rrd"
+    with RerunSink(path, recording_id="left", scene=SCENE, world_every_n_ticks=1) as sink:
+        for tick in range(12):
+            gone = 3 <= tick < 6
+            humans = ("therapist1",) if gone else ("child1", "therapist1")
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, world_state(tick, humans=humans))
+
+    def ticks(entity: str, column: str) -> list[int]:
+        return sorted(row["tick"] for row in rows(path, entity, static=False) if row.get(column))
+
+    drawn = ticks("/world/humans/child1", "Points2D:positions")
+    assert drawn == [0, 1, 2, 6, 7, 8, 9, 10, 11]
+    for entity in ("/world/humans/child1", "/robot/distance/child1"):
+        assert ticks(entity, "Clear:is_recursive") == [3], entity
+    assert ticks("/world/humans/therapist1", "Clear:is_recursive") == []
+    [left] = [row["TextLog:text"][0] for row in rows(path, "/log/world")]
+    assert left == "   0.06 s  child1 left the room"
+    strips = [r for r in rows(path, "/world/humans/child1/trail") if r.get("LineStrips2D:strips")]
+    last = max(strips, key=lambda row: row["tick"])  # a trail is drawn every 5th sample
+    assert last["tick"] == 10
+    assert len(last["LineStrips2D:strips"][0]) == 5, "the trail starts again at tick 6"
+
+
 @pytest.mark.parametrize(
     ("led", "name"),
     [
