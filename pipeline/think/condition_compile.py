@@ -332,12 +332,16 @@ def _class_step(node: ClassClause, criteria: tuple[Callable[[Run, Bound], bool],
     def step(run: Run) -> int:
         own = run.alias_store(scope)  # a binding of this name in another scope is not ours
         ref = own.get(alias)
-        if ref is not None:
-            entity = find_entity(run.world_map, ref) if ref.startswith(cls + "/") else None
-            if entity is not None and meets(run, entity):
+        if ref is not None:  # thesis 4.3: bound until its scope ends (or a rule frees it)
+            if not ref.startswith(cls + "/"):
+                return FAIL  # another class's entity (its list is not this clause's to read)
+            entity = find_entity(run.world_map, ref)
+            if entity is not None:
+                if not meets(run, entity):
+                    return FAIL
                 run.bindings[alias] = ref
                 return GO
-            run.unbind_alias(alias, scope)
+            run.unbind_alias(alias, scope)  # its entity left the map: chosen again
         taken = run.taken(alias)
         best: Bound | None = None
         for entity in entities_of(run.world_map, cls):

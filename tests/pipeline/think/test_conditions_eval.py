@@ -175,15 +175,39 @@ def test_existing_binding_is_kept_while_it_still_meets_the_criteria():
     assert result.bindings == {"?c": "Human/b"}
 
 
-def test_binding_is_rechosen_when_its_entity_no_longer_qualifies():
+def test_a_bound_alias_stays_with_its_entity_when_it_no_longer_qualifies():
+    """Thesis 4.3: once bound, a U alias stays with its entity "until the current Script
+    remains in execution or a Rule removes it"; the clause fails while it does not qualify."""
     world = _map(_human("b", age_ms=50, rho=1.0), _human("d", age_ms=60, rho=1.0))
     _eval("{CLASS #Human U ?c ?THIS>&positionrho OP< 2}, {ATT ?c $k U F: now ()} !", world)
     assert world.aliases == {"?c": "Human/b"} and "?c$k" in world.variables
     world.humans[0].positionrho = 5.0
     result = _eval("{CLASS #Human U ?c ?THIS>&positionrho OP< 2} !", world)
-    assert result.bindings == {"?c": "Human/d"}
-    assert world.aliases == {"?c": "Human/d"}
-    assert "?c$k" not in world.variables  # attributes of the old binding are dropped
+    assert result.result is False, "d qualifies, but ?c is b's"
+    assert world.aliases == {"?c": "Human/b"} and "?c$k" in world.variables
+    world.humans[0].positionrho = 1.5
+    result = _eval("{CLASS #Human U ?c ?THIS>&positionrho OP< 2} !", world)
+    assert result.result is True and result.bindings == {"?c": "Human/b"}
+
+
+def test_a_bound_alias_asked_for_another_class_fails():
+    world = _map(_human("b"))
+    world.objects.append(Object(id="ball", creationtime=0))
+    _eval("{CLASS #Human U ?x} !", world)
+    assert _eval("{CLASS #Object U ?x} !", world).result is False
+    assert world.aliases == {"?x": "Human/b"}
+
+
+def test_a_scope_t_alias_holds_for_the_rest_of_the_tick():
+    world, tick = _map(_human("a", rho=1.0), _human("b", age_ms=5, rho=1.0)), {}
+    assert _eval("{CLASS #Human T ?c} !", world, tick=tick).bindings == {"?c": "Human/a"}
+    assert _eval("{CLASS #Human T ?c B: infront (0.05)} !", world, tick=tick).result is True
+    world.humans[0].positiontheta = 1.0  # a is aside now; b, in front, would qualify
+    assert _eval("{CLASS #Human T ?c B: infront (0.05)} !", world, tick=tick).result is False
+    assert tick == {"?c": "Human/a"}
+    assert _eval("{CLASS #Human T ?c B: infront (0.05)} !", world, tick={}).bindings == {
+        "?c": "Human/b"
+    }, "the next tick chooses again"
 
 
 def test_binding_is_rechosen_when_its_entity_left_the_map():
