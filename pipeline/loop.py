@@ -34,6 +34,7 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.mapdeltas import MapDeltas
 from oimi.pipeline.messages import (
+    GENERATED_SOURCE,
     REGISTER_CAPACITY,
     ActuatorOutputs,
     MapUpdate,
@@ -240,9 +241,13 @@ class Pipeline:
         return outcome
 
     def _resolve(self, name: str) -> ScriptEntry | None:
-        """A switch's target: a selected activity's generated script, else a script file."""
-        script = self.handler.generated(name)
-        return _generated(name, script) if script is not None else self._resolve_file(name)
+        """A switch's target or a ``script_vect`` entry: a selected activity's generated
+        script (``NAME``, or only that as ``generator:NAME``), else a script file."""
+        activity = name.removeprefix(GENERATED_SOURCE)
+        script = self.handler.generated(activity)
+        if script is not None:
+            return _generated(activity, script)
+        return self._resolve_file(name) if activity == name else None
 
     def _apply_chain(self, outcome: ReadOutcome, emitter: _Emitter) -> None:
         emitter.logs.extend(outcome.logs)
@@ -353,7 +358,7 @@ class Pipeline:
 def _generated(activity: str, script: Script) -> ScriptEntry:
     """The reader's entry for an operator-selected activity's generated script."""
     return ScriptEntry(
-        activity=activity, script=script, source=f"generator:{activity}", operator=True
+        activity=activity, script=script, source=GENERATED_SOURCE + activity, operator=True
     )
 
 

@@ -27,6 +27,9 @@ whole, and 2 to 4 its changed ``scriptinfo`` and ``robotstatus``, which read as 
 every field; 2 and 3 kept ``/world/state`` at every tick, 4 samples it:
 ``recorder.world_sampling``, 2 to 4 at micrometres); replays need ``FORMAT_VERSION``."""
 
+GENERATED_SOURCE: Final = "generator:"
+"""How ``ScriptInfo.script_vect`` names a generated script: ``generator:NAME``, the name of
+the selected activity that generated it (a script file is named by its path)."""
 REGISTER_CAPACITY: Final = 16
 """Default capacity of an appendable (circular) register in the map."""
 
@@ -541,7 +544,8 @@ class ScriptInfo(State):
     subaout: int = 0
     """Index of the audio item being executed."""
     script_vect: list[str] = []
-    """The LIFO of scripts waiting (last = top)."""
+    """The LIFO of scripts waiting (last = top): each a script file's path, or
+    ``generator:NAME`` (:data:`GENERATED_SOURCE`) for a selected activity's generated script."""
 
 
 class WorldMap(State):

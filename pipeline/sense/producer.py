@@ -30,6 +30,7 @@ from oimi.pipeline.messages import (
     State,
     WorldMap,
 )
+from oimi.pipeline.sense.script_names import check_script_root
 from oimi.pipeline.sense.updates import (
     DecodedUpdate,
     EntityClass,
@@ -37,7 +38,6 @@ from oimi.pipeline.sense.updates import (
     ScriptVect,
     Storage,
     Target,
-    check_script_root,
     decode_update,
 )
 

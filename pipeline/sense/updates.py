@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import enum
 import functools
-import posixpath
 import re
 from collections.abc import Callable, Mapping
 from typing import Annotated, Final, Literal, TypeVar
@@ -37,6 +36,7 @@ from oimi.pipeline.messages import (
     Touch,
     Tracking,
 )
+from oimi.pipeline.sense.script_names import ID_RE, check_script_entry
 
 INT_MAX: Final = 2**63 - 1
 """Largest integer a payload may carry (it must survive a JSON round trip as int64)."""
@@ -387,8 +387,6 @@ UPDATE_TABLE: Final[Mapping[EntityClass, Mapping[str, AttributeSpec]]] = {
 
 # ------------------------------------------------------------------ objectid and paths
 
-_ID_RE: Final = re.compile(r"[^\s/\\]+")
-
 
 @functools.lru_cache(maxsize=1024)  # sensors name the same few entities every tick
 def parse_objectid(objectid: str) -> Target:
@@ -407,48 +405,11 @@ def parse_objectid(objectid: str) -> Target:
         return Target(klass=klass)  # the single instance: any ID names it
     if not ident:
         raise MapUpdateError(f"objectid {objectid!r}: class {klass} needs an ID (CLASS/ID)")
-    if not _ID_RE.fullmatch(ident):
+    if not ID_RE.fullmatch(ident):
         raise MapUpdateError(
             f"objectid {objectid!r}: bad ID {ident!r} (no whitespace, '/' or '\\' allowed)"
         )
     return Target(klass=klass, id=ident)
-
-
-def check_script_path(path: str, *, script_root: str) -> str | None:
-    """Why ``path`` is not an acceptable script path under ``script_root``; None if it is.
-
-    A path must be non-empty, relative, normalised (``posixpath.normpath`` leaves it
-    unchanged), free of ``..``, backslashes and control characters, and lie strictly
-    inside ``script_root`` (an empty root accepts any such path). No file is touched.
-    """
-    if not path:
-        return "path is empty"
-    if any(ord(c) < 0x20 or ord(c) == 0x7F for c in path):
-        return f"path {path!r} contains a control character"
-    if "\\" in path:
-        return f"path {path!r} contains a backslash"
-    if path.startswith("/"):
-        return f"path {path!r} is absolute"
-    if ".." in path.split("/"):
-        return f"path {path!r} contains '..'"
-    if posixpath.normpath(path) != path:
-        return f"path {path!r} is not normalised (expected {posixpath.normpath(path)!r})"
-    if script_root and not path.startswith(script_root + "/"):
-        return f"path {path!r} is not inside the script root {script_root!r}"
-    return None
-
-
-def check_script_root(script_root: str) -> str:
-    """The script root, checked: empty or a normalised relative path; raises ValueError."""
-    if script_root in ("", "."):
-        return ""
-    problem = check_script_path(script_root, script_root="")
-    if problem:
-        raise ValueError(f"script_root: {problem}")
-    return script_root
-
-
-# ------------------------------------------------------------------ decoding an update
 
 
 class DecodedUpdate(msgspec.Struct, frozen=True, kw_only=True):
@@ -488,7 +449,7 @@ def decode_update(update: MapUpdate, *, script_root: str = "activities") -> Deco
         raise MapUpdateError(f"{where}: bad jsonmsg: {exc}") from None
     if isinstance(value, ScriptVectPayload):
         for index, path in enumerate(value.update):
-            problem = check_script_path(path, script_root=script_root)
+            problem = check_script_entry(path, script_root=script_root)
             if problem:
                 raise MapUpdateError(f"{where}: at `$.update[{index}]`: {problem}")
         value = ScriptVect(restart=value.restart == "s_true", paths=tuple(value.update))

@@ -41,7 +41,10 @@ VALID_PAYLOAD: dict[str, st.SearchStrategy[str]] = {
     "goalinterrupted": obj(goalid=st.just("g3"), timestamp=nonneg),
     "script_vect": obj(
         restart=st.sampled_from(["s_true", "s_false"]),
-        update=st.lists(st.sampled_from(["activities/a.json", "activities/b/c.txt"]), max_size=3),
+        update=st.lists(
+            st.sampled_from(["activities/a.json", "activities/b/c.txt", "generator:dance"]),
+            max_size=3,
+        ),
     ),
 }
 INT_ATTRS = {
@@ -102,7 +105,20 @@ def corrupted_update(draw) -> MapUpdate:
         case "text":
             return msgspec.structs.replace(good, jsonmsg=draw(st.text(max_size=8)))
         case "path":
-            bad = draw(st.sampled_from(["../x", "/abs", "", "activities\\x", "a/./b", "x/y"]))
+            bad = draw(
+                st.sampled_from(
+                    [
+                        "../x",
+                        "/abs",
+                        "",
+                        "activities\\x",
+                        "a/./b",
+                        "x/y",
+                        "generator:",
+                        "generator:a/b",
+                    ]
+                )
+            )
             return MapUpdate(
                 objectid="Script",
                 attributename="script_vect",

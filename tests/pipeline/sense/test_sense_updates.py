@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 
+import msgspec
 import pytest
 from oimi.pipeline.messages import (
     AudioStatus,
@@ -16,6 +17,7 @@ from oimi.pipeline.messages import (
     Touch,
     Tracking,
 )
+from oimi.pipeline.sense.script_names import check_script_path, check_script_root
 from oimi.pipeline.sense.updates import (
     UPDATE_TABLE,
     EntityClass,
@@ -23,8 +25,6 @@ from oimi.pipeline.sense.updates import (
     ScriptVect,
     Storage,
     Target,
-    check_script_path,
-    check_script_root,
     decode_update,
     parse_objectid,
 )
@@ -360,6 +360,21 @@ def test_script_root_itself_must_be_relative_and_normalised():
     assert check_script_root("scenarios/library") == "scenarios/library"
     with pytest.raises(ValueError, match=r"script_root: path '/abs' is absolute"):
         check_script_root("/abs")
+
+
+def test_script_vect_names_a_generated_script_by_its_activity():
+    jsonmsg = '{"restart": "s_false", "update": ["activities/a.json", "generator:test_dance"]}'
+    decoded = decode_update(upd("Script", "script_vect", jsonmsg))
+    assert decoded.value == ScriptVect(
+        restart=False, paths=("activities/a.json", "generator:test_dance")
+    )
+
+
+@pytest.mark.parametrize("name", ["", "a b", "a/b", "..\\x", "a\u0000"])
+def test_script_vect_refuses_a_generated_script_with_a_bad_name(name):
+    jsonmsg = msgspec.json.encode({"restart": "s_false", "update": [f"generator:{name}"]})
+    with pytest.raises(MapUpdateError, match=r"at `\$\.update\[0\]`: 'generator:.*bad activity"):
+        decode_update(upd("Script", "script_vect", jsonmsg.decode()))
 
 
 def test_script_vect_with_a_custom_root():

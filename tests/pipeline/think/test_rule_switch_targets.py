@@ -3,29 +3,17 @@
 from __future__ import annotations
 
 from oimi.pipeline.events import Topic
-from oimi.pipeline.loop import Pipeline, PipelineConfig
 from oimi.pipeline.operator.commands import Add, GetReady
-from oimi.pipeline.operator.generators import default_catalogue
-from oimi.pipeline.operator.handler import GeneratorHandler
 from oimi.pipeline.sink import MemorySink
 from oimi.pipeline.think.library import force_switch
-from oimi.scenarios.session.activities import ACTIVITIES, ActivityLibrary
-
-IDLE = ActivityLibrary([ACTIVITIES]).idle()
-"""The shipped idle activity."""
+from pipeline_with_generators import generating_pipeline
 
 
 def test_a_rule_switch_reaches_a_generated_script_before_it_was_started() -> None:
     """Thesis 4.2 step 5: "the Block Reader loads the (Rule-setted) Script reported in field
     currentactivity"; 3.2: a Script Generator's role "is to produce Scripts on demand"."""
     sink = MemorySink()
-    p = Pipeline(
-        PipelineConfig(),
-        idle=IDLE,
-        resolve=lambda name: None,  # no script files at all
-        handler=GeneratorHandler(default_catalogue()),
-        sink=sink,
-    )
+    p = generating_pipeline(sink)  # no script files at all
     add = Add(id=1, activity="test_dance")
     p.tick(tick=0, commands=[add])
     p.tick(tick=1, commands=[GetReady(id=2)])
