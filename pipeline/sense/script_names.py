@@ -66,6 +66,3 @@ def check_script_root(script_root: str) -> str:
     if problem:
         raise ValueError(f"script_root: {problem}")
     return script_root
-
-
-# ------------------------------------------------------------------ decoding an update

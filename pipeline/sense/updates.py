@@ -385,7 +385,7 @@ UPDATE_TABLE: Final[Mapping[EntityClass, Mapping[str, AttributeSpec]]] = {
 """Tables 4.1 and 4.2 as implemented: class -> attribute -> row."""
 
 
-# ------------------------------------------------------------------ objectid and paths
+# ------------------------------------------------------------------ objectid
 
 
 @functools.lru_cache(maxsize=1024)  # sensors name the same few entities every tick
@@ -410,6 +410,9 @@ def parse_objectid(objectid: str) -> Target:
             f"objectid {objectid!r}: bad ID {ident!r} (no whitespace, '/' or '\\' allowed)"
         )
     return Target(klass=klass, id=ident)
+
+
+# ------------------------------------------------------------------ decoding an update
 
 
 class DecodedUpdate(msgspec.Struct, frozen=True, kw_only=True):
