@@ -20,6 +20,12 @@ THIS: Final = "?THIS"
 """The entity under test inside a ``CLASS`` clause."""
 
 IDENT = re.compile(r"[A-Za-z_]\w*\Z")
+"""A field's or a function's name."""
+USER_NAME: Final = re.compile(r"[^\s/?@\"$&#{}(),>!]+\Z")
+"""A name the designer makes up, of an alias, a variable or an attribute: thesis 4.3, "any
+string without ' ' / '/' chars", less the language's own punctuation."""
+USER_NAME_CHARACTERS: Final = "whitespace, '/' or any of ?@\"$&#{}(),>!"
+"""What :data:`USER_NAME` may not hold, as an error message says it."""
 
 CLASS_TYPES: Final[dict[str, type]] = {
     **{m.name: m.struct for m in ENTITY_LISTS},

@@ -17,6 +17,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from oimi.pipeline.think.condition_ast import (
     IDENT,
     THIS,
+    USER_NAME,
+    USER_NAME_CHARACTERS,
     AliasRef,
     AttClause,
     AttRef,
@@ -56,8 +58,20 @@ def _name(token: Token, sigil_what: str, what: str) -> str:
     return text
 
 
+def _user_name(token: Token, what: str) -> str:
+    """Check ``?name``/``@name``/``$name``: a sigil then a name of the designer's."""
+    text = str(token)
+    if not USER_NAME.match(text[1:]):
+        raise located(
+            f"bad {what} name {text!r}: '{text[0]}' must be followed by a name without "
+            + USER_NAME_CHARACTERS,
+            token_pos(token),
+        )
+    return text
+
+
 def _alias(token: Token) -> str:
-    return _name(token, "'?'", "alias")
+    return _user_name(token, "alias")
 
 
 def _scope(token: Token) -> Scope:
@@ -114,14 +128,14 @@ class _ToAst(Transformer):
 
     def var_clause(self, meta, children):
         _, var, scope, family, call = children
-        name = _name(var, "'@'", "variable")
+        name = _user_name(var, "variable")
         return VarClause(name, _scope(scope), self._call(family, call), (meta.line, meta.column))
 
     def att_clause(self, meta, children):
         _, alias, att, scope, family, call = children
         return AttClause(
             _alias(alias),
-            _name(att, "'$'", "attribute")[1:],
+            _user_name(att, "attribute")[1:],
             _scope(scope),
             self._call(family, call),
             (meta.line, meta.column),
@@ -182,11 +196,11 @@ class _ToAst(Transformer):
 
     def alias_att(self, meta, children):
         alias, att = children
-        return AttRef(_alias(alias), _name(att, "'$'", "attribute")[1:], token_pos(alias))
+        return AttRef(_alias(alias), _user_name(att, "attribute")[1:], token_pos(alias))
 
     def variable(self, meta, children):
         (token,) = children
-        return VarRef(_name(token, "'@'", "variable"), token_pos(token))
+        return VarRef(_user_name(token, "variable"), token_pos(token))
 
 
 @functools.cache

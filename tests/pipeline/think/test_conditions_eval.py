@@ -149,6 +149,19 @@ def test_only_entities_meeting_every_criterion_are_eligible():
     assert _eval(text, world).bindings == {"?c": "Human/young_ok"}
 
 
+@pytest.mark.parametrize("alias", ["?1child", "?my-child", "?niño", "?child.2", "?kid's"])
+def test_an_alias_may_be_any_name_without_a_space_or_a_slash(alias):
+    """Thesis 4.3: "ID can be any string without ' ' / '/' chars, defined by the user"."""
+    world = _map(_human("c1", rho=1.0))
+    text = (
+        f"{{CLASS #Human U {alias}}}, {{ATT {alias} $my-mood L F: concat (calm)}},"
+        f" {{VAR @v.2 L F: concat ({alias}>$my-mood)}} ! {{E: near ({alias}, 2)}}"
+    )
+    result = _eval(text, world)
+    assert result.result is True
+    assert result.bindings == {alias: "Human/c1", f"{alias}$my-mood": "calm", "@v.2": "calm"}
+
+
 def test_one_alias_per_entity_within_a_condition():
     world = _map(_human("a", age_ms=1), _human("b", age_ms=2))
     result = _eval("{CLASS #Human L ?x}, {CLASS #Human L ?y} !", world)
