@@ -285,7 +285,8 @@ def replay_rosbag(
     existing file replaced only with ``overwrite``); the session's result, the number of
     ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
-    body, sensors = RemoteBody(loaded.scenario.robot.radius_m), RemoteSensors()
+    body = RemoteBody(loaded.scenario.robot.radius_m)
+    sensors = RemoteSensors(max_data_age_ms=loaded.scenario.robot.safety.max_data_age_ms)
     session = BagSession(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own

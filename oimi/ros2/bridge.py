@@ -118,7 +118,9 @@ class BridgeSession(LiveSession):
         on_note: Callable[[str], None] | None = None,
     ) -> None:
         self.body = RemoteBody(loaded.scenario.robot.radius_m)
-        self.remote_sensors = RemoteSensors()
+        self.remote_sensors = RemoteSensors(
+            max_data_age_ms=loaded.scenario.robot.safety.max_data_age_ms
+        )
         super().__init__(loaded, seed=seed, world=self.body, sensors=self.remote_sensors)
         self.network = node.network
         self.on_note = on_note

@@ -24,9 +24,12 @@ from oimi.pipeline.sink import NS_PER_MS
 from oimi.ros2 import types
 from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
 
-CLOCK_WINDOW: Final = 50
-"""How many of the latest odometry messages the robot's clock is read from (a second at
-50 Hz: a robot whose clock jumps, restarted, is followed within it)."""
+CLOCK_WINDOW_MS: Final = 5000
+"""How long, in session time, a sample of the robot's clock counts (at least twice the
+scenario's ``max_data_age_ms``: :func:`clock_window_ms`). A robot whose clock jumps back,
+restarted, is followed within it (its readings look older meanwhile: the safe side); a
+frozen sensor's readings, repeated with their old times, cannot make them look younger than
+it (they look that old, stale)."""
 TIMES: Final = {
     "poses": ("positionchangetime",),
     "tracking": ("appearanceon",),
@@ -43,28 +46,51 @@ BARE_TIMES: Final = frozenset({"startingtime"})
 """The attributes whose payload is a bare time (the robot's ``startingtime``)."""
 
 
+def clock_window_ms(max_data_age_ms: int) -> int:
+    """The robot clock's window for a supervisor that takes readings older than
+    ``max_data_age_ms`` as stale: :data:`CLOCK_WINDOW_MS`, or twice that age if longer."""
+    return max(CLOCK_WINDOW_MS, 2 * max_data_age_ms)
+
+
 class RobotClock:
-    """The robot's clock against the session's, from its odometry's header stamps.
+    """The robot's clock against the session's, from the times the robot sends.
 
     A map update's times (a pose's ``positionchangetime``, a touch's ``startingtime``...)
     are on the robot's clock, the clock of its odometry's stamps; the session's start at
-    0 when the session does. ``offset_ms`` is the least (session time at the tick that
-    took it - stamp) over the last ``CLOCK_WINDOW`` odometry messages: the clocks' offset
-    plus the shortest delivery, so a reading keeps the age it had on the robot (younger
-    by that delivery at most, within the tick of age the supervisor's margin adds)."""
+    0 when the session does. A time the robot sends, taken at the session's ``now_ms``,
+    bounds the clocks' offset: ``offset_ms`` is the least (session time at the tick that
+    took it - robot time) over the samples of the last ``window_ms`` of session time (the
+    latest is kept however old): the odometry's stamps, and the poses' own
+    ``positionchangetime`` (so a robot without ``/odom`` has a clock too). A reading thus
+    keeps the age it had on the robot (younger by the promptest delivery at most, within
+    the tick of age the supervisor's margin adds), and a sensor frozen on an old reading
+    cannot make it look fresh: repeated, its samples only bound the offset from above."""
 
-    def __init__(self) -> None:
-        self._offsets: deque[int] = deque(maxlen=CLOCK_WINDOW)
+    def __init__(self, window_ms: int = CLOCK_WINDOW_MS) -> None:
+        self.window_ms = window_ms
+        self._samples: deque[tuple[int, int]] = deque()
+        """(session ms, offset ms) in the order taken, each offset below the next: the
+        least of the window first (a sample with another as low after it is dropped)."""
 
     def odometry(self, odometry: types.Odometry, *, now_ms: int) -> None:
         """An odometry message taken at the session's ``now_ms``."""
         stamp = odometry.header.stamp
-        self._offsets.append(now_ms - (stamp.sec * 1000 + stamp.nanosec // NS_PER_MS))
+        self.sample(stamp.sec * 1000 + stamp.nanosec // NS_PER_MS, now_ms=now_ms)
+
+    def sample(self, robot_ms: int, *, now_ms: int) -> None:
+        """A time on the robot's clock that reached the session at ``now_ms``."""
+        offset = now_ms - robot_ms
+        samples = self._samples
+        while samples and samples[-1][1] >= offset:
+            samples.pop()
+        samples.append((now_ms, offset))
+        while len(samples) > 1 and samples[0][0] <= now_ms - self.window_ms:
+            samples.popleft()
 
     @property
     def offset_ms(self) -> int | None:
-        """Session time minus robot time, ms; None before any odometry."""
-        return min(self._offsets) if self._offsets else None
+        """Session time minus robot time, ms; None before any time was received."""
+        return self._samples[0][1] if self._samples else None
 
 
 def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdate:
@@ -88,6 +114,18 @@ def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdat
     return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
 
 
+def pose_time(update: MapUpdate) -> int | None:
+    """When a pose was taken, on the robot's clock (None: not a pose, or no valid time)."""
+    if update.attributename != "poses":
+        return None
+    try:
+        payload = msgspec.json.decode(update.jsonmsg)
+    except msgspec.DecodeError:
+        return None
+    at = payload.get("positionchangetime") if type(payload) is dict else None
+    return at if _is_time(at) else None
+
+
 def _is_time(value: object) -> bool:
     """Whether ``value`` is a time as the tables allow it (what is not is left for the Map
     Producer to refuse)."""
@@ -96,13 +134,13 @@ def _is_time(value: object) -> bool:
 
 class RemoteSensors:
     """The map updates received, given to the session once, at the next tick, their times
-    on the session's clock (``clock``, fed with the robot's odometry; before the first,
-    a time is the tick's that takes it), none later than that tick."""
+    on the session's clock (``clock``, fed with the robot's odometry and the poses' times;
+    before the first, a time is the tick's that takes it), none later than that tick."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, max_data_age_ms: int = 500) -> None:
         self._inbox: list[MapUpdate] = []
         self._seq = 0
-        self.clock = RobotClock()
+        self.clock = RobotClock(clock_window_ms(max_data_age_ms))
         self.refused: list[str] = []
         """Why an update was refused before it reached the pipeline (read and cleared)."""
 
@@ -131,6 +169,10 @@ class RemoteSensors:
         """The updates received since the last tick, in arrival order, on the session's
         clock."""
         updates, self._inbox = self._inbox, []
+        for update in updates:
+            at = pose_time(update)
+            if at is not None:
+                self.clock.sample(at, now_ms=time_ms)
         offset = self.clock.offset_ms
 
         def moved(at: int) -> int:  # never before the session, nor after the tick taking it

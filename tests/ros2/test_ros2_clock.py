@@ -14,7 +14,13 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 from oimi.pipeline.sense.updates import INT_MAX
 
 from oimi.ros2 import types
-from oimi.ros2.remote import TIMES, RemoteSensors, odometry
+from oimi.ros2.remote import (
+    CLOCK_WINDOW_MS,
+    TIMES,
+    RemoteSensors,
+    clock_window_ms,
+    odometry,
+)
 
 
 def update(objectid: str, attribute: str, jsonmsg: str) -> types.MapUpdate:
@@ -45,7 +51,7 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
         update("RobotStatus", "startingtime", "99000"),  # before the session: its start
         update("RobotStatus", "goalreached", '{"goalid": "g", "timestamp": 100030}'),
         update("Camera/front", "isonline", "s_true"),
-        update("Human/c", "poses", pose_at(100_070)),  # after the tick that takes it: at it
+        update("Human/c", "poses", pose_at(100_070)),  # delivered faster than any odometry
         update("Human/c", "poses", '{"positionrho": 1.5'),  # for the producer to refuse
         update("Human/c", "poses", '{"positionrho": 1, "positionchangetime": -5}'),  # likewise
         update("RobotStatus", "startingtime", "\u0663"),  # a digit, not an ASCII one
@@ -53,18 +59,61 @@ def test_map_update_times_move_from_the_robots_clock_to_the_sessions():
     for each in received:
         sensors.receive(each)
     moved = [u.jsonmsg for u in sensors.sample(None, tick=5, time_ms=100)]
+    assert sensors.clock.offset_ms == 100 - 100_070, "a pose's own time bounds the offset too"
     assert moved == [
-        pose_at(50),
+        pose_at(40),
         '{"permanencetime":900,"appearanceon":0}',
-        '{"touchtype":"C","duration":5,"startingtime":40}',
+        '{"touchtype":"C","duration":5,"startingtime":30}',
         "0",
-        '{"goalid":"g","timestamp":70}',
+        '{"goalid":"g","timestamp":60}',
         "s_true",
         pose_at(100),
         '{"positionrho": 1.5',
         '{"positionrho": 1, "positionchangetime": -5}',
         "\u0663",
     ]
+
+
+def pose_time_at(sensors: RemoteSensors, robot_ms: int, *, now_ms: int) -> int:
+    """The session time a pose taken at ``robot_ms`` and received at ``now_ms`` gets."""
+    sensors.receive(update("Human/c", "poses", pose_at(robot_ms)))
+    (moved,) = sensors.sample(None, tick=now_ms // 20, time_ms=now_ms)
+    return msgspec.json.decode(moved.jsonmsg)["positionchangetime"]
+
+
+def test_a_robot_without_odometry_has_a_clock_from_its_poses():
+    """No /odom: the poses' own times set the clock. A camera 20 s into its clock whose
+    poses arrive 50 or 80 ms after they were taken: each keeps its age against the
+    promptest delivery (0 or 30 ms; the very first is taken as it arrives)."""
+    sensors = RemoteSensors()
+    for now_ms in range(0, 2000, 100):
+        late = 50 if now_ms % 200 else 80
+        age = now_ms - pose_time_at(sensors, 20_000 + now_ms - late, now_ms=now_ms)
+        assert age == (0 if now_ms == 0 else late - 50), now_ms
+
+
+@pytest.mark.parametrize("max_data_age_ms", [500, 4000])
+def test_a_sensor_frozen_on_an_old_reading_never_looks_fresh(max_data_age_ms):
+    """Thesis-robot driver repeating its last pose with its old time, and no /odom: each
+    repeat ages with the session's clock, and never looks younger than the clock's window
+    (longer than the supervisor's max_data_age_ms, so it stays stale)."""
+    sensors = RemoteSensors(max_data_age_ms=max_data_age_ms)
+    window = clock_window_ms(max_data_age_ms)
+    assert window > max_data_age_ms
+    for now_ms in range(0, 3 * window, 100):
+        age = now_ms - pose_time_at(sensors, 7_000, now_ms=now_ms)
+        assert age == min(now_ms, window - 100), now_ms
+
+
+def test_a_robot_whose_clock_jumps_back_is_followed_within_the_window():
+    """A robot restarted at 10 s: its clock starts again from 0; its poses look as old as
+    the session (stale: the safe side) until the samples of its old clock left the window."""
+    sensors = RemoteSensors()
+    for now_ms in range(0, 10_000, 100):
+        pose_time_at(sensors, 60_000 + now_ms, now_ms=now_ms)
+    for now_ms in range(10_000, 16_000, 100):
+        age = now_ms - pose_time_at(sensors, now_ms - 10_000, now_ms=now_ms)
+        assert age == (now_ms if now_ms < 9_900 + CLOCK_WINDOW_MS else 0), now_ms
 
 
 time = st.integers(-(2**40), 2**64)
