@@ -20,6 +20,9 @@ from oimi.scenarios.schema import Scenario
 
 NOISE_SIGMAS: Final = 3.0
 """How many standard deviations of the sensors' noise the sensing error covers."""
+MISSED: Final = 1e-6
+"""The chance the supervisor accepts that a sonar ring which drops detections misses a body
+still there on every scan for ``echo_hold_ms`` (and so forgets it)."""
 
 
 class Need(NamedTuple):
@@ -59,6 +62,16 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         f"two of the sensors' status_period_s {period_s!r} ({two_periods_ms} ms): the"
         " supervisor would take them for offline between two reports and stop the robot",
     )
+    dropout = sensors.dropout_probability
+    if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)
+        scans = scans_to_see(dropout)
+        hold_ms = math.ceil(scans * 1000 / sensors.sonar_scan_hz - 1e-6)
+        found["echo_hold_ms"] = Need(
+            hold_ms,
+            f"{scans} of the sonar ring's scans ({hold_ms} ms at sonar_scan_hz"
+            f" {sensors.sonar_scan_hz!r}) that all miss a body with dropout_probability"
+            f" {dropout!r}: the supervisor would forget a child it has just stopped seeing",
+        )
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
         radii = (  # as the supervisor will take them (supervisor_config)
@@ -77,6 +90,16 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             " their errors",
         )
     return found
+
+
+def scans_to_see(dropout: float) -> float:
+    """How many scans of a sensor that drops each detection with probability ``dropout``
+    it takes to see a body there but for a chance of :data:`MISSED` (infinite: never)."""
+    if dropout <= 0:
+        return 1
+    if dropout >= 1:
+        return math.inf
+    return math.ceil(math.log(MISSED) / math.log(dropout) - 1e-9)
 
 
 NEVER_BELOW: Final = {
@@ -142,15 +165,17 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     sensor, as ``tests/analysis/scenarios/scripted_collision.toml`` does).
 
     Beside and behind the robot only the sonar ring sees people. One who steps into its
-    range is reported at its next scan and acted on at the next tick; by then the robot,
-    at its top speed, and the person, walking at ``human_speed_mps``, may have closed in
-    by their speeds times that delay. The ring must reach farther than that, plus both
-    radii, the stop distance and the sensing error."""
+    range is reported at its next scan (a ring that drops detections: at the scan by which
+    it has seen them but for a chance of :data:`MISSED`) and acted on at the next tick; by
+    then the robot, at its top speed, and the person, walking at ``human_speed_mps``, may
+    have closed in by their speeds times that delay. The ring must reach farther than
+    that, plus both radii, the stop distance and the sensing error."""
     sensors, robot = scenario.sensors, scenario.robot
     config = supervisor_config(scenario)
     assert config.human_speed_mps is not None and config.sensing_error_m is not None
     assert config.robot_radius_m is not None and config.human_radius_m is not None
-    delay_s = 1 / sensors.sonar_scan_hz + 1 / scenario.tick_hz
+    scans = scans_to_see(sensors.dropout_probability)
+    delay_s = scans / sensors.sonar_scan_hz + 1 / scenario.tick_hz
     closing_m = (robot.max_speed_mps + config.human_speed_mps) * delay_s
     bodies_m = config.robot_radius_m + config.human_radius_m
     least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m
@@ -161,7 +186,16 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             f" {round(least, 3)!r} m in which the safety supervisor can keep a person beside"
             f" or behind the robot out of its stop zone (both radii {round(bodies_m, 3)!r},"
             f" stop_distance_m {config.stop_distance_m!r}, sensing_error_m"
-            f" {config.sensing_error_m!r}, and {round(closing_m, 3)!r} m closed in a scan"
-            f" and a tick at max_speed_mps {robot.max_speed_mps!r} and human_speed_mps"
-            f" {config.human_speed_mps!r}): the robot may touch someone it has not seen",
+            f" {config.sensing_error_m!r}, and {round(closing_m, 3)!r} m closed in"
+            f" {_scans_text(scans, sensors.dropout_probability)} and a tick at max_speed_mps"
+            f" {robot.max_speed_mps!r} and human_speed_mps {config.human_speed_mps!r}): the"
+            " robot may touch someone it has not seen",
         )
+
+
+def _scans_text(scans: float, dropout: float) -> str:
+    if scans == 1:
+        return "a scan"
+    if math.isinf(scans):
+        return f"the scans that never see a body (dropout_probability {dropout!r})"
+    return f"the {scans} scans that see a body with dropout_probability {dropout!r}"

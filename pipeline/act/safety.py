@@ -38,12 +38,14 @@ the map tracks: placed within both readings' errors and the walk between them, a
 farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
 older than ``max_data_age_ms`` and no longer reported is a body that left the sonar's
 range (the ring scans all the time) once every sonar has said it is on since it last
-reported it: until then (a link that may have died with it) it is kept where it was.
+reported it and ``echo_hold_ms`` have passed since (a ring misses a body now and then):
+until then (a link that may have died with it, a missed detection) it is kept where it was.
 One still reported with an old reading (a sonar repeating itself, frozen, or lagging),
 or one a sonar that is down (offline, silent, late) may have made, is kept too, stale:
 it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
 after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
-(furniture) are not limited. While a sonar is down (offline, silent or late) nothing sees
+(furniture) are not limited. While a sonar is down (offline, silent or late), or repeats an
+old reading (frozen: it still says it is on, and sees nothing new), nothing sees
 beside or behind the robot, where a child may have walked since: linear motion is kept
 inside the camera's field of view (``camera_fov_rad``, centred ahead), projected onto its
 nearer edge, so that the robot drives only where a working sensor looks.
@@ -255,7 +257,9 @@ class SafetySupervisor:
             if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
             else None
         )
-        stale = False
+        stale = repeating = False
+        echo_hold_ms = config.echo_hold_ms
+        assert echo_hold_ms is not None  # filled
         constraints: list[_Constraint] = []
         seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
@@ -270,10 +274,12 @@ class SafetySupervisor:
             age_ms = self._age(echo, now_ms)
             if age_ms > config.max_data_age_ms:
                 reported_ms = heard.get(("Obstacle", echo.id), _NEVER)
-                if now_ms - reported_ms <= config.max_data_age_ms or scanning_since is None:
-                    stale = True  # an old reading repeated (frozen, lagging), or a ring down
-                elif scanning_since > reported_ms:
-                    continue  # every ring said it was on since it last reported it: gone
+                if now_ms - reported_ms <= config.max_data_age_ms:
+                    stale = repeating = True  # an old reading repeated: a ring frozen, lagging
+                elif scanning_since is None:
+                    stale = True  # a ring down may have made it
+                elif scanning_since > reported_ms and now_ms - reported_ms > echo_hold_ms:
+                    continue  # every ring said it was on since, and went on without it: gone
             if not self._explained(self._anchors[key], seen):
                 constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y
@@ -284,8 +290,10 @@ class SafetySupervisor:
                 scale = config.slow_speed_mps / speed
                 v_x, v_y = v_x * scale, v_y * scale
                 zone = SafetyZone.BLIND if blind else SafetyZone.STALE
-        # A ring down: nothing sees beside or behind the robot; drive where the camera looks.
-        half_view = config.camera_fov_rad / 2 if sonars and scanning_since is None else math.pi
+        # A ring down, or one repeating old readings (frozen: it says it is on, and may see
+        # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
+        ring_down = scanning_since is None or repeating
+        half_view = config.camera_fov_rad / 2 if sonars and ring_down else math.pi
         looking = _within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking

@@ -19,6 +19,7 @@ ASSUMED: Final[dict[str, float]] = {
     "max_status_age_ms": 2000,  # unless a scenario's status period is longer: one report
     # of a status repeated every second may be missed
     "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
+    "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -52,6 +53,13 @@ class SafetyConfig(Message):
     offline (its link is dead), and one heard more than three quarters of this ago caps
     the speed at ``slow_speed_mps``, ms; None: the longer of 2000 and two of a scenario's
     ``status_period_s`` (a scenario may not set it below that)."""
+    echo_hold_ms: int | None = None
+    """How long an echo the sonar ring stops reporting is kept (as a body still there) while
+    every ring says it is on, before it counts as a body that left its range, ms: a ring
+    that misses a body now and then (a dropout) would otherwise let the robot forget a
+    child standing behind it; None: the longer of 2000 and what a scenario's
+    ``dropout_probability`` needs (a ring that misses a body on every scan of it has a
+    chance below :data:`~scenarios.safety.MISSED` per body)."""
     camera_fov_rad: float | None = None
     """The front camera's horizontal field of view, rad, centred ahead. While a sonar of
     the ring is down (offline, silent or late) nothing sees beside or behind the robot, so

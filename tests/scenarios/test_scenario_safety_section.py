@@ -159,6 +159,36 @@ def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> No
     assert pipeline_config(parse_scenario(kept).scenario).safety.max_status_age_ms == 2000
 
 
+def test_left_out_the_echo_hold_covers_the_rings_dropouts() -> None:
+    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert alone.echo_hold_ms == 2000, "never below this"
+    dropping = b'name = "x"\n[sensors]\ndropout_probability = 0.5\n'
+    # 0.5 ** 20 < 1e-6 <= 0.5 ** 19: twenty scans at 5 Hz
+    assert pipeline_config(parse_scenario(dropping).scenario).safety.echo_hold_ms == 4000
+    slow = dropping + b"sonar_scan_hz = 2\n"
+    assert pipeline_config(parse_scenario(slow).scenario).safety.echo_hold_ms == 10_000
+
+
+def test_an_echo_hold_shorter_than_the_dropouts_need_is_a_located_error() -> None:
+    text = (
+        b'name = "x"\n[robot.safety]\necho_hold_ms = 3000\n[sensors]\ndropout_probability = 0.5\n'
+    )
+    assert refused(text).startswith(
+        "s.toml:3:1: robot.safety.echo_hold_ms (ms): 3000 is below 20 of the sonar ring's"
+        " scans (4000 ms at sonar_scan_hz 5) that all miss a body with dropout_probability 0.5"
+    )
+
+
+def test_a_ring_that_drops_detections_sees_a_person_later_a_located_warning() -> None:
+    """Half the detections lost: the ring has seen a person stepping in only after 20
+    scans, 4 s, in which the robot and the person close in by 6 m."""
+    (warning,) = parse_scenario(
+        b'name = "x"\n[sensors]\ndropout_probability = 0.5\n', source="s.toml"
+    ).warnings
+    assert "m closed in the 20 scans that see a body with dropout_probability 0.5" in str(warning)
+    assert parse_scenario(b'name = "x"\n[sensors]\ndropout_probability = 0.02\n').warnings == ()
+
+
 def test_left_out_the_cameras_view_is_the_scenarios_camera_even_when_narrow() -> None:
     narrow = b'name = "x"\n[sensors]\nfov_rad = 0.8\n'
     assert pipeline_config(parse_scenario(narrow).scenario).safety.camera_fov_rad == 0.8

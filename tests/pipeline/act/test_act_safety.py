@@ -389,9 +389,10 @@ def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
 
 
 def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_it() -> None:
-    """Not reported for 550 ms: the body left, or the ring's link died with it. Until the
-    ring says it is on again, the echo stays where it was (not stale: a ring that is up
-    slows nothing)."""
+    """Not reported for 550 ms: the body left, the ring's link died with it, or the ring
+    missed it. Until the ring says it is on again, and then for ``echo_hold_ms`` after the
+    echo's last report, the echo stays where it was (not stale: a ring that is up slows
+    nothing)."""
     behind = room(seen(4.0, at_ms=600))
     behind.sonars.append(Sonar(id="ring", isonline=True))
     behind.obstacles.append(echo(0.6, at_ms=0))
@@ -400,8 +401,22 @@ def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
     away, _ = supervise(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
     assert away.velocity == (0.5, 0.0, 0.0)
-    heard[("Sonar", "ring")] = 580  # it has said it is on since: the body left its range
-    assert supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is None
+    heard[("Sonar", "ring")] = 580  # it has said it is on since, but a ring misses bodies
+    assert supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is (
+        SafetyZone.STOP
+    )
+    hold_ms = SafetyConfig().filled().echo_hold_ms
+    assert hold_ms == 2000
+    now_ms = 50 + hold_ms + 20  # the ring went on without it for echo_hold_ms: it left
+    later = room(seen(4.0, at_ms=now_ms))
+    later.sonars.append(Sonar(id="ring", isonline=True))
+    later.obstacles.append(echo(0.6, at_ms=0))
+    heard = live(later, now_ms) | {("Obstacle", "echo-0"): 50}
+    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is None
+    heard[("Obstacle", "echo-0")] = 100  # reported 50 ms later: held a tick longer
+    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is (
+        SafetyZone.STOP
+    )
 
 
 def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
@@ -416,6 +431,23 @@ def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
     assert event is not None and event.human == "Obstacle/echo-0"
     away, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert away.velocity == pytest.approx((0.2, 0.0, 0.0)) and away.zone is SafetyZone.STALE
+
+
+def test_a_ring_repeating_an_old_echo_counts_as_down() -> None:
+    """A ring frozen while it saw someone beside the robot: it says it is on and repeats
+    that echo with its old reading. It sees nothing new, so, as for a ring down, the robot
+    drives only where the camera looks (it reversed, at the slow speed, into a child who
+    walked behind it)."""
+    frozen = room(seen(4.0, at_ms=600))
+    frozen.sonars.append(Sonar(id="ring", isonline=True))
+    frozen.obstacles.append(echo(2.0, math.pi / 2, at_ms=0))
+    heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
+    back, _ = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    assert back.velocity[:2] == (0.0, 0.0) and back.zone is SafetyZone.BLIND
+    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    assert ahead.velocity == pytest.approx((0.2, 0.0, 0.0)) and ahead.zone is SafetyZone.STALE
+    heard[("Obstacle", "echo-0")] = 0  # no longer repeated, the ring scanning: it left
+    assert supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)[0].zone is None
 
 
 def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> None:
