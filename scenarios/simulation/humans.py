@@ -262,8 +262,10 @@ class HumanDriver:
     def _custom_velocity(
         self, custom: Behaviour, name: str, view: BehaviourView
     ) -> tuple[float, float]:
-        """The velocity of the extension behaviour ``name``; one that raises, or returns
-        anything but two finite numbers, is a :class:`ScenarioError` (the run stops there)."""
+        """The velocity of the extension behaviour ``name``, capped at the human's
+        ``max_speed_mps`` (what the safety supervisor assumes they walk at, at most); one that
+        raises, or returns anything but two finite numbers, is a :class:`ScenarioError` (the
+        run stops there)."""
         try:
             velocity = custom.velocity(view)
         except FAILURES as error:
@@ -271,7 +273,8 @@ class HumanDriver:
         try:
             vx, vy = velocity
             if math.isfinite(vx) and math.isfinite(vy):
-                return (vx, vy)
+                speed, top = math.hypot(vx, vy), self.spec.max_speed_mps
+                return (vx, vy) if speed <= top else (vx * top / speed, vy * top / speed)
         except (TypeError, ValueError):  # not two numbers
             pass
         problem = f"returned {_shown(velocity)}, not a velocity pair (vx, vy) of finite numbers"

@@ -35,6 +35,7 @@ def boom():
 
 RETURNS = {
     "pair": lambda: (0.1, 0.0),
+    "teleport": lambda: (150.0, 0.0),
     "list": lambda: [0.1, 0.0],
     "float": lambda: 0.5,
     "strs": lambda: ("a", "b"),
@@ -117,6 +118,17 @@ def test_a_pair_of_numbers_moves_the_human(tmp_path: Path, value: str) -> None:
     w = world(tmp_path, value)
     step(w, 10)
     assert w.humans[0].xy[0] > 4.5
+
+
+def test_a_velocity_faster_than_the_human_walks_is_capped_at_their_max_speed(
+    tmp_path: Path,
+) -> None:
+    """The safety supervisor assumes a person walks at most their ``max_speed_mps`` (1.0 m/s
+    here, the default): a behaviour may not teleport them behind the robot at 150 m/s."""
+    w = world(tmp_path, "teleport")
+    step(w, 10)
+    travelled = w.humans[0].xy[0] - 4.5
+    assert 0.15 < travelled <= 10 * 0.02 * 1.0 + 1e-9
 
 
 @pytest.mark.parametrize(
