@@ -29,6 +29,8 @@ from oimi.pipeline.operator.commands import VERBS
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import generate_script
+from oimi.pipeline.plurals import counted
+from oimi.pipeline.sense.producer import MAX_ENTITIES
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import (
     ExtensionError,
@@ -669,6 +671,19 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     if outside(rx, ry, robot.radius_m):
         yield ("robot", "x_m"), f"the robot's start ({rx}, {ry}) is outside the arena"
 
+    room = MAX_ENTITIES - len(scenario.humans)  # the ring reports each as an obstacle
+    if len(world.obstacles) > room:
+        yield (
+            ("world", "obstacles", max(room, 0)),
+            f"{counted(len(world.obstacles), 'obstacle')} and"
+            f" {counted(len(scenario.humans), 'human')}: the sonar ring reports each as an"
+            f" obstacle, more than the map holds ({MAX_ENTITIES})",
+        )
+    if len(world.objects) > MAX_ENTITIES:
+        yield (
+            ("world", "objects", MAX_ENTITIES),
+            f"{counted(len(world.objects), 'object')}: more than the map holds ({MAX_ENTITIES})",
+        )
     for index, obstacle in enumerate(world.obstacles):
         where = ("world", "obstacles", index)
         if obstacle.radius_m <= 0 and (obstacle.width_m <= 0 or obstacle.height_m <= 0):

@@ -11,7 +11,9 @@ Each update is applied to a second map too, :attr:`MapProducer.perceived`, which
 else writes: the map as the sensors alone made it. Rules, scripts and their functions
 change the shared map freely (the thesis lets them); the safety supervisor reads the
 perceived one, so that no rule can hide a person from it, move one away or make an old
-reading look fresh.
+reading look fresh. The shared map refuses an entity past ``max_entities`` of its class;
+the perceived one makes room for it (:meth:`_Index.evict`), so that no flood of furniture
+or of a tracker's lost tracks can keep a child out of the supervisor's sight.
 """
 
 from __future__ import annotations
@@ -163,7 +165,10 @@ class MapProducer:
         for decoded in pending:
             owner = index.find(decoded.target)
             if owner is None:
-                if index.count(decoded.target.klass) >= self.max_entities:
+                full = index.count(decoded.target.klass) >= self.max_entities
+                if full and heard is not None:  # the perceived map: room for what is sensed
+                    full = not index.evict(decoded.target.klass, heard)
+                if full:
                     rejections.append(
                         Rejection(
                             update=decoded.update,
@@ -223,6 +228,29 @@ class _Index:
 
     def count(self, klass: EntityClass) -> int:
         return len(getattr(self._world, _LISTED[klass][0]))
+
+    def evict(self, klass: EntityClass, heard: dict[tuple[str, str], int]) -> bool:
+        """Drop an entity of ``klass`` to make room for a new one: the one the safety
+        supervisor needs least, furniture (a fixed obstacle) first, then the one heard from
+        (or, never heard, made) longest ago (a tracker's long-lost track), and forget when
+        it was heard. Sensors
+        are never dropped (False)."""
+        field, kind = _LISTED[klass]
+        entities: list[Entity] = getattr(self._world, field)
+        if not issubclass(kind, Entity) or not entities:
+            return False
+        at = min(
+            range(len(entities)),
+            key=lambda i: (
+                not getattr(entities[i], "isfixed", False),
+                heard.get((klass, entities[i].id), entities[i].creationtime),
+            ),
+        )
+        victim = entities.pop(at)
+        if self._by_id[klass].get(victim.id) is victim:
+            del self._by_id[klass][victim.id]
+            heard.pop((klass, victim.id), None)
+        return True
 
     def allocate(self, target: Target, now_ms: int) -> State:
         field, kind = _LISTED[target.klass]

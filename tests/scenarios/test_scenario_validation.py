@@ -250,6 +250,25 @@ BAD = [
 ]
 
 
+def test_more_bodies_than_the_map_holds_are_refused_at_the_first_that_does_not_fit(
+    tmp_path, capsys
+):
+    """Past 1024 the map refuses new obstacles: the sonar's echo of a child would be one."""
+    obstacles = "".join(
+        f'[[world.obstacles]]\nid = "o{i}"\nx_m = 1.0\ny_m = 1.0\nradius_m = 0.01\n'
+        for i in range(1024)
+    )
+    path = tmp_path / "crowded.toml"
+    path.write_text(BASE + obstacles + '[[humans]]\nid = "child"\nx_m = 2.0\ny_m = 2.0\n')
+    assert main(["check", str(path)]) == 2
+    first = capsys.readouterr().err.splitlines()[0]
+    line = 1 + (BASE + obstacles).splitlines().index('id = "o1023"') - 1
+    assert first == (
+        f"{path}:{line}:1: world.obstacles[1023]: 1024 obstacles and 1 human: the sonar ring"
+        " reports each as an obstacle, more than the map holds (1024)"
+    )
+
+
 @pytest.mark.parametrize(("what", "text", "message", "line"), BAD, ids=[b[0] for b in BAD])
 def test_check_refuses_the_value_with_its_place_field_and_unit(
     tmp_path, capsys, what, text, message, line

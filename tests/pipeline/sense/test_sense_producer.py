@@ -256,6 +256,38 @@ def test_entity_limit_rejects_at_consume_and_goes_on():
     assert [c.fps for c in world.cameras] == [5]
 
 
+def test_the_perceived_map_makes_room_for_a_new_person_past_the_limit():
+    """A tracker that hands out new IDs fills the map with lost tracks; the shared map
+    refuses the next (thesis 4.1: entities stay), but the safety supervisor's perceived map
+    drops the track heard from longest ago, so a child who walks in is never out of its
+    sight."""
+    world, producer = fresh(max_entities=3)
+    for n in range(3):
+        producer.submit(upd(f"Human/track{n}", "poses", pose(2.0, t=n * 100)))
+        producer.consume(n * 100)
+    producer.submit(upd("Human/track1", "poses", pose(2.0, t=250)))
+    producer.consume(250)  # track0 is now the one heard from longest ago
+    producer.submit(upd("Human/child", "poses", pose(0.6, t=300)))
+    assert [r.update.objectid for r in producer.consume(300)] == ["Human/child"]
+    assert [h.id for h in world.humans] == ["track0", "track1", "track2"]
+    perceived = producer.perceived
+    assert [h.id for h in perceived.humans] == ["track1", "track2", "child"]
+    assert ("Human", "track0") not in producer.heard
+    assert producer.heard["Human", "child"] == 300
+
+
+def test_the_perceived_map_drops_furniture_before_anything_that_moves():
+    _, producer = fresh(max_entities=2)
+    producer.submit(upd("Obstacle/echo", "isfixed", "s_false"))  # a body that moves
+    producer.submit(upd("Obstacle/echo", "poses", pose(1.0)))
+    producer.submit(upd("Obstacle/table", "poses", pose(2.0)))  # fixed unless told
+    producer.consume(100)
+    producer.submit(upd("Obstacle/echo2", "isfixed", "s_false"))
+    producer.submit(upd("Obstacle/echo2", "poses", pose(1.5)))
+    producer.consume(200)
+    assert [o.id for o in producer.perceived.obstacles] == ["echo", "echo2"]
+
+
 def test_all_rejected_at_consume_leaves_the_map_byte_identical():
     world, producer = fresh(max_entities=0)
     before = msgspec.json.encode(world)
