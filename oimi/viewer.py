@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Final
@@ -207,7 +209,7 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
     sys.stdout.flush()
     try:
         environment = viewer_environment(os.environ, web=web)
-        status = subprocess.run(command, env=environment, check=False)
+        status = run_viewer(command, environment)
     except OSError as error:
         print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
         return EXIT_FAILED
@@ -215,12 +217,35 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
         if page is not None:
             page.shutdown()
             page.server_close()
-    if status.returncode != 0:
-        print(
-            f"oimi view: the Rerun viewer exited with status {status.returncode}", file=sys.stderr
-        )
+    if status != 0:
+        print(f"oimi view: the Rerun viewer exited with status {status}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+def run_viewer(command: list[str], environment: dict[str, str]) -> int:
+    """Run the viewer until it exits; its status. Stopped (Ctrl-C, or SIGTERM, which is
+    passed on to it), it is stopped too, never left running on its ports; then
+    KeyboardInterrupt ("interrupted")."""
+    child = subprocess.Popen(command, env=environment)
+    main = threading.current_thread() is threading.main_thread()
+
+    def terminated(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminated) if main else None
+    try:
+        return child.wait()
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+        if child.poll() is None:
+            child.terminate()
+            try:
+                child.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
 
 
 def _free_port() -> int:

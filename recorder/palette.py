@@ -99,7 +99,7 @@ _HUES: Final = (
 
 def colour_name(led: tuple[float, float, float]) -> str:
     """A plain name for an LED colour: ``off``, ``white``, ``grey``, ``yellow``...,
-    ``dim orange`` when no channel reaches :data:`DIM`."""
+    ``dim orange`` when no channel is above :data:`DIM` (half)."""
     r, g, b = (min(max(c, 0.0), 1.0) for c in led)
     hue, lightness, saturation = colorsys.rgb_to_hls(r, g, b)
     if max(r, g, b) < 0.05:
@@ -108,7 +108,7 @@ def colour_name(led: tuple[float, float, float]) -> str:
         return "white" if lightness > 0.75 else "grey"
     degrees = hue * 360
     name = next(name for limit, name in _HUES if degrees < limit)
-    return name if max(r, g, b) >= DIM else f"dim {name}"
+    return name if max(r, g, b) > DIM else f"dim {name}"
 
 
 def hex_colour(rgb: RGB) -> str:

@@ -522,10 +522,14 @@ class RerunSink:
 
     def _departures(self, state: WorldState) -> None:
         """Clear the people who left the room since the last sample: their body, name,
-        zones, trail and distance plot end there (drawn anew if they come back)."""
+        zones, trail and distance plot end there (drawn anew if they come back); say who
+        left and who came back."""
         present = tuple(h.id for h in state.humans)
         if present == self._present:
             return
+        for human_id in present:
+            if human_id not in self._present and human_id in self._seen:
+                self._say("log/world", f"{human_id} came back into the room")
         for human_id in self._present:
             if human_id in present:
                 continue

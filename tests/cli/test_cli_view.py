@@ -194,12 +194,12 @@ def test_with_a_display_the_converted_recording_goes_to_the_viewer_then_is_remov
 ) -> None:
     seen: list[tuple[list[str], dict[str, str], set[str]]] = []
 
-    def fake_run(command: list[str], *, env: dict[str, str], check: bool):
+    def fake_run(command: list[str], env: dict[str, str]) -> int:
         seen.append((command, env, entities(Path(command[-1]))))
-        return subprocess.CompletedProcess(command, 0)
+        return 0
 
     monkeypatch.setenv("DISPLAY", ":99")
-    monkeypatch.setattr(cmd_view.subprocess, "run", fake_run)
+    monkeypatch.setattr(cmd_view, "run_viewer", fake_run)
     assert main(["view", str(mcap), "--port", "9877"]) == 0
     [(command, env, shown)] = seen
     assert command[command.index("--bind") + 1] == "127.0.0.1"
@@ -251,6 +251,34 @@ def test_the_real_web_viewer_listens_on_127_0_0_1_only_with_analytics_off(
         assert {ip for _, ip, _ in sockets} == {"127.0.0.1"}
         [viewer] = {pid for pid, _, port in sockets if port == grpc}
         assert psutil.Process(viewer).environ().get("CI"), "analytics off in the viewer"
+    finally:
+        stop(parent, process)
+
+
+def test_a_web_viewer_stopped_with_sigterm_stops_its_rerun_viewer(mcap: Path) -> None:
+    """SIGTERM (a service manager, `kill`) to `oimi view` alone: the Rerun viewer it started
+    is stopped too (it was left running, on its ports, using a core)."""
+    grpc, web = free_port(), free_port()
+    options = ["--web", "--port", str(grpc), "--web-port", str(web)]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "oimi", "view", str(mcap), *options],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    parent = psutil.Process(process.pid)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and grpc not in {p for _, _, p in listening(parent)}:
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.2)
+        children = parent.children(recursive=True)
+        assert children, "the viewer runs"
+        parent.send_signal(signal.SIGTERM)
+        _, alive = psutil.wait_procs(children, timeout=15)
+        assert alive == []
+        _, err = process.communicate(timeout=15)
+        assert process.returncode == 130 and b"interrupted" in err
     finally:
         stop(parent, process)
 

@@ -289,3 +289,15 @@ def _within_5_s(page: Page, done: Callable[[], bool]) -> None:
             return
         page.wait_for_timeout(100)
     raise AssertionError("not within 5 s")
+
+
+def test_the_clock_runs_with_the_session_between_operator_changes(browser_page, tmp_path):
+    """The operator's state is sent when it changes; the room's frames, ten a second, carry
+    the time too: the clock read the first only, so it stood still while nothing was asked
+    of the session (a child walking out of the room at "t = 6.5 s" for a minute)."""
+    page = browser_page
+    with console_open(page, tmp_path / "clock.mcap"):
+        clock = page.locator("#clock")
+        expect(clock).to_have_text(re.compile(r"t = \d+\.\d s"))
+        shown = clock.text_content()
+        expect(clock).not_to_have_text(shown or "", timeout=5000)

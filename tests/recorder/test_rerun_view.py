@@ -194,8 +194,11 @@ def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path
     for entity in ("/world/humans/child1", "/robot/distance/child1"):
         assert ticks(entity, "Clear:is_recursive") == [3], entity
     assert ticks("/world/humans/therapist1", "Clear:is_recursive") == []
-    [left] = [row["TextLog:text"][0] for row in rows(path, "/log/world")]
-    assert left == "   0.06 s  child1 left the room"
+    said = sorted((row["tick"], row["TextLog:text"][0]) for row in rows(path, "/log/world"))
+    assert said == [
+        (3, "   0.06 s  child1 left the room"),
+        (6, "   0.12 s  child1 came back into the room"),
+    ]
     strips = [r for r in rows(path, "/world/humans/child1/trail") if r.get("LineStrips2D:strips")]
     last = max(strips, key=lambda row: row["tick"])  # a trail is drawn every 5th sample
     assert last["tick"] == 10
@@ -211,6 +214,8 @@ def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path
         ((1.0, 1.0, 1.0), "white"),
         ((0.0, 0.0, 0.0), "off"),
         ((0.4, 0.2, 0.0), "dim orange"),
+        ((0.5, 0.4, 0.1), "dim yellow"),  # half of (1, 0.8, 0.2), which is "yellow"
+        ((1.0, 0.8, 0.2), "yellow"),
     ],
 )
 def test_led_colours_have_plain_names(led: tuple[float, float, float], name: str) -> None:

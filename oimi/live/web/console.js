@@ -91,6 +91,7 @@ function receive(msg) {
       break;
     case "world":
       frame = msg;
+      showClock();
       drawWorld();
       break;
   }
@@ -115,7 +116,7 @@ function render() {
   $("restart").disabled = still;
   $("clear").disabled = still;
   $("plus").disabled = still;
-  $("clock").textContent = `t = ${(state.time_ms / 1000).toFixed(1)} s`;
+  showClock();
 
   // Rebuild the list only when it changed (a drag in progress survives other updates).
   const key = JSON.stringify([state.activities, still]);
@@ -127,6 +128,13 @@ function render() {
   $("empty").hidden = state.activities.length > 0;
 }
 let listKey = "";
+
+/** The session's time: the latest the server sent, in the operator's state (sent when
+ * it changes) or a frame of the room (ten a second). */
+function showClock() {
+  const ms = Math.max(state ? state.time_ms : 0, frame ? frame.time_ms : 0);
+  $("clock").textContent = `t = ${(ms / 1000).toFixed(1)} s`;
+}
 
 function activityItem(activity, index, still) {
   const li = document.createElement("li");

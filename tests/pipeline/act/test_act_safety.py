@@ -6,7 +6,7 @@ import math
 
 import pytest
 from oimi.pipeline.act.actuator import Actuator
-from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.limits import Velocity
 from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.events import (
@@ -18,68 +18,23 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.messages import (
     Camera,
-    Human,
     InstructionBlock,
     Move,
-    Obstacle,
-    Pose,
     Sonar,
     WorldMap,
 )
-
-TICK_MS = 20
-LIMITS = RobotLimits()
-# robot 0.3 + human 0.25 + margin (0.02 sensing + 1 m/s * one tick of age = 0.04)
-CONFIG = SafetyConfig(robot_radius_m=0.3)
-MARGIN_M = 0.02 + 1.0 * TICK_MS / 1000
-RADII_M = 0.3 + 0.25
-
-
-def centre_at(surface_m: float) -> float:
-    """The centre distance a fresh reading gives for a supervisor surface distance."""
-    return surface_m + RADII_M + MARGIN_M
-
-
-def seen(rho: float, theta: float = 0.0, *, at_ms: int = 0, ident: str = "child") -> Human:
-    pose = Pose(positionrho=rho, positiontheta=theta, positionchangetime=at_ms)
-    return Human(
-        id=ident,
-        creationtime=0,
-        positionrho=rho,
-        positiontheta=theta,
-        positionchangetime=at_ms,
-        poses=[pose],
-    )
-
-
-def room(*humans: Human, camera: bool = True) -> WorldMap:
-    return WorldMap(cameras=[Camera(id="front", isonline=camera)], humans=list(humans))
-
-
-def live(world_map: WorldMap, now_ms: int) -> dict[tuple[str, str], int]:
-    """Every sensor of the map heard from at ``now_ms`` (``MapProducer.heard``)."""
-    heard = {("Camera", camera.id): now_ms for camera in world_map.cameras}
-    return heard | {("Sonar", sonar.id): now_ms for sonar in world_map.sonars}
-
-
-def supervise(
-    velocity: Velocity,
-    world_map: WorldMap,
-    *,
-    now_ms: int = 0,
-    heard: dict[tuple[str, str], int] | None = None,
-    source: MotionSource = MotionSource.SCRIPT,
-    supervisor: SafetySupervisor | None = None,
-):
-    supervisor = supervisor or SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
-    return supervisor.supervise(
-        velocity,
-        world_map,
-        heard=live(world_map, now_ms) if heard is None else heard,
-        tick=now_ms // TICK_MS,
-        now_ms=now_ms,
-        source=source,
-    )
+from supervision import (
+    CONFIG,
+    LIMITS,
+    MARGIN_M,
+    RADII_M,
+    TICK_MS,
+    centre_at,
+    live,
+    room,
+    seen,
+    supervise,
+)
 
 
 def test_far_from_everyone_full_speed_passes_untouched() -> None:
@@ -351,166 +306,3 @@ def test_a_protective_stop_holds_while_fresh_frames_shrink_the_margin() -> None:
         x += verdict.velocity.v_x * TICK_MS / 1000
     assert stopped_at is not None
     assert 1.2 - x - RADII_M >= 0.1
-
-
-def echo(rho: float, theta: float = math.pi, *, at_ms: int = 0, fixed: bool = False) -> Obstacle:
-    """A sonar echo (an obstacle) at ``rho`` m, behind the robot unless told."""
-    pose = Pose(positionrho=rho, positiontheta=theta, positionchangetime=at_ms)
-    return Obstacle(
-        id="echo-0",
-        creationtime=0,
-        positionrho=rho,
-        positiontheta=theta,
-        positionchangetime=at_ms,
-        poses=[pose],
-        isfixed=fixed,
-    )
-
-
-def test_an_echo_behind_the_robot_is_kept_at_a_humans_distance() -> None:
-    """The front camera never saw the child behind: the sonar's echo of them stops the robot."""
-    close = WorldMap(cameras=[Camera(id="front", isonline=True)], obstacles=[echo(0.6)])
-    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), close)
-    assert verdict.velocity[:2] == (0.0, 0.0)
-    assert verdict.zone is SafetyZone.STOP
-    assert event is not None and event.human == "Obstacle/echo-0"
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), close)
-    assert away.velocity == (0.5, 0.0, 0.0)
-
-
-def test_furniture_and_echoes_that_left_the_sonars_range_do_not_limit() -> None:
-    shelf = WorldMap(cameras=[Camera(id="front")], obstacles=[echo(0.6, fixed=True)])
-    shelf.cameras[0].isonline = True
-    assert supervise(Velocity(-0.5, 0.0, 0.0), shelf)[0].velocity == (-0.5, 0.0, 0.0)
-    gone = room(seen(4.0, at_ms=600))
-    gone.sonars.append(Sonar(id="ring", isonline=True))  # heard on: it scans all the time
-    gone.obstacles.append(echo(0.6, at_ms=0))  # 600 ms old, and not reported since
-    assert supervise(Velocity(-0.5, 0.0, 0.0), gone, now_ms=600)[0].velocity == (-0.5, 0.0, 0.0)
-
-
-def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_it() -> None:
-    """Not reported for 550 ms: the body left, the ring's link died with it, or the ring
-    missed it. Until the ring says it is on again, and then for ``echo_hold_ms`` after the
-    echo's last report, the echo stays where it was (not stale: a ring that is up slows
-    nothing)."""
-    behind = room(seen(4.0, at_ms=600))
-    behind.sonars.append(Sonar(id="ring", isonline=True))
-    behind.obstacles.append(echo(0.6, at_ms=0))
-    heard = {("Camera", "front"): 600, ("Sonar", "ring"): 40, ("Obstacle", "echo-0"): 50}
-    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
-    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
-    assert away.velocity == (0.5, 0.0, 0.0)
-    heard[("Sonar", "ring")] = 580  # it has said it is on since, but a ring misses bodies
-    assert supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is (
-        SafetyZone.STOP
-    )
-    hold_ms = SafetyConfig().filled().echo_hold_ms
-    assert hold_ms == 2000
-    now_ms = 50 + hold_ms + 20  # the ring went on without it for echo_hold_ms: it left
-    later = room(seen(4.0, at_ms=now_ms))
-    later.sonars.append(Sonar(id="ring", isonline=True))
-    later.obstacles.append(echo(0.6, at_ms=0))
-    heard = live(later, now_ms) | {("Obstacle", "echo-0"): 50}
-    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is None
-    heard[("Obstacle", "echo-0")] = 100  # reported 50 ms later: held a tick longer
-    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is (
-        SafetyZone.STOP
-    )
-
-
-def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
-    """A sonar repeating itself (frozen) or lagging: the echo keeps coming, its reading
-    600 ms old. It is not a body that left: it stops the robot reversing into it, and the
-    rest of its motion is capped at the slow speed."""
-    frozen = room(seen(4.0, at_ms=600))
-    frozen.obstacles.append(echo(0.6, at_ms=0))
-    heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
-    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
-    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
-    assert event is not None and event.human == "Obstacle/echo-0"
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
-    assert away.velocity == pytest.approx((0.2, 0.0, 0.0)) and away.zone is SafetyZone.STALE
-
-
-def test_a_ring_repeating_an_old_echo_counts_as_down() -> None:
-    """A ring frozen while it saw someone beside the robot: it says it is on and repeats
-    that echo with its old reading. It sees nothing new, so, as for a ring down, the robot
-    drives only where the camera looks (it reversed, at the slow speed, into a child who
-    walked behind it)."""
-    frozen = room(seen(4.0, at_ms=600))
-    frozen.sonars.append(Sonar(id="ring", isonline=True))
-    frozen.obstacles.append(echo(2.0, math.pi / 2, at_ms=0))
-    heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
-    back, _ = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
-    assert back.velocity[:2] == (0.0, 0.0) and back.zone is SafetyZone.BLIND
-    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
-    assert ahead.velocity == pytest.approx((0.2, 0.0, 0.0)) and ahead.zone is SafetyZone.STALE
-    heard[("Obstacle", "echo-0")] = 0  # no longer repeated, the ring scanning: it left
-    assert supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)[0].zone is None
-
-
-def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> None:
-    """The ring went offline: that it no longer reports the echo does not mean the body
-    left. Only a ring heard on and scanning tells that (the test above). (A camera that
-    sees all around here, so that the ring's being down does not stop the robot first.)"""
-    all_round = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2 * math.pi)
-
-    def reverse(world_map: WorldMap):
-        supervisor = SafetySupervisor(all_round, LIMITS, tick_ms=TICK_MS)
-        return supervise(Velocity(-0.5, 0.0, 0.0), world_map, now_ms=600, supervisor=supervisor)
-
-    down = room(seen(4.0, at_ms=600))
-    down.sonars.append(Sonar(id="ring", isonline=False))
-    down.obstacles.append(echo(0.6, at_ms=0))  # last reported 600 ms ago
-    verdict, event = reverse(down)
-    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
-    assert event is not None and event.human == "Obstacle/echo-0"
-    down.sonars[0].isonline = True  # back on: not reported since, so gone
-    assert reverse(down)[0].velocity == (-0.5, 0.0, 0.0)
-    down.sonars.append(Sonar(id="rear", isonline=False))  # but a second ring is down: it
-    verdict, _ = reverse(down)  # may have made it
-    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
-
-
-def test_a_sonar_offline_keeps_motion_slow_and_where_the_camera_looks() -> None:
-    """Nothing sees beside or behind the robot: ahead, the slow speed; sideways, the part
-    along the camera's view's nearer edge (1 rad wide, assumed without a scenario); back,
-    none. Turning stays allowed."""
-    world_map = room(seen(4.0))
-    world_map.sonars.append(Sonar(id="ring", isonline=False))
-    verdict, event = supervise(Velocity(0.5, 0.0, 0.3), world_map)
-    assert verdict.velocity == pytest.approx((0.2, 0.0, 0.3))
-    assert event is not None and event.zone is SafetyZone.BLIND
-    verdict, _ = supervise(Velocity(0.0, -0.5, 0.0), world_map)
-    edge = (math.cos(0.5), -math.sin(0.5))
-    assert verdict.velocity == pytest.approx((*(0.2 * math.sin(0.5) * e for e in edge), 0.0))
-    assert supervise(Velocity(-0.5, 0.1, 0.3), world_map)[0].velocity == (0.0, 0.0, 0.3)
-    world_map.sonars[0].isonline = True
-    assert supervise(Velocity(0.0, 0.5, 0.0), world_map)[0].velocity == (0.0, 0.5, 0.0)
-    assert supervise(Velocity(-0.5, 0.0, 0.0), world_map)[0].velocity == (-0.5, 0.0, 0.0)
-
-
-def test_a_sonar_heard_late_keeps_motion_where_the_camera_looks() -> None:
-    """The ring's status is late (its link may be dying): the same view, before it is
-    taken for offline."""
-    world_map = room(seen(4.0, at_ms=1600))
-    world_map.sonars.append(Sonar(id="ring", isonline=True))
-    heard = live(world_map, 1600) | {("Sonar", "ring"): 0}  # 1.6 s: three quarters of 2 s
-    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), world_map, now_ms=1600, heard=heard)
-    assert verdict.velocity == (0.0, 0.0, 0.0) and verdict.zone is SafetyZone.BLIND
-
-
-def test_the_echo_of_a_tracked_human_is_that_human_and_no_other() -> None:
-    """An echo where a fresh reading places a human is that human (its own limit binds,
-    though the echo reads 3 cm closer); one farther than a human radius from them is
-    another body, kept at its own distance."""
-    child = seen(centre_at(0.3), math.pi / 2)
-    same = room(child)
-    same.obstacles.append(echo(centre_at(0.3) - 0.03, math.pi / 2))
-    assert supervise(Velocity(0.0, 0.5, 0.0), same)[0].human == "child"
-    other = room(child)
-    other.obstacles.append(echo(centre_at(0.05), math.pi / 2 + 0.3))  # 0.34 m from the child
-    verdict, _ = supervise(Velocity(0.0, 0.5, 0.0), other)
-    assert verdict.human == "Obstacle/echo-0"
-    assert verdict.zone is SafetyZone.STOP  # 5 cm from the robot, surface to surface
