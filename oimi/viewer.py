@@ -13,6 +13,7 @@ starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics of
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -224,10 +225,11 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
 
 
 def run_viewer(command: list[str], environment: dict[str, str]) -> int:
-    """Run the viewer until it exits; its status. Stopped (Ctrl-C, or SIGTERM, which is
-    passed on to it), it is stopped too, never left running on its ports; then
-    KeyboardInterrupt ("interrupted")."""
-    child = subprocess.Popen(command, env=environment)
+    """Run the viewer until it exits; its status. Stopped (Ctrl-C, or SIGTERM), it is
+    stopped too, with the processes it started (its own group: ``rerun_cli`` runs the
+    viewer's binary as a child), never left running on its ports; then KeyboardInterrupt
+    ("interrupted")."""
+    child = subprocess.Popen(command, env=environment, process_group=0)
     main = threading.current_thread() is threading.main_thread()
 
     def terminated(signum: int, frame: object) -> None:
@@ -239,13 +241,19 @@ def run_viewer(command: list[str], environment: dict[str, str]) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-        if child.poll() is None:
-            child.terminate()
-            try:
-                child.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                child.kill()
-                child.wait()
+        _stop_group(child)
+
+
+def _stop_group(child: subprocess.Popen[bytes]) -> None:
+    """SIGTERM to ``child``'s process group, SIGKILL to what is left of it after 10 s."""
+    for stop in (signal.SIGTERM, signal.SIGKILL):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, stop)
+        try:
+            child.wait(timeout=10)
+            return
+        except subprocess.TimeoutExpired:
+            continue
 
 
 def _free_port() -> int:

@@ -280,7 +280,8 @@ def test_a_web_viewer_stopped_with_sigterm_stops_its_rerun_viewer(mcap: Path) ->
         _, err = process.communicate(timeout=15)
         assert process.returncode == 130 and b"interrupted" in err
     finally:
-        stop(parent, process)
+        if process.poll() is None:
+            stop(parent, process)
 
 
 def stop(parent: psutil.Process, process: subprocess.Popen[bytes]) -> None:
