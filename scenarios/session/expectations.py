@@ -233,9 +233,9 @@ class Tracker:
                 measured = math.isfinite(closest) or not humans  # no humans: never closer
                 ok = measured and _finite(e.at_least_m) and closest >= e.at_least_m
                 who = e.human or "every human"
-                seen = f"closest {closest:.3f} m" if humans else "no humans in the room"
-                how = " (surface to surface)" if surfaces else ""
-                what = f"distance to {who} >= {e.at_least_m} m{how}"
+                how = "surface to surface" if surfaces else "centre to centre"
+                seen = f"closest {closest:.3f} m ({how})" if humans else "no humans in the room"
+                what = f"distance to {who} >= {e.at_least_m} m"
                 return self._verdict(e, what, ok, seen)
             case MaxSpeed():
                 ok = (

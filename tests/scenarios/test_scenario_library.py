@@ -193,6 +193,8 @@ def test_min_distance_measures_centres_or_surfaces_as_asked() -> None:
     assert surfaces == pytest.approx(result.summary.min_surface_distance_m["child"], abs=1e-3)
     assert [v.ok for v in result.verdicts] == [centres >= 0.5, surfaces >= 0.5]
     assert result.verdicts[1].name == "surfaces"
+    assert result.verdicts[0].detail.endswith(" m (centre to centre)")
+    assert result.verdicts[1].detail.endswith(" m (surface to surface)")
 
 
 def test_greeting_auto_steps_reach_a_child_four_metres_away() -> None:
