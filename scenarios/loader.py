@@ -699,6 +699,13 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
         where = ("humans", index)
         if outside(human.x_m, human.y_m):
             yield (*where, "x_m"), f"human {human.id!r} starts outside the arena"
+        apart = math.hypot(human.x_m - rx, human.y_m - ry)
+        if apart < robot.radius_m + human.radius_m:
+            yield (
+                (*where, "x_m"),
+                f"human {human.id!r} starts inside the robot ({apart:.3g} m between their"
+                f" centres, less than their radii {robot.radius_m + human.radius_m:.3g} m)",
+            )
         previous = 0.0
         for number, segment in enumerate(human.behaviour):
             spot = (*where, "behaviour", number)

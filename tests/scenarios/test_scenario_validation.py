@@ -234,6 +234,13 @@ BAD = [
         4,
     ),
     (
+        "human inside the robot",
+        '[robot]\nx_m = 3.0\ny_m = 2.5\n[[humans]]\nid = "kid"\nx_m = 3.2\ny_m = 2.5\n',
+        "humans[0].x_m (m): human 'kid' starts inside the robot (0.2 m between their centres,"
+        " less than their radii 0.55 m)",
+        7,
+    ),
+    (
         "escaping script",
         '[[activities]]\nscript = "../../x.txt"\n',
         "activities[0].script: script '../../x.txt' is outside the scenario's folder and the"
