@@ -261,10 +261,8 @@ def test_more_bodies_than_the_map_holds_are_refused_at_the_first_that_does_not_f
     tmp_path, capsys
 ):
     """Past 1024 the map refuses new obstacles: the sonar's echo of a child would be one."""
-    obstacles = "".join(
-        f'[[world.obstacles]]\nid = "o{i}"\nx_m = 1.0\ny_m = 1.0\nradius_m = 0.01\n'
-        for i in range(1024)
-    )
+    obstacle = '[[world.obstacles]]\nid = "o{}"\nx_m = 1.0\ny_m = 1.0\nradius_m = 0.01\n'
+    obstacles = "".join(obstacle.format(i) for i in range(1024))
     path = tmp_path / "crowded.toml"
     path.write_text(BASE + obstacles + '[[humans]]\nid = "child"\nx_m = 2.0\ny_m = 2.0\n')
     assert main(["check", str(path)]) == 2
