@@ -168,17 +168,21 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     range is reported at its next scan (a ring that drops detections: at the scan by which
     it has seen them but for a chance of :data:`MISSED`) and acted on at the next tick; by
     then the robot, at its top speed, and the person, walking at ``human_speed_mps``, may
-    have closed in by their speeds times that delay. The ring must reach farther than
-    that, plus both radii, the stop distance and the sensing error."""
+    have closed in by their speeds times that delay; then the robot brakes, at
+    ``max_accel_mps2`` (a real base cannot stop at once, as the simulated one does), while
+    the person walks on. The ring must reach farther than all that, plus both radii, the
+    stop distance and the sensing error."""
     sensors, robot = scenario.sensors, scenario.robot
     config = supervisor_config(scenario)
     assert config.human_speed_mps is not None and config.sensing_error_m is not None
     assert config.robot_radius_m is not None and config.human_radius_m is not None
     scans = scans_to_see(sensors.dropout_probability)
     delay_s = scans / sensors.sonar_scan_hz + 1 / scenario.tick_hz
-    closing_m = (robot.max_speed_mps + config.human_speed_mps) * delay_s
+    speed, accel, walk = robot.max_speed_mps, robot.max_accel_mps2, config.human_speed_mps
+    closing_m = (speed + walk) * delay_s
+    braking_m = speed**2 / (2 * accel) + walk * speed / accel
     bodies_m = config.robot_radius_m + config.human_radius_m
-    least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m
+    least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m + braking_m
     if sensors.sonar_range_m < least:
         yield (
             ("sensors", "sonar_range_m"),
@@ -188,8 +192,9 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             f" stop_distance_m {config.stop_distance_m!r}, sensing_error_m"
             f" {config.sensing_error_m!r}, and {round(closing_m, 3)!r} m closed in"
             f" {_scans_text(scans, sensors.dropout_probability)} and a tick at max_speed_mps"
-            f" {robot.max_speed_mps!r} and human_speed_mps {config.human_speed_mps!r}): the"
-            " robot may touch someone it has not seen",
+            f" {speed!r} and human_speed_mps {walk!r}, and {round(braking_m, 3)!r} m while"
+            f" it brakes at max_accel_mps2 {accel!r}): the robot may touch someone it has"
+            " not seen",
         )
 
 

@@ -206,24 +206,29 @@ def test_a_cameras_view_wider_than_the_scenarios_camera_is_a_located_error() -> 
 
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
     assert parse_scenario(b'name = "x"\n').warnings == ()  # the 3 m ring
-    # 0.3 + 0.25 + 0.1 + 0.02 + (0.5 + 1.0) x (1/5 + 1/50 s): 1.0 m
-    short = b'name = "x"\n[sensors]\nsonar_range_m = 0.99\n'
+    # 0.3 + 0.25 + 0.1 + 0.02 + (0.5 + 1.0) x (1/5 + 1/50 s), then braking from 0.5 m/s at
+    # 1 m/s2 (0.125 m) while the person walks on for 0.5 s (0.5 m): 1.625 m
+    short = b'name = "x"\n[sensors]\nsonar_range_m = 1.62\n'
     (warning,) = parse_scenario(short, source="s.toml").warnings
     assert str(warning).startswith(
-        "s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches 0.99 m, less than the"
-        " 1.0 m in which the safety supervisor can keep a person beside or behind"
+        "s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches 1.62 m, less than the"
+        " 1.625 m in which the safety supervisor can keep a person beside or behind"
     )
-    assert parse_scenario(short.replace(b"0.99", b"1.01")).warnings == ()
-    slow_scan = short.replace(b"0.99", b"1.01") + b"sonar_scan_hz = 4\n"
+    assert "and 0.625 m while it brakes at max_accel_mps2 1.0)" in str(warning)
+    assert parse_scenario(short.replace(b"1.62", b"1.63")).warnings == ()
+    gentler = short.replace(b"1.62", b"1.63") + b"[robot]\nmax_accel_mps2 = 0.9\n"
+    assert parse_scenario(gentler).warnings, "a base that brakes more gently needs a longer reach"
+    slow_scan = short.replace(b"1.62", b"1.63") + b"sonar_scan_hz = 4\n"
     assert parse_scenario(slow_scan).warnings, "a slower scan needs a longer reach"
 
 
 def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:
-    loaded = parse_scenario(b'name = "x"\n[sensors]\nsonar_range_m = 1.01\n', source="s.toml")
+    loaded = parse_scenario(b'name = "x"\n[sensors]\nsonar_range_m = 1.63\n', source="s.toml")
     assert warnings_with(loaded, {}) == () == warnings_with(loaded, {"seed": "2"})
     (shortened,) = warnings_with(loaded, {"sensors.sonar_range_m": "0.5"})
     assert str(shortened).startswith(
-        "<overrides>: sensors.sonar_range_m (m): the sonar ring reaches 0.5 m, less than the 1.0 m"
+        "<overrides>: sensors.sonar_range_m (m): the sonar ring reaches 0.5 m, less than the"
+        " 1.625 m"
     )
     (faster,) = warnings_with(loaded, {"robot.max_speed_mps": "0.6"})  # the file's ring
     assert str(faster).startswith("s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches")
