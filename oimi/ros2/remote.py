@@ -97,33 +97,36 @@ def on_session_clock(update: MapUpdate, moved: Callable[[int], int]) -> MapUpdat
     """``update`` with each time its payload holds (:data:`TIMES`) taken through ``moved``
     (robot time -> session time). A payload that does not read as the tables say is left
     as it came, for the Map Producer to refuse with its reason."""
-    name, text = update.attributename, update.jsonmsg
-    if name in BARE_TIMES and text.isascii() and text.isdigit() and _is_time(int(text)):
-        return msgspec.structs.replace(update, jsonmsg=str(moved(int(text))))
-    keys = TIMES.get(name)
+    return _moved(update, _timed_payload(update), moved)
+
+
+def _timed_payload(update: MapUpdate) -> dict[str, object] | None:
+    """The JSON object of an update whose attribute holds times (:data:`TIMES`), when each
+    of them is a time the tables allow (None otherwise: nothing to move)."""
+    keys = TIMES.get(update.attributename)
     if keys is None:
-        return update
-    try:
-        payload = msgspec.json.decode(text)
-    except msgspec.DecodeError:
-        return update
-    if type(payload) is not dict or not all(_is_time(payload.get(key)) for key in keys):
-        return update
-    for key in keys:
-        payload[key] = moved(payload[key])
-    return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
-
-
-def pose_time(update: MapUpdate) -> int | None:
-    """When a pose was taken, on the robot's clock (None: not a pose, or no valid time)."""
-    if update.attributename != "poses":
         return None
     try:
         payload = msgspec.json.decode(update.jsonmsg)
     except msgspec.DecodeError:
         return None
-    at = payload.get("positionchangetime") if type(payload) is dict else None
-    return at if _is_time(at) else None
+    if type(payload) is not dict or not all(_is_time(payload.get(key)) for key in keys):
+        return None
+    return payload
+
+
+def _moved(
+    update: MapUpdate, payload: dict[str, object] | None, moved: Callable[[int], int]
+) -> MapUpdate:
+    """:func:`on_session_clock` with the update's payload already read."""
+    name, text = update.attributename, update.jsonmsg
+    if name in BARE_TIMES and text.isascii() and text.isdigit() and _is_time(int(text)):
+        return msgspec.structs.replace(update, jsonmsg=str(moved(int(text))))
+    if payload is None:
+        return update
+    for key in TIMES[name]:
+        payload[key] = moved(payload[key])  # type: ignore[arg-type]
+    return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
 
 
 def _is_time(value: object) -> bool:
@@ -169,16 +172,16 @@ class RemoteSensors:
         """The updates received since the last tick, in arrival order, on the session's
         clock."""
         updates, self._inbox = self._inbox, []
-        for update in updates:
-            at = pose_time(update)
-            if at is not None:
-                self.clock.sample(at, now_ms=time_ms)
+        payloads = [_timed_payload(update) for update in updates]
+        for update, payload in zip(updates, payloads, strict=True):
+            if payload is not None and update.attributename == "poses":  # when it was taken
+                self.clock.sample(payload["positionchangetime"], now_ms=time_ms)  # type: ignore[arg-type]
         offset = self.clock.offset_ms
 
         def moved(at: int) -> int:  # never before the session, nor after the tick taking it
             return time_ms if offset is None else min(max(0, at + offset), time_ms)
 
-        return [on_session_clock(u, moved) for u in updates]
+        return [_moved(u, p, moved) for u, p in zip(updates, payloads, strict=True)]
 
     def touch(self, event: TouchEvent, *, time_ms: int) -> None:
         """Touches come from the robot's own sensors."""

@@ -233,8 +233,7 @@ class _Index:
         """Drop an entity of ``klass`` to make room for a new one: the one the safety
         supervisor needs least, furniture (a fixed obstacle) first, then the one heard from
         (or, never heard, made) longest ago (a tracker's long-lost track), and forget when
-        it was heard. Sensors
-        are never dropped (False)."""
+        it was heard. Sensors are never dropped (False)."""
         field, kind = _LISTED[klass]
         entities: list[Entity] = getattr(self._world, field)
         if not issubclass(kind, Entity) or not entities:

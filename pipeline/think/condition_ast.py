@@ -21,10 +21,12 @@ THIS: Final = "?THIS"
 
 IDENT = re.compile(r"[A-Za-z_]\w*\Z")
 """A field's or a function's name."""
-USER_NAME: Final = re.compile(r"[^\s/?@\"$&#{}(),>!]+\Z")
+PUNCTUATION: Final = '?@"$&#{}(),>!'
+"""The language's own punctuation, which ends a name (``condition.lark`` says it too)."""
+USER_NAME: Final = re.compile(rf"[^\s/{re.escape(PUNCTUATION)}]+\Z")
 """A name the designer makes up, of an alias, a variable or an attribute: thesis 4.3, "any
 string without ' ' / '/' chars", less the language's own punctuation."""
-USER_NAME_CHARACTERS: Final = "whitespace, '/' or any of ?@\"$&#{}(),>!"
+USER_NAME_CHARACTERS: Final = f"whitespace, '/' or any of {PUNCTUATION}"
 """What :data:`USER_NAME` may not hold, as an error message says it."""
 
 CLASS_TYPES: Final[dict[str, type]] = {

@@ -273,8 +273,7 @@ class HumanDriver:
         try:
             vx, vy = velocity
             if math.isfinite(vx) and math.isfinite(vy):
-                speed, top = math.hypot(vx, vy), self.spec.max_speed_mps
-                return (vx, vy) if speed <= top else (vx * top / speed, vy * top / speed)
+                return capped(vx, vy, self.spec.max_speed_mps)
         except (TypeError, ValueError):  # not two numbers
             pass
         problem = f"returned {_shown(velocity)}, not a velocity pair (vx, vy) of finite numbers"
@@ -364,3 +363,11 @@ def _keep_distance(
     step = min(speed, gap / dt_s)
     norm = math.hypot(dx, dy)
     return (dx / norm * step, dy / norm * step, step < speed)
+
+
+def capped(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
+    """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
+    speed = math.hypot(vx, vy)
+    if speed <= top_mps:
+        return (vx, vy)
+    return (vx * top_mps / speed, vy * top_mps / speed)

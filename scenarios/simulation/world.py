@@ -37,7 +37,7 @@ from oimi.scenarios.simulation.bodies import (
     thing_state,
     wrap_angle,
 )
-from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver
+from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver, capped
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1
@@ -236,7 +236,7 @@ class World:
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         top, top_spin, limit, turn_limit = self._limits
         motion = self._robot.motion
-        vx, vy = _within(outputs.v_x, outputs.v_y, top)
+        vx, vy = capped(outputs.v_x, outputs.v_y, top)
         omega = min(max(outputs.v_theta, -top_spin), top_spin)
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
@@ -245,7 +245,7 @@ class World:
             change = math.hypot(dx, dy)
             if change > limit:
                 dx, dy = dx * limit / change, dy * limit / change
-            want_x, want_y = _within(motion.vx_mps + dx, motion.vy_mps + dy, top)
+            want_x, want_y = capped(motion.vx_mps + dx, motion.vy_mps + dy, top)
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
         self._robot.drive(want_x, want_y, motion.omega_radps + turn)
 
@@ -255,7 +255,7 @@ class World:
         top, motion = self._limits[0], self._robot.motion
         vx, vy = motion.vx_mps, motion.vy_mps
         if math.hypot(vx, vy) > top:  # (its infinite moment keeps its spin)
-            self._robot.drive(*_within(vx, vy, top), motion.omega_radps)
+            self._robot.drive(*capped(vx, vy, top), motion.omega_radps)
 
     def _roll(self, thing: Thing) -> None:
         """Rolling resistance: exponential damping plus a constant deceleration."""
@@ -382,11 +382,3 @@ class World:
             audio=self.audio,
             contacts=self.last_report.contacts,
         )
-
-
-def _within(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
-    """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
-    speed = math.hypot(vx, vy)
-    if speed <= top_mps:
-        return (vx, vy)
-    return (vx * top_mps / speed, vy * top_mps / speed)

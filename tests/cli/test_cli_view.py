@@ -10,6 +10,7 @@ import struct
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import psutil
@@ -228,9 +229,10 @@ def listening(process: psutil.Process) -> list[tuple[int, str, int]]:
     return found
 
 
-def test_the_real_web_viewer_listens_on_127_0_0_1_only_with_analytics_off(
-    mcap: Path, tmp_path: Path
-) -> None:
+@contextlib.contextmanager
+def web_viewer(mcap: Path) -> Iterator[tuple[subprocess.Popen[bytes], int, int, list]]:
+    """``oimi view MCAP --web`` on free ports, once both listen: the process, the gRPC and
+    web ports and the listening sockets (pid, address, port); stopped on leaving."""
     grpc, web = free_port(), free_port()
     options = ["--web", "--port", str(grpc), "--web-port", str(web)]
     process = subprocess.Popen(
@@ -248,40 +250,30 @@ def test_the_real_web_viewer_listens_on_127_0_0_1_only_with_analytics_off(
             time.sleep(0.2)
             sockets = listening(parent)
         assert {port for _, _, port in sockets} >= {grpc, web}, sockets
+        yield process, grpc, web, sockets
+    finally:
+        if process.poll() is None:
+            stop(parent, process)
+
+
+def test_the_real_web_viewer_listens_on_127_0_0_1_only_with_analytics_off(mcap: Path) -> None:
+    with web_viewer(mcap) as (_, grpc, _, sockets):
         assert {ip for _, ip, _ in sockets} == {"127.0.0.1"}
         [viewer] = {pid for pid, _, port in sockets if port == grpc}
         assert psutil.Process(viewer).environ().get("CI"), "analytics off in the viewer"
-    finally:
-        stop(parent, process)
 
 
 def test_a_web_viewer_stopped_with_sigterm_stops_its_rerun_viewer(mcap: Path) -> None:
     """SIGTERM (a service manager, `kill`) to `oimi view` alone: the Rerun viewer it started
     is stopped too (it was left running, on its ports, using a core)."""
-    grpc, web = free_port(), free_port()
-    options = ["--web", "--port", str(grpc), "--web-port", str(web)]
-    process = subprocess.Popen(
-        [sys.executable, "-m", "oimi", "view", str(mcap), *options],
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
-    parent = psutil.Process(process.pid)
-    try:
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline and grpc not in {p for _, _, p in listening(parent)}:
-            assert process.poll() is None, process.communicate()
-            time.sleep(0.2)
-        children = parent.children(recursive=True)
+    with web_viewer(mcap) as (process, _, _, _):
+        children = psutil.Process(process.pid).children(recursive=True)
         assert children, "the viewer runs"
-        parent.send_signal(signal.SIGTERM)
+        process.send_signal(signal.SIGTERM)
         _, alive = psutil.wait_procs(children, timeout=15)
         assert alive == []
         _, err = process.communicate(timeout=15)
         assert process.returncode == 130 and b"interrupted" in err
-    finally:
-        if process.poll() is None:
-            stop(parent, process)
 
 
 def stop(parent: psutil.Process, process: subprocess.Popen[bytes]) -> None:

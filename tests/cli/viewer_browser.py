@@ -77,7 +77,7 @@ def viewing(recording: Path) -> Iterator[tuple[str, int, int]]:
         yield match.group(1), grpc, web
     finally:
         with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGINT)  # Ctrl-C to it and the viewer it started
+            os.killpg(process.pid, signal.SIGINT)  # Ctrl-C: it stops the viewer it started
         try:
             process.communicate(timeout=15)
         except subprocess.TimeoutExpired:

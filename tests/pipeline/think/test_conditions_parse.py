@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import re
+from importlib import resources
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from oimi.pipeline.think.condition_ast import ClassClause, Comparison, EvalClause, TrueClause
+from oimi.pipeline.think.condition_ast import (
+    PUNCTUATION,
+    ClassClause,
+    Comparison,
+    EvalClause,
+    TrueClause,
+)
 from oimi.pipeline.think.conditions import Condition, Op, Scope, compile_condition, parse_condition
 from oimi.pipeline.think.errors import RuleSyntaxError
 
@@ -234,3 +241,11 @@ def test_random_text_only_ever_raises_rule_syntax_error(text):
         compile_condition(text)
     except RuleSyntaxError as error:
         assert error.line >= 1 and error.column >= 1
+
+
+def test_the_grammar_ends_a_designers_name_at_the_punctuation_the_parser_names() -> None:
+    """``condition.lark`` lexes ``?``/``@``/``$`` names up to the same characters that
+    ``condition_ast.PUNCTUATION`` lists (and its errors name)."""
+    grammar = resources.files("oimi.pipeline.think").joinpath("condition.lark").read_text()
+    for sigil in ("\\?", "@", "\\$"):
+        assert f"/{sigil}[^\\s{PUNCTUATION}]*/" in grammar, sigil
