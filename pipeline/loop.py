@@ -176,7 +176,7 @@ class Pipeline:
 
         # 3. Pending update? Nothing new in the world or in the block's execution: stall.
         if not (
-            self.producer.pending
+            self.producer.changes_pending
             or moved_on
             or step.done
             or step.commands
@@ -187,6 +187,8 @@ class Pipeline:
             or info.overridecmd
             or info.restart
         ):
+            if self.producer.pending:  # heartbeats alone: noted for the supervisor
+                self.producer.consume(now_ms)
             self._publish_operator(emitter)
             return self._finish(step, emitter)
 
@@ -297,6 +299,7 @@ class Pipeline:
                 requested,
                 self.producer.perceived,
                 heard=self.producer.heard,
+                scanned=self.producer.scanned,
                 tick=emitter.tick,
                 now_ms=emitter.time_ms,
                 source=self.actuator.motion_source,

@@ -5,8 +5,9 @@ sensing: the robot's and the humans' radii, how fast a human walks, how far off 
 may be. In a simulated room those are known, and an assumption below them could let the
 robot touch someone. So each one a scenario leaves out is taken from the scenario (never
 below the supervisor's own default), and one it sets below the scenario's own is refused.
-So is a status age shorter than two of the scenario's status periods: the supervisor would
-take live sensors for dead between two reports, and stop the robot.
+So is a status age shorter than two of the scenario's status periods (or a scan age shorter
+than two of its ring's scans): the supervisor would take live sensors for dead between two
+reports, and stop the robot.
 """
 
 from __future__ import annotations
@@ -61,6 +62,13 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         two_periods_ms,
         f"two of the sensors' status_period_s {period_s!r} ({two_periods_ms} ms): the"
         " supervisor would take them for offline between two reports and stop the robot",
+    )
+    two_scans_ms = math.ceil(2 * 1000 / sensors.sonar_scan_hz - 1e-6)
+    found["max_scan_age_ms"] = Need(
+        two_scans_ms,
+        f"two of the sonar ring's scans ({two_scans_ms} ms at sonar_scan_hz"
+        f" {sensors.sonar_scan_hz!r}): the supervisor would take the ring for down between"
+        " two scans and keep the robot to where the camera looks",
     )
     dropout = sensors.dropout_probability
     if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)

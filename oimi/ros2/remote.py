@@ -42,8 +42,9 @@ TIMES: Final = {
     "goalinterrupted": ("timestamp",),
 }
 """The times (ms) in each attribute's JSON payload (tables 4.1 and 4.2; durations stay)."""
-BARE_TIMES: Final = frozenset({"startingtime"})
-"""The attributes whose payload is a bare time (the robot's ``startingtime``)."""
+BARE_TIMES: Final = frozenset({"startingtime", "scantime"})
+"""The attributes whose payload is a bare time (the robot's ``startingtime``, a sonar's
+``scantime``)."""
 
 
 def clock_window_ms(max_data_age_ms: int) -> int:
@@ -61,7 +62,8 @@ class RobotClock:
     bounds the clocks' offset: ``offset_ms`` is the least (session time at the tick that
     took it - robot time) over the samples of the last ``window_ms`` of session time (the
     latest is kept however old): the odometry's stamps, and the poses' own
-    ``positionchangetime`` (so a robot without ``/odom`` has a clock too). A reading thus
+    ``positionchangetime`` and the sonars' ``scantime`` (so a robot without ``/odom`` has a
+    clock too). A reading thus
     keeps the age it had on the robot (younger by the promptest delivery at most, within
     the tick of age the supervisor's margin adds), and a sensor frozen on an old reading
     cannot make it look fresh: repeated, its samples only bound the offset from above."""
@@ -119,14 +121,20 @@ def _moved(
     update: MapUpdate, payload: dict[str, object] | None, moved: Callable[[int], int]
 ) -> MapUpdate:
     """:func:`on_session_clock` with the update's payload already read."""
-    name, text = update.attributename, update.jsonmsg
-    if name in BARE_TIMES and text.isascii() and text.isdigit() and _is_time(int(text)):
-        return msgspec.structs.replace(update, jsonmsg=str(moved(int(text))))
+    name = update.attributename
+    if name in BARE_TIMES and (at := _bare_time(update.jsonmsg)) is not None:
+        return msgspec.structs.replace(update, jsonmsg=str(moved(at)))
     if payload is None:
         return update
     for key in TIMES[name]:
         payload[key] = moved(payload[key])  # type: ignore[arg-type]
     return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
+
+
+def _bare_time(text: str) -> int | None:
+    """The time a bare payload holds, if it is one the tables allow."""
+    at = int(text) if text.isascii() and text.isdigit() else None
+    return at if _is_time(at) else None
 
 
 def _is_time(value: object) -> bool:
@@ -173,9 +181,11 @@ class RemoteSensors:
         clock."""
         updates, self._inbox = self._inbox, []
         payloads = [_timed_payload(update) for update in updates]
-        for update, payload in zip(updates, payloads, strict=True):
-            if payload is not None and update.attributename == "poses":  # when it was taken
+        for update, payload in zip(updates, payloads, strict=True):  # when each was taken
+            if payload is not None and update.attributename == "poses":
                 self.clock.sample(payload["positionchangetime"], now_ms=time_ms)  # type: ignore[arg-type]
+            elif update.attributename == "scantime" and _bare_time(update.jsonmsg) is not None:
+                self.clock.sample(int(update.jsonmsg), now_ms=time_ms)
         offset = self.clock.offset_ms
 
         def moved(at: int) -> int:  # never before the session, nor after the tick taking it

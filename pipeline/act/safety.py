@@ -28,7 +28,10 @@ none reported yet: nothing senses the room), there is none. A sensor counts as o
 only while its status keeps coming: one last heard more than ``max_status_age_ms`` ago
 (a dead link: its last word was "on") counts as offline, and one last heard more than
 three quarters of that ago (a status late: the link may be dying) caps linear motion at
-``slow_speed_mps``.
+``slow_speed_mps``. A sonar counts as on only while its heartbeat (``scantime``, sent with
+each scan) is no older than ``max_scan_age_ms``: one whose latest scan is older, or that
+never reported one, is down, as one offline is (frozen while it saw nothing, it still says
+it is on, and would pass for a ring that sees an empty room).
 
 The front camera does not see behind the robot: a person it never saw is not among
 the map's humans. Bodies a sensor reports as obstacles that are not fixed
@@ -37,16 +40,16 @@ therefore kept at the same distances, as anonymous humans, unless the echo is a 
 the map tracks: placed within both readings' errors and the walk between them, and never
 farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
 older than ``max_data_age_ms`` and no longer reported is a body that left the sonar's
-range (the ring scans all the time) once every sonar has said it is on since it last
-reported it and ``echo_hold_ms`` have passed since (a ring misses a body now and then):
+range (the ring scans all the time) once every sonar has scanned since it last reported
+it and ``echo_hold_ms`` have passed since (a ring misses a body now and then):
 until then (a link that may have died with it, a missed detection) it is kept where it was.
 One still reported with an old reading (a sonar repeating itself, frozen, or lagging),
-or one a sonar that is down (offline, silent, late) may have made, is kept too, stale:
-it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading taken more than a tick
-after the supervisor's now (a sensor's clock ahead) is stale too. Fixed obstacles
-(furniture) are not limited. While a sonar is down (offline, silent or late), or repeats an
-old reading (frozen: it still says it is on, and sees nothing new), nothing sees
-beside or behind the robot, where a child may have walked since: linear motion is kept
+or one a sonar that is down (offline, silent, late, its scans old) may have made, is kept
+too, stale: it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading
+taken more than a tick after the supervisor's now (a sensor's clock ahead) is stale too.
+Fixed obstacles (furniture) are not limited. While a sonar is down, or repeats an old
+reading (frozen: it still says it is on, and sees nothing new), nothing sees beside or
+behind the robot, where a child may have walked since: linear motion is kept
 inside the camera's field of view (``camera_fov_rad``, centred ahead), projected onto its
 nearer edge, so that the robot drives only where a working sensor looks.
 
@@ -162,6 +165,7 @@ class SafetySupervisor:
         world_map: WorldMap,
         *,
         heard: Mapping[tuple[str, str], int],
+        scanned: Mapping[str, int],
         tick: int,
         now_ms: int,
         source: MotionSource,
@@ -169,7 +173,8 @@ class SafetySupervisor:
         """The velocity allowed at ``now_ms`` for ``requested`` (body frame, from ``source``);
         the robot is then taken to drive it for one tick (dead reckoning). ``heard``: when
         each sensor's status and each obstacle's reading was last heard, ms, by
-        (``"Camera"``, ``"Sonar"`` or ``"Obstacle"``, id) (``MapProducer.heard``)."""
+        (``"Camera"``, ``"Sonar"`` or ``"Obstacle"``, id) (``MapProducer.heard``);
+        ``scanned``: when each sonar took its latest scan, ms, by id (``MapProducer.scanned``)."""
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self._pose))
         anchors = self._anchors
@@ -183,7 +188,7 @@ class SafetySupervisor:
             anchor = anchors.get(key)
             if anchor is None or anchor[0] != echo.positionchangetime:
                 self._anchor(key, echo)
-        verdict = self._limit(requested, world_map, echoes, heard, now_ms)
+        verdict = self._limit(requested, world_map, echoes, heard, scanned, now_ms)
         self._advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -237,6 +242,7 @@ class SafetySupervisor:
         world_map: WorldMap,
         echoes: list[tuple[str, Entity]],
         heard: Mapping[tuple[str, str], int],
+        scanned: Mapping[str, int],
         now_ms: int,
     ) -> Verdict:
         if requested.v_x == 0.0 and requested.v_y == 0.0:
@@ -245,7 +251,14 @@ class SafetySupervisor:
         cameras, sonars = world_map.cameras, world_map.sonars
         max_age = config.max_status_age_ms
         seeing = _online(cameras, "Camera", heard, now_ms - max_age)
-        sounding = _online(sonars, "Sonar", heard, now_ms - max_age)
+        # A ring counts only while its heartbeat says it scans (frozen, it says it is on)
+        oldest_scan_ms = now_ms - config.max_scan_age_ms  # type: ignore[operator]  # filled
+        scans = [scanned.get(s.id, _NEVER) for s in sonars]
+        newest_scan_ms = now_ms + self._tick_ms  # (a clock ahead: no scan to trust)
+        scanning = [
+            s for s, at in zip(sonars, scans, strict=True) if oldest_scan_ms <= at <= newest_scan_ms
+        ]
+        sounding = _online(scanning, "Sonar", heard, now_ms - max_age)
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
         late = _late(seeing + sounding, now_ms, max_age)
@@ -253,7 +266,7 @@ class SafetySupervisor:
         # Since when every ring is known to scan (readings do not name their sonar): only
         # then does one that stopped reporting a body say it left (None: a ring is down).
         scanning_since = (
-            min(sounding)
+            min(scans)
             if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
             else None
         )

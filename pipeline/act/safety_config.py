@@ -20,6 +20,7 @@ ASSUMED: Final[dict[str, float]] = {
     # of a status repeated every second may be missed
     "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
     "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
+    "max_scan_age_ms": 500,  # unless a scenario's ring scans slower: two of its scans
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -66,6 +67,13 @@ class SafetyConfig(Message):
     linear motion stays inside this cone: it drives only where a working sensor looks;
     None: the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not
     set it above its camera's; 2 pi or more: it sees all around)."""
+
+    max_scan_age_ms: int | None = None
+    """A sonar whose latest scan (its ``scantime``, the ring's heartbeat) was taken longer
+    ago than this, or never reported, counts as down, as one offline does: a ring frozen
+    while it saw nothing still says it is on, and would otherwise pass for one that sees an
+    empty room, ms; None: the longer of 500 and two of a scenario's sonar scans (a scenario
+    may not set it below that)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

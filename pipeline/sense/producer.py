@@ -7,6 +7,9 @@ and a RobotStatus field is marked as set (``RobotStatus.setfields``).
 ``consume`` applies the pending updates, in order, at the simulated time ``now_ms``.
 A rejected update leaves the map exactly as it was and yields a ``Rejection``.
 
+A sonar's ``scantime`` (its heartbeat, not in the thesis's tables) changes neither map: it
+is noted in :attr:`MapProducer.scanned` for the safety supervisor.
+
 Each update is applied to a second map too, :attr:`MapProducer.perceived`, which nothing
 else writes: the map as the sensors alone made it. Rules, scripts and their functions
 change the shared map freely (the thesis lets them); the safety supervisor reads the
@@ -96,12 +99,18 @@ class MapProducer:
         self.max_entities = max_entities
         self._pending: list[DecodedUpdate] = []
         self._pending_keys: set[tuple[EntityClass, str, str]] = set()
+        self._changes_pending = False
         """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
         self.heard: dict[tuple[str, str], int] = {}
         """When each sensor's status (``isonline``) and each entity's reading (``poses``)
         was last applied, ms, by (class, id), for the entities the perceived map holds: a
         sensor whose status stops coming has a dead link, whatever it last said; a reading
         still coming but long taken is a sensor repeating itself (frozen) or lagging."""
+        self.scanned: dict[str, int] = {}
+        """When each sonar the perceived map holds took its latest scan, ms, by id: its
+        ``scantime``, the ring's heartbeat (not in the thesis's map, which it leaves as it
+        was: a ring frozen while it saw nothing still says it is on, and only a scan time
+        repeated old tells it from one that sees an empty room)."""
 
     # ---------------------------------------------------------------- queue
 
@@ -116,12 +125,20 @@ class MapProducer:
             self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
         self._pending_keys.add(key)
+        if decoded.spec.storage is not Storage.NOTED:
+            self._changes_pending = True
         return None
 
     @property
     def pending(self) -> bool:
         """Whether updates wait to be consumed."""
         return bool(self._pending)
+
+    @property
+    def changes_pending(self) -> bool:
+        """Whether updates that may change the map wait to be consumed (a heartbeat alone,
+        noted for the supervisor, changes neither map)."""
+        return self._changes_pending
 
     @property
     def pending_updates(self) -> tuple[MapUpdate, ...]:
@@ -144,6 +161,7 @@ class MapProducer:
             )
         pending, self._pending = self._pending, []
         self._pending_keys.clear()
+        self._changes_pending = False
         # its rejections are the other's, said below; its statuses applied are the ones heard
         self._apply_all(perceived, pending, now_ms, heard=self.heard)
         return self._apply_all(self.world_map, pending, now_ms)
@@ -162,7 +180,11 @@ class MapProducer:
         index = _Index(world)
         rejections: list[Rejection] = []
         applied = False
+        noted: list[DecodedUpdate] = []
         for decoded in pending:
+            if decoded.spec.storage is Storage.NOTED:  # a heartbeat: noted, not the map's
+                noted.append(decoded)
+                continue
             owner = index.find(decoded.target)
             if owner is None:
                 full = index.count(decoded.target.klass) >= self.max_entities
@@ -187,6 +209,10 @@ class MapProducer:
                 heard[decoded.target.klass, decoded.target.id] = now_ms  # a str enum
         if applied:
             world.lastupdatetime = now_ms
+        if heard is not None:  # the perceived map: its sonars' heartbeats, in any order
+            for decoded in noted:
+                if index.find(decoded.target) is not None:
+                    self.scanned[decoded.target.id] = decoded.value  # type: ignore[assignment]
         return rejections
 
     def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:

@@ -74,6 +74,9 @@ class Storage(enum.StrEnum):
     APPENDABLE = "appendable"
     """Values go into a bounded circular register: every update is appended (``R`` only
     drops the pending updates issued before it)."""
+    NOTED = "noted"
+    """Not in the thesis's map: the producer notes the latest value for the safety
+    supervisor (a sonar's ``scantime``, its heartbeat: ``MapProducer.scanned``)."""
 
 
 class Target(msgspec.Struct, frozen=True, kw_only=True):
@@ -290,6 +293,12 @@ def _updateable(name: str, payload: str, decode: Callable[[str], object]) -> Att
     )
 
 
+def _noted(name: str, payload: str, decode: Callable[[str], object]) -> AttributeSpec:
+    return AttributeSpec(
+        name=name, policies=_R, payload=payload, storage=Storage.NOTED, decode=decode
+    )
+
+
 def _appendable(
     name: str, payload: str, decode: Callable[[str], object], mirrors: tuple[str, ...] = ()
 ) -> AttributeSpec:
@@ -331,6 +340,7 @@ UPDATE_TABLE: Final[Mapping[EntityClass, Mapping[str, AttributeSpec]]] = {
     EntityClass.SONAR: _table(
         _updateable("isonline", _BOOL, _decode_bool),
         _updateable("scanfrequency", _INT, _decode_int),
+        _noted("scantime", _INT, _decode_int),
     ),
     EntityClass.HUMAN: _table(_POSES, _TRACKINGS),
     EntityClass.OBSTACLE: _table(_POSES, _TRACKINGS, _updateable("isfixed", _BOOL, _decode_bool)),

@@ -10,7 +10,8 @@ is reported relative to the robot (``positionrho`` m from its centre,
 ``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
 seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
 entity while it stays in view; ``isfixed``, ``istarget``, ``category`` come once,
-on first sight. Sensor status comes at the start and on faults; touches from
+on first sight; the ring's ``scantime`` with every scan (its heartbeat: a frozen ring
+repeats an old one). Sensor status comes at the start and on faults; touches from
 touch events and from contacts; the robot's speed, battery and elapsed time every
 ``status_period_s``.
 
@@ -251,6 +252,8 @@ class Sensors:
         for objectid in list(tracks):
             if objectid not in in_view:
                 del tracks[objectid]
+        if sensor is self.sonar:  # the ring's heartbeat: when this scan was taken
+            reading.append(_Update(f"Sonar/{sensor.ident}", "scantime", Policy.R, str(time_ms)))
         sensor.last = reading
         return reading
 

@@ -92,6 +92,24 @@ def test_a_robot_without_odometry_has_a_clock_from_its_poses():
         assert age == (0 if now_ms == 0 else late - 50), now_ms
 
 
+def test_a_rings_scan_time_moves_to_the_session_and_a_frozen_one_ages() -> None:
+    """The ring's heartbeat (``scantime``, a bare time) is moved to the session's clock and
+    sets it as a pose's time does (a robot with a ring and no /odom): a ring repeating its
+    last scan time ages with the session, so the supervisor takes it for down."""
+    sensors = RemoteSensors()
+
+    def scan_time_at(robot_ms: int, now_ms: int) -> int:
+        sensors.receive(update("Sonar/ring", "scantime", str(robot_ms)))
+        (moved,) = sensors.sample(None, tick=now_ms // 20, time_ms=now_ms)
+        return int(moved.jsonmsg)
+
+    for now_ms in range(0, 1000, 200):  # scans at 5 Hz, 30 s into the robot's clock
+        assert scan_time_at(30_000 + now_ms - 10, now_ms) == now_ms  # 10 ms late each
+    assert sensors.clock.offset_ms == 10 - 30_000
+    for now_ms in range(1000, 3000, 200):  # frozen on the scan of 800 ms
+        assert scan_time_at(30_790, now_ms) == 800
+
+
 @pytest.mark.parametrize("max_data_age_ms", [500, 4000])
 def test_a_sensor_frozen_on_an_old_reading_never_looks_fresh(max_data_age_ms):
     """Thesis-robot driver repeating its last pose with its old time, and no /odom: each
@@ -126,7 +144,7 @@ payload = st.dictionaries(
 
 @settings(derandomize=True, max_examples=300, deadline=None)
 @given(
-    attribute=st.sampled_from([*TIMES, "startingtime", "isonline", "fps"]),
+    attribute=st.sampled_from([*TIMES, "startingtime", "scantime", "isonline", "fps"]),
     jsonmsg=st.one_of(payload.map(lambda p: msgspec.json.encode(p).decode()), st.text(max_size=8)),
     stamp_ms=st.integers(0, 2**40),
     now_ms=st.integers(0, 2**30),

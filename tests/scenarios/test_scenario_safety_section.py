@@ -147,16 +147,11 @@ def test_left_out_the_status_age_covers_two_status_periods() -> None:
     assert pipeline_config(parse_scenario(slow).scenario).safety.max_status_age_ms == 3001
 
 
-def test_a_status_age_shorter_than_two_status_periods_is_a_located_error() -> None:
-    text = (
-        b'name = "x"\n[robot.safety]\nmax_status_age_ms = 1500\n[sensors]\nstatus_period_s = 1.0\n'
-    )
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.max_status_age_ms (ms): 1500 is below two of the sensors'"
-        " status_period_s 1.0 (2000 ms): the supervisor would take them for offline"
-    )
-    kept = text.replace(b"1500", b"2000")
-    assert pipeline_config(parse_scenario(kept).scenario).safety.max_status_age_ms == 2000
+def test_left_out_the_scan_age_covers_two_of_the_rings_scans() -> None:
+    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert alone.max_scan_age_ms == 500, "never below this"
+    slow = b'name = "x"\n[sensors]\nsonar_scan_hz = 3\n'
+    assert pipeline_config(parse_scenario(slow).scenario).safety.max_scan_age_ms == 667
 
 
 def test_left_out_the_echo_hold_covers_the_rings_dropouts() -> None:
@@ -169,14 +164,40 @@ def test_left_out_the_echo_hold_covers_the_rings_dropouts() -> None:
     assert pipeline_config(parse_scenario(slow).scenario).safety.echo_hold_ms == 10_000
 
 
-def test_an_echo_hold_shorter_than_the_dropouts_need_is_a_located_error() -> None:
-    text = (
-        b'name = "x"\n[robot.safety]\necho_hold_ms = 3000\n[sensors]\ndropout_probability = 0.5\n'
-    )
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.echo_hold_ms (ms): 3000 is below 20 of the sonar ring's"
-        " scans (4000 ms at sonar_scan_hz 5) that all miss a body with dropout_probability 0.5"
-    )
+@pytest.mark.parametrize(
+    ("setting", "sensors", "kept", "reason"),
+    [
+        (
+            "max_status_age_ms = 1500",
+            "status_period_s = 1.0",
+            2000,
+            "1500 is below two of the sensors' status_period_s 1.0 (2000 ms): the supervisor"
+            " would take them for offline",
+        ),
+        (
+            "max_scan_age_ms = 1500",
+            "sonar_scan_hz = 1",
+            2000,
+            "1500 is below two of the sonar ring's scans (2000 ms at sonar_scan_hz 1): the"
+            " supervisor would take the ring for down",
+        ),
+        (
+            "echo_hold_ms = 1500",
+            "dropout_probability = 0.5",
+            4000,
+            "1500 is below 20 of the sonar ring's scans (4000 ms at sonar_scan_hz 5) that all"
+            " miss a body with dropout_probability 0.5",
+        ),
+    ],
+)
+def test_a_time_shorter_than_the_sensors_need_is_a_located_error(
+    setting, sensors, kept, reason
+) -> None:
+    text = f'name = "x"\n[robot.safety]\n{setting}\n[sensors]\n{sensors}\n'.encode()
+    name = setting.split()[0]
+    assert refused(text).startswith(f"s.toml:3:1: robot.safety.{name} (ms): {reason}")
+    enough = text.replace(b"1500", str(kept).encode())
+    assert getattr(pipeline_config(parse_scenario(enough).scenario).safety, name) == kept
 
 
 def test_a_ring_that_drops_detections_sees_a_person_later_a_located_warning() -> None:

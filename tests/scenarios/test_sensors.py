@@ -209,6 +209,18 @@ def test_frozen_sonar_repeats_its_last_reading():
     assert '"positionchangetime":0' in last.jsonmsg
 
 
+def test_the_ring_sends_its_scan_time_with_every_scan_and_repeats_it_when_frozen():
+    """The ring's heartbeat: ``scantime`` with each scan (5 Hz: every 200 ms), which a ring
+    frozen while it saw nothing repeats, old, so the supervisor can tell it is down."""
+    world, sensors = setup()
+    scans = of(ticks(world, sensors, 30), "Sonar/ring", "scantime")
+    assert [u.jsonmsg for u in scans] == ["0", "200", "400"]
+    assert {u.policy for u in scans} == {Policy.R}
+    sensors.fault(FaultEvent(at_s=0.6, sensor=SensorKind.SONAR, mode=FaultMode.FROZEN))
+    frozen = of(ticks(world, sensors, 30, 30), "Sonar/ring", "scantime")
+    assert [u.jsonmsg for u in frozen] == ["400", "400", "400"]
+
+
 def test_touch_event_produces_the_tables_payload():
     world, sensors = setup()
     tick(world, sensors, 0)

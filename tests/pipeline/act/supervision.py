@@ -45,12 +45,13 @@ def live(world_map: WorldMap, now_ms: int) -> dict[tuple[str, str], int]:
     return heard | {("Sonar", sonar.id): now_ms for sonar in world_map.sonars}
 
 
-def supervise(
+def supervise(  # every sensor heard from, and every sonar scanned, at now_ms unless told
     velocity: Velocity,
     world_map: WorldMap,
     *,
     now_ms: int = 0,
     heard: dict[tuple[str, str], int] | None = None,
+    scanned: dict[str, int] | None = None,
     source: MotionSource = MotionSource.SCRIPT,
     supervisor: SafetySupervisor | None = None,
 ):
@@ -59,6 +60,7 @@ def supervise(
         velocity,
         world_map,
         heard=live(world_map, now_ms) if heard is None else heard,
+        scanned={s.id: now_ms for s in world_map.sonars} if scanned is None else scanned,
         tick=now_ms // TICK_MS,
         now_ms=now_ms,
         source=source,

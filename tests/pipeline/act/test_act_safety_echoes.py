@@ -161,3 +161,36 @@ def test_the_echo_of_a_tracked_human_is_that_human_and_no_other() -> None:
     verdict, _ = supervise(Velocity(0.0, 0.5, 0.0), other)
     assert verdict.human == "Obstacle/echo-0"
     assert verdict.zone is SafetyZone.STOP  # 5 cm from the robot, surface to surface
+
+
+@pytest.mark.parametrize("scanned", [{}, {"ring": 80}, {"ring": 2000}])  # never, old, future
+def test_a_ring_whose_scans_stopped_counts_as_down(scanned) -> None:
+    """A ring frozen while it saw nothing says it is on and reports nothing: only its
+    heartbeat (``scantime``, with every scan) tells it from a ring that sees an empty
+    room. Its latest scan older than ``max_scan_age_ms`` (500 ms without a scenario),
+    never reported, or after now: down, so the robot drives only where the camera looks
+    (before, it reversed at full speed into a child who walked behind it)."""
+    world_map = room(seen(4.0, at_ms=600))
+    world_map.sonars.append(Sonar(id="ring", isonline=True))
+    reverse = Velocity(-0.5, 0.0, 0.0)
+    back, event = supervise(reverse, world_map, now_ms=600, scanned=scanned)
+    assert back.velocity[:2] == (0.0, 0.0) and back.zone is SafetyZone.BLIND
+    assert event is not None and event.zone is SafetyZone.BLIND
+    scanning = {"ring": 100}  # 500 ms ago: still scanning
+    assert supervise(reverse, world_map, now_ms=600, scanned=scanning)[0].zone is None
+
+
+def test_an_echo_is_gone_only_once_every_ring_has_scanned_since_it_reported_it() -> None:
+    """A slow ring (scans 2 s apart, a short hold here to tell the two apart): an echo it
+    no longer reports, reported after the ring's latest scan, is kept until the ring has
+    scanned again, however long ago the report."""
+    slow = SafetyConfig(robot_radius_m=0.3, echo_hold_ms=100, max_scan_age_ms=2000)
+    behind = room(seen(4.0, at_ms=2000))
+    behind.sonars.append(Sonar(id="ring", isonline=True))
+    behind.obstacles.append(echo(0.6, at_ms=0))
+    heard = live(behind, 2000) | {("Obstacle", "echo-0"): 150}
+    supervisor = SafetySupervisor(slow, LIMITS, tick_ms=TICK_MS)
+    args = {"now_ms": 2000, "heard": heard, "supervisor": supervisor}
+    reverse = Velocity(-0.5, 0.0, 0.0)
+    assert supervise(reverse, behind, scanned={"ring": 100}, **args)[0].zone is SafetyZone.STOP
+    assert supervise(reverse, behind, scanned={"ring": 1980}, **args)[0].zone is None

@@ -398,3 +398,25 @@ def test_heard_keeps_only_the_sensors_the_map_has_room_for():
     producer.consume(100)
     assert producer.heard == {("Camera", "0"): 100, ("Camera", "1"): 100}
     assert [c.id for c in producer.perceived.cameras] == ["0", "1"]
+
+
+def test_a_rings_scan_time_is_noted_for_the_supervisor_and_leaves_both_maps_alone():
+    """The ring's heartbeat is not the thesis's map: neither map changes (no rule runs for
+    it), and only a sonar the perceived map holds is noted (a flood of ids grows nothing)."""
+    world, producer = fresh()
+    producer.submit(upd("Sonar/ring", "scantime", "80"))
+    assert not producer.changes_pending
+    producer.submit(upd("Sonar/ring", "isonline", "s_true"))
+    assert producer.changes_pending
+    producer.submit(upd("Sonar/other", "scantime", "90"))  # no such sonar: not noted
+    producer.consume(100)
+    assert producer.scanned == {"ring": 80}
+    shared, perceived = msgspec.to_builtins(world), msgspec.to_builtins(producer.perceived)
+    producer.submit(upd("Sonar/ring", "scantime", "150"))
+    producer.submit(upd("Sonar/ring", "scantime", "200"))  # R: the latest of a tick
+    assert producer.pending and not producer.changes_pending  # the loop need run no rule
+    assert producer.consume(200) == []
+    assert producer.scanned == {"ring": 200}
+    assert msgspec.to_builtins(world) == shared
+    assert msgspec.to_builtins(producer.perceived) == perceived
+    assert [s.id for s in world.sonars] == ["ring"]

@@ -52,6 +52,7 @@ INT_ATTRS = {
     "height",
     "fps",
     "scanfrequency",
+    "scantime",
     "batterytimeleft",
     "elapsedtime",
     "startingtime",

@@ -46,6 +46,7 @@ VALID = [
     ("Camera/front", "fps", "30", 30),
     ("Sonar/s1", "isonline", "s_true", True),
     ("Sonar/s1", "scanfrequency", "10", 10),
+    ("Sonar/s1", "scantime", "2400", 2400),
     ("Human/3", "poses", POSE, Pose(positionrho=1.5, positiontheta=-0.25, positionchangetime=40)),
     ("Human/3", "tracking", TRACK, Tracking(permanencetime=300, appearanceon=20)),
     (
