@@ -616,6 +616,7 @@ class ActuatorOutputs(Message):
     audio: str = ""
     """Track being played; empty is silence."""
     brake: bool = False
-    """Take this velocity at once, beyond the ramp's acceleration: a protective stop (the
+    """Brake to this velocity at once, beyond the comfort ramp (the base sheds its speed at
+    its own braking rate: the simulated one at ``max_accel_mps2``): a protective stop (the
     safety lock released, or the safety supervisor cut the velocity). Never faster than
     the velocity it replaces."""

@@ -177,7 +177,7 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     it has seen them but for a chance of :data:`MISSED`) and acted on at the next tick; by
     then the robot, at its top speed, and the person, walking at ``human_speed_mps``, may
     have closed in by their speeds times that delay; then the robot brakes, at
-    ``max_accel_mps2`` (a real base cannot stop at once, as the simulated one does), while
+    ``max_accel_mps2`` (no base stops at once), while
     the person walks on. The ring must reach farther than all that, plus both radii, the
     stop distance and the sensing error."""
     sensors, robot = scenario.sensors, scenario.robot

@@ -1,9 +1,9 @@
 """The safety supervisor: speed and separation monitoring below every source of motion.
 
-In the spirit of ISO 13482 and ISO/TS 15066, it limits the robot's velocity
-*towards* each human by their surface-to-surface distance, taken from the map the
-sensors alone made (``MapProducer.perceived``: what they said, never the simulator's
-ground truth, and nothing a rule or script wrote):
+In the spirit of ISO 13482 and ISO/TS 15066, it limits the robot's velocity *towards* each
+human by their surface-to-surface distance ``s``, taken from the map the sensors alone made
+(``MapProducer.perceived``: never the simulator's truth, nothing a rule or script wrote).
+docs/actuator-and-joystick.md tells it whole; in short:
 
 | zone (surface distance ``s``)      | velocity towards the human                      |
 |------------------------------------|-------------------------------------------------|
@@ -11,56 +11,29 @@ ground truth, and nothing a rule or script wrote):
 | ``stop_distance_m <= s < slow``    | at most ``slow_speed_mps``, and braking room    |
 | ``s < stop_distance_m``            | none: a protective stop of the closing component |
 
-A protective stop holds until ``s`` is back to halfway between the stop and slow
-distances (hysteresis): the margin shrinks with each fresh camera frame, and
-without it the robot would creep in, frame by frame.
+A protective stop holds until ``s`` is halfway back to the slow zone (hysteresis: the margin
+shrinks with each camera frame). Moving away and sideways stays allowed. ``s`` is the
+centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age +
+one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion is
+dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` (a cut is
+braked to, not taken at once). Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s -
+stop``, a tick at ``c``, braking at ``a`` while the human walks on (a bound that falls no
+faster than the base can brake). Inside the stop zone ``v`` may not point at any point of the
+uncertainty disc (a cone).
 
-Moving away and sideways stays allowed. ``s`` is conservative: the map's
-centre distance, less both radii, less an *uncertainty margin*
-``sensing_error_m + human_speed_mps * (age + one tick)`` that covers how far the
-human may have walked since the reading (age capped at ``max_data_age_ms``).
-Between readings the robot's own motion since the reading is dead-reckoned from
-the velocities the supervisor let through, so a 10 Hz camera does not let it
-close in. With the camera offline (or none reported), every sonar reported
-offline, or a human's data older than ``max_data_age_ms``, all linear motion is
-capped at ``slow_speed_mps``; with no sensor reported online (every one offline, or
-none reported yet: nothing senses the room), there is none. A sensor counts as online
-only while its status keeps coming: one last heard more than ``max_status_age_ms`` ago
-(a dead link: its last word was "on") counts as offline, and one last heard more than
-three quarters of that ago (a status late: the link may be dying) caps linear motion at
-``slow_speed_mps``. A sonar counts as on only while its heartbeat (``scantime``, sent with
-each scan) is no older than ``max_scan_age_ms``: one whose latest scan is older, or that
-never reported one, is down, as one offline is (frozen while it saw nothing, it still says
-it is on, and would pass for a ring that sees an empty room).
+Sensing: a camera offline (or none), every sonar down, or a human's reading older than
+``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
+``slow_speed_mps``; no sensor on: none. A sensor is on only while its status keeps coming
+(``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
+heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
+still says it is on). The ring's echoes (obstacles not fixed) are kept as anonymous humans
+unless a fresh reading of a tracked human explains them; one no longer reported is gone once
+every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated with an old
+reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
+repeats an old echo, linear motion stays inside the camera's view (``camera_fov_rad``).
 
-The front camera does not see behind the robot: a person it never saw is not among
-the map's humans. Bodies a sensor reports as obstacles that are not fixed
-(``isfixed`` false: the sonar ring's echoes of anything that moves, all around) are
-therefore kept at the same distances, as anonymous humans, unless the echo is a human
-the map tracks: placed within both readings' errors and the walk between them, and never
-farther than ``human_radius_m``, of that human's fresh reading. An echo whose reading is
-older than ``max_data_age_ms`` and no longer reported is a body that left the sonar's
-range (the ring scans all the time) once every sonar has scanned since it last reported
-it and ``echo_hold_ms`` have passed since (a ring misses a body now and then):
-until then (a link that may have died with it, a missed detection) it is kept where it was.
-One still reported with an old reading (a sonar repeating itself, frozen, or lagging),
-or one a sonar that is down (offline, silent, late, its scans old) may have made, is kept
-too, stale: it caps linear motion at ``slow_speed_mps`` as a stale human does. A reading
-taken more than a tick after the supervisor's now (a sensor's clock ahead) is stale too.
-Fixed obstacles (furniture) are not limited. While a sonar is down, or repeats an old
-reading (frozen: it still says it is on, and sees nothing new), nothing sees beside or
-behind the robot, where a child may have walked since: linear motion is kept
-inside the camera's field of view (``camera_fov_rad``, centred ahead), projected onto its
-nearer edge, so that the robot drives only where a working sensor looks.
-
-Inside the stop zone the allowed velocities form a cone: ``v`` may not point at
-any point of the uncertainty disc, so the closing speed towards the true centre
-is zero however the human moved (at up to ``human_speed_mps``). Outside it, the
-closing component is cut so that the robot, braking at ``max_accel_mps2``, stays
-out of the stop zone (``c * dt + c**2 / (2 a) <= s - stop``).
-
-It is not a rule: the loop calls it after the actuator every tick, and no
-alfa/omega message, script or joystick input reaches it. No clock, no IO.
+It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
+message, script or joystick input reaches it. No clock, no IO.
 """
 
 from __future__ import annotations
@@ -142,6 +115,10 @@ class SafetySupervisor:
         self._dt_s = tick_ms / 1000
         # odometry: the robot's pose in its own start frame, at each recent tick
         self._pose = (0.0, 0.0, 0.0)
+        self._moving = (0.0, 0.0)
+        """The base's body-frame linear velocity as the dead reckoning takes it, m/s: it
+        follows the velocities let through at ``max_accel_mps2`` at most (a cut velocity
+        is braked to, not taken at once)."""
         self._history: deque[tuple[int, tuple[float, float, float]]] = deque(
             maxlen=config.max_data_age_ms // tick_ms + 3
         )
@@ -358,7 +335,10 @@ class SafetySupervisor:
             return _Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
         gap = surface - config.stop_distance_m
         a = self._limits.max_accel_mps2
-        cap = -a * self._dt_s + math.sqrt((a * self._dt_s) ** 2 + 2 * a * gap)
+        # c * dt + c**2 / (2 a) + walk * c / a <= gap: a tick at c, braking at a, and the
+        # human walking on meanwhile (the cap then falls no faster than the base brakes)
+        lead = a * self._dt_s + config.human_speed_mps  # type: ignore[operator]  # filled
+        cap = -lead + math.sqrt(lead**2 + 2 * a * max(gap, 0.0))
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
         return _Constraint(key, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
@@ -421,14 +401,21 @@ class SafetySupervisor:
         return self._history[0][1]
 
     def _advance(self, velocity: Velocity) -> None:
-        """Dead reckoning: the world applies the body-frame velocity with the heading at
-        the start of the step, and turns at ``v_theta``."""
+        """Dead reckoning: the base moves towards the body-frame velocity let through,
+        changing by ``max_accel_mps2`` at most (braking a cut takes time), with the heading
+        at the start of the step, and turns at ``v_theta``."""
         x, y, theta = self._pose
         dt = self._dt_s
+        v_x, v_y = self._moving
+        d_x, d_y = velocity.v_x - v_x, velocity.v_y - v_y
+        change, most = math.hypot(d_x, d_y), self._limits.max_accel_mps2 * dt
+        if change > most:
+            d_x, d_y = d_x * most / change, d_y * most / change
+        v_x, v_y = self._moving = (v_x + d_x, v_y + d_y)
         cos, sin = math.cos(theta), math.sin(theta)
         self._pose = (
-            x + dt * (cos * velocity.v_x - sin * velocity.v_y),
-            y + dt * (sin * velocity.v_x + cos * velocity.v_y),
+            x + dt * (cos * v_x - sin * v_y),
+            y + dt * (sin * v_x + cos * v_y),
             theta + dt * velocity.v_theta,
         )
 

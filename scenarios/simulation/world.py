@@ -6,7 +6,9 @@ moved by their behaviours (they push the ball and the robot, nothing pushes them
 the robot is a dynamic disc whose velocity is set every step from the actuator's
 body-frame command, within its speed and acceleration limits, like the thesis's
 zero-friction omni-directional base (section 5.2): no drift, no sliding after a stop.
-A braking command (``ActuatorOutputs.brake``: a protective stop) is taken at once.
+A braking command (``ActuatorOutputs.brake``: a protective stop) is braked to at
+``max_accel_mps2``, as every change is: no base stops at once, and the safety supervisor
+plans for that rate.
 Walls and furniture stop it physically; a push never leaves it faster than its
 speed limits (the drive re-clamps after every step).
 
@@ -240,12 +242,11 @@ class World:
         omega = min(max(outputs.v_theta, -top_spin), top_spin)
         cos, sin = math.cos(motion.angle_rad), math.sin(motion.angle_rad)
         want_x, want_y = cos * vx - sin * vy, sin * vx + cos * vy
-        if not outputs.brake:
-            dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
-            change = math.hypot(dx, dy)
-            if change > limit:
-                dx, dy = dx * limit / change, dy * limit / change
-            want_x, want_y = capped(motion.vx_mps + dx, motion.vy_mps + dy, top)
+        dx, dy = want_x - motion.vx_mps, want_y - motion.vy_mps
+        change = math.hypot(dx, dy)
+        if change > limit:
+            dx, dy = dx * limit / change, dy * limit / change
+        want_x, want_y = capped(motion.vx_mps + dx, motion.vy_mps + dy, top)
         turn = min(max(omega - motion.omega_radps, -turn_limit), turn_limit)
         self._robot.drive(want_x, want_y, motion.omega_radps + turn)
 

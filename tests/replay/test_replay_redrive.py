@@ -434,7 +434,7 @@ def test_replay_cli_exits_0_with_counts_in_both_modes_and_1_at_a_divergence(
     out = capsys.readouterr().out
     assert "redrive replay" in out and "identical:" in out and "/rules/decisions" in out
     assert main(["replay", str(recording), "--mode", "rerun"]) == 0
-    assert "/world/state        248" in capsys.readouterr().out
+    assert "/world/state        249" in capsys.readouterr().out
     tampered = tmp_path / "t.mcap"
     rewrite(
         recording,

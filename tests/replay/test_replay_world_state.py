@@ -27,7 +27,7 @@ def test_a_fresh_recording_reruns_clean_world_state_included(recording: Path) ->
     # 300 ticks: the states of every second tick, of the ticks of a contact and after one,
     # and of the last, 299
     world = [m.tick for m in open_recording(recording).iter_messages([Topic.WORLD_STATE])]
-    assert comparison.compared[Topic.WORLD_STATE.value] == len(world) == 248
+    assert comparison.compared[Topic.WORLD_STATE.value] == len(world) == 249
     assert world[-1] == 299 and set(range(0, 300, 2)) <= set(world)
     assert sum(comparison.compared.values()) == sum(
         n for t, n in open_recording(recording).summary.items() if not t.startswith("/foxglove")

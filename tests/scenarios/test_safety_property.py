@@ -7,7 +7,9 @@ step the ground truth must show:
 
 1. the robot's speed never exceeds ``max_speed_mps`` (beyond float rounding, 1e-9);
 2. its closing speed towards any human *inside the stop zone* is zero (<= 1e-9);
-3. it stands still one tick after the safety lock is released.
+3. once the safety lock is released it brakes at once, at ``max_accel_mps2`` (its speed
+   falls by that much a tick), to a stand (the simulated base, as a real one, cannot
+   stop at once: the supervisor plans with that braking).
 
 "Inside the stop zone" is measured on the ground truth, after the step: the
 centre distance between robot and human, less the robot's radius (0.3 m) and the
@@ -60,6 +62,9 @@ TICK_MS = 20
 MAX_SPEED_MPS = 0.5
 RADII_M = 0.3 + 0.25
 STOP_DISTANCE_M = 0.1
+MAX_ACCEL_MPS2 = 1.0
+BRAKE_PER_TICK = MAX_ACCEL_MPS2 * TICK_MS / 1000
+"""What the base sheds of its speed in a tick, braking at ``max_accel_mps2``."""
 PUSH_TICKS = 25
 """Ticks after a contact that (2) and (3) skip: 0.5 s, braking a 0.5 m/s push at 1 m/s²."""
 
@@ -325,10 +330,13 @@ def assert_safe(memory: MemorySink, all_round: bool) -> None:
     states: list[WorldState] = memory.on(Topic.WORLD_STATE)  # type: ignore[assignment]
     pushed_until = -1
     speeds = {}
+    fastest = {}  # the most each recorded speed may have been (cut towards zero)
     for state in states:
         robot = state.robot
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         speeds[state.tick] = speed
+        step = 10.0**-STATE_DECIMALS
+        fastest[state.tick] = math.hypot(abs(robot.vx_mps) + step, abs(robot.vy_mps) + step)
         assert speed <= MAX_SPEED_MPS + 1e-9, f"tick {state.tick}: {speed} m/s"
         if state.contacts:
             pushed_until = state.tick + PUSH_TICKS
@@ -351,6 +359,7 @@ def assert_safe(memory: MemorySink, all_round: bool) -> None:
         and any(c.channel == "move" and c.source is Source.SCRIPT for c in m.commands)
     }
     contacts = [s.tick for s in states if s.contacts]
+    locking = {p.tick for p in memory.on(Topic.JOYSTICK) if "LB" in p.buttons}  # type: ignore[attr-defined]
     locked = False
     for pad in memory.on(Topic.JOYSTICK):
         assert isinstance(pad, JoystickInput)
@@ -363,4 +372,10 @@ def assert_safe(memory: MemorySink, all_round: bool) -> None:
         if any(n - PUSH_TICKS <= c <= n + 1 for c in contacts):
             continue
         event("the lock released")
-        assert speeds[n + 1] <= 1e-9, f"still moving at {speeds[n + 1]} m/s after release"
+        braked = max(0.0, fastest[n] - BRAKE_PER_TICK)
+        assert speeds[n + 1] <= braked + 1e-9, f"{speeds[n + 1]} m/s after release"
+        stands = n + 1 + math.ceil(fastest[n] / BRAKE_PER_TICK - 1e-9)
+        window = range(n, stands + 1)  # no script, push or lock held again meanwhile
+        if stands in speeds and not set(window) & (script_moves | set(contacts) | locking):
+            event("the lock released, and the robot braked to a stand")
+            assert speeds[stands] <= 1e-9, f"still moving at tick {stands} after release"

@@ -45,22 +45,28 @@ def test_far_from_everyone_full_speed_passes_untouched() -> None:
 
 
 def test_in_the_slow_zone_the_closing_speed_is_capped_and_the_sideways_part_kept() -> None:
-    verdict, event = supervise(Velocity(0.5, 0.3, 0.2), room(seen(centre_at(0.3))))
+    verdict, event = supervise(Velocity(0.5, 0.3, 0.2), room(seen(centre_at(0.45))))
     assert verdict.velocity.v_x == pytest.approx(0.2)
     assert verdict.velocity.v_y == 0.3
     assert verdict.velocity.v_theta == 0.2
     assert verdict.zone is SafetyZone.SLOW
     assert event is not None and event.phase is SafetyPhase.START
     assert event.human == "child"
-    assert event.surface_distance_m == pytest.approx(0.3)
+    assert event.surface_distance_m == pytest.approx(0.45)
     assert event.requested == (0.5, 0.3, 0.2)
     assert event.allowed == pytest.approx((0.2, 0.3, 0.2))
 
 
 def test_near_the_stop_zone_the_closing_speed_leaves_braking_room() -> None:
-    # 1 cm from the stop zone: c*dt + c^2/(2a) <= 0.01 gives c = 0.1226 m/s
+    """Braking at max_accel_mps2 (1 m/s²) while the human may walk on at 1 m/s: 1 cm from
+    the stop zone, c*dt + c^2/(2a) + walk*c/a <= 0.01 gives c = 0.0098 m/s; 20 cm from
+    it, 0.1800 m/s (below the slow speed)."""
     verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), room(seen(centre_at(0.11))))
-    assert verdict.velocity.v_x == pytest.approx(-0.02 + math.sqrt(0.02**2 + 0.02), abs=1e-9)
+    lead = 0.02 + 1.0
+    assert verdict.velocity.v_x == pytest.approx(-lead + math.sqrt(lead**2 + 0.02), abs=1e-9)
+    farther, _ = supervise(Velocity(0.5, 0.0, 0.0), room(seen(centre_at(0.3))))
+    assert farther.velocity.v_x == pytest.approx(-lead + math.sqrt(lead**2 + 0.4), abs=1e-9)
+    assert farther.zone is SafetyZone.SLOW
 
 
 @pytest.mark.parametrize("bearing", [0.0, 1.0, -2.5, math.pi])
@@ -181,19 +187,42 @@ def test_a_sensor_never_heard_from_counts_as_offline_whatever_the_map_says() -> 
 
 def test_between_readings_the_robot_own_motion_is_dead_reckoned() -> None:
     # One reading, 1.2 m ahead, never refreshed (ages allowed long, no human motion): the
-    # robot asks 0.5 m/s every tick and must still stop short of the stop zone.
+    # robot asks 0.5 m/s every tick and must still stop short of the stop zone, its base
+    # following what is let through at max_accel_mps2 (1 m/s²), as the simulated one does.
     config = SafetyConfig(robot_radius_m=0.3, max_data_age_ms=60_000, human_speed_mps=0.0)
     supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
     world_map = room(seen(1.2))
-    travelled = 0.0
+    travelled = speed = 0.0
     for tick in range(200):
         verdict, _ = supervise(
             Velocity(0.5, 0.0, 0.0), world_map, now_ms=tick * TICK_MS, supervisor=supervisor
         )
-        travelled += verdict.velocity.v_x * TICK_MS / 1000
+        step = 1.0 * TICK_MS / 1000
+        speed = min(max(verdict.velocity.v_x, speed - step), speed + step)
+        travelled += speed * TICK_MS / 1000
     assert verdict.velocity.v_x == pytest.approx(0.0, abs=1e-3)
     assert 1.2 - travelled - RADII_M - 0.02 >= 0.1 - 1e-9
     assert 1.2 - travelled - RADII_M - 0.02 == pytest.approx(0.1, abs=5e-3)
+
+
+def test_dead_reckoning_takes_a_stop_to_be_braked_not_taken_at_once() -> None:
+    """The robot drives at 0.5 m/s, then stops: its base sheds 1 m/s² (max_accel_mps2), so
+    it rolls on 0.12 m after the stop is let through. The reckoned pose counts that roll:
+    a child 1.52 m ahead ends 0.45 m away, in the slow zone (taken at once, 0.57 m)."""
+    config = SafetyConfig(robot_radius_m=0.3, max_data_age_ms=60_000, human_speed_mps=0.0)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    world_map = room(seen(1.52))
+    travelled = speed = 0.0
+    for tick in range(100):
+        request = Velocity(0.5 if tick < 50 else 0.0, 0.0, 0.0)
+        verdict, _ = supervise(request, world_map, now_ms=tick * TICK_MS, supervisor=supervisor)
+        assert verdict.velocity == request  # nothing limited on the way
+        speed = min(max(request.v_x, speed - 0.02), speed + 0.02)
+        travelled += speed * TICK_MS / 1000
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), world_map, now_ms=2000, supervisor=supervisor)
+    assert verdict.zone is SafetyZone.SLOW and verdict.velocity.v_x == pytest.approx(0.2)
+    assert verdict.surface_distance_m == pytest.approx(1.52 - RADII_M - 0.02 - travelled, abs=1e-4)
+    assert travelled == pytest.approx(0.13 + 0.25 + 0.12)
 
 
 @pytest.mark.parametrize("max_age_ms", [60_000, 100])
