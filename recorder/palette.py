@@ -29,6 +29,7 @@ COLOURS: Final[dict[str, RGB]] = {
     "object": (80, 200, 110),
     "obstacle": (150, 125, 95),
     "arena": (120, 120, 135),
+    "door": (90, 200, 170),
     "grid": (125, 128, 140),
     "slow-zone": (240, 200, 40),
     "stop-zone": (240, 60, 50),

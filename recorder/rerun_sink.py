@@ -305,6 +305,18 @@ class RerunSink:
             ),
             static=True,
         )
+        if scene.door is not None:
+            log(
+                "world/door",
+                rr.LineStrips2D(
+                    [[_xy(*end) for end in scene.door]],
+                    colors=palette.colour("door"),
+                    radii=0.05,
+                    labels=["door"],
+                    draw_order=_ARENA,
+                ),
+                static=True,
+            )
         boxes = [o for o in scene.obstacles if not o.is_disc]
         discs = [o for o in scene.obstacles if o.is_disc]
         if boxes:

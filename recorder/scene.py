@@ -57,3 +57,28 @@ class SceneGeometry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     obstacles: tuple[ObstacleGeometry, ...] = ()
     safety: SafetyZones = SafetyZones()
     """The safety supervisor's zones as the recorded session configured them."""
+    door: tuple[tuple[float, float], tuple[float, float]] | None = None
+    """The door people who leave walk out by, as the ends of its opening on the wall, m
+    (None: a recording from before it was kept)."""
+
+
+DOOR_WIDTH_M = 0.9
+"""How wide the door drawn where people leave is, m."""
+
+
+def door_on_wall(
+    width_m: float, height_m: float, exit_xy: tuple[float, float]
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The ends of a door ``DOOR_WIDTH_M`` wide on the wall nearest ``exit_xy`` (the exit
+    people walk to), centred where the exit meets that wall and kept on it."""
+    x, y = exit_xy
+    walls = ((x, "left"), (width_m - x, "right"), (y, "bottom"), (height_m - y, "top"))
+    side = min(walls)[1]
+    along, length = (y, height_m) if side in ("left", "right") else (x, width_m)
+    half = min(DOOR_WIDTH_M, length) / 2
+    low = min(max(along - half, 0.0), length - 2 * half)
+    if side in ("left", "right"):
+        at = 0.0 if side == "left" else width_m
+        return (at, low), (at, low + 2 * half)
+    at = 0.0 if side == "bottom" else height_m
+    return (low, at), (low + 2 * half, at)

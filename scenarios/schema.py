@@ -198,6 +198,11 @@ class WorldSpec(Spec, kw_only=True):
     obstacles: list[ObstacleSpec] = []
     objects: list[ObjectSpec] = []
 
+    @property
+    def exit_point(self) -> tuple[float, float]:
+        """Where humans who ``leave`` walk to, m."""
+        return (self.exit_x_m, self.height_m / 2 if self.exit_y_m is None else self.exit_y_m)
+
 
 class RobotSpec(Spec, kw_only=True):
     """The omni-directional robot (thesis 5.2): start pose and limits."""

@@ -20,7 +20,7 @@ from oimi.recorder.outputs import (
     partial_path,
 )
 from oimi.recorder.rerun_sink import RerunSink
-from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry
+from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry, door_on_wall
 from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.info import SESSION_RECORD, SessionInfo, TickCounter
@@ -51,6 +51,7 @@ def scene_of(scenario: Scenario) -> SceneGeometry:
             stop_m=scenario.robot.safety.stop_distance_m,
             slow_m=scenario.robot.safety.slow_distance_m,
         ),
+        door=door_on_wall(world.width_m, world.height_m, world.exit_point),
     )
 
 

@@ -93,11 +93,7 @@ class World:
         self.tick_ms = scenario.tick_ms
         self.step_s = self.tick_ms / 1000
         spec = scenario.world
-        self.arena = Arena(
-            spec.width_m,
-            spec.height_m,
-            (spec.exit_x_m, spec.exit_y_m if spec.exit_y_m is not None else spec.height_m / 2),
-        )
+        self.arena = Arena(spec.width_m, spec.height_m, spec.exit_point)
         self.space = pymunk.Space()
         self.space.threads = 1
         self.space.gravity = (0.0, 0.0)

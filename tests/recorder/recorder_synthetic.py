@@ -55,6 +55,7 @@ SCENE = SceneGeometry(
         ObstacleGeometry(id="table", kind="table", x_m=1.0, y_m=3.0, width_m=1.2, height_m=0.6),
         ObstacleGeometry(id="pillar", kind="pillar", x_m=5.0, y_m=1.0, radius_m=0.3),
     ),
+    door=((0.0, 1.55), (0.0, 2.45)),
 )
 
 

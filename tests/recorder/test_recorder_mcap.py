@@ -327,6 +327,7 @@ def test_foxglove_draws_the_arena_once_moves_bodies_by_transforms_and_redraws_on
     assert [t for t, _ in arena] == [0]  # the last message before any time: after a seek too
     assert [e["id"] for e in arena[0][1]["entities"]] == [
         "arena",
+        "door",
         "obstacle/table",
         "obstacle/pillar",
     ]

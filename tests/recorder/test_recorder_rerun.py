@@ -30,6 +30,7 @@ def entity_paths(path: Path) -> set[str]:
 
 EXPECTED_ENTITIES = {
     "/world/arena",
+    "/world/door",
     "/world/obstacles/boxes",
     "/world/obstacles/discs",
     "/world/robot",

@@ -267,6 +267,23 @@ def test_the_scene_carries_the_sessions_zones_to_the_view() -> None:
     assert scene_of(scenario).safety == SafetyZones(stop_m=0.2, slow_m=0.9)
 
 
+@pytest.mark.parametrize(
+    ("exit_xy", "door"),
+    [
+        ((0.0, 2.5), ((0.0, 2.05), (0.0, 2.95))),  # the default: the left wall's middle
+        ((6.0, 1.0), ((6.0, 0.55), (6.0, 1.45))),  # the right wall
+        ((3.0, 5.0), ((2.55, 5.0), (3.45, 5.0))),  # the top
+        ((0.2, 0.1), ((0.0, 0.0), (0.9, 0.0))),  # a corner: the nearer wall, kept on it
+    ],
+)
+def test_the_door_is_drawn_on_the_wall_nearest_the_exit(exit_xy, door) -> None:
+    """People who leave walk to the scenario's exit: the viewers draw a door there."""
+    from oimi.recorder.scene import door_on_wall
+
+    ends = door_on_wall(6.0, 5.0, exit_xy)
+    assert [v for end in ends for v in end] == pytest.approx([v for end in door for v in end])
+
+
 def test_the_session_report_draws_each_person_in_their_palette_colour() -> None:
     """The report's plots use the room view's colours: the first child is the palette's
     first child shade, the second the next one, the therapist the therapist's."""

@@ -405,6 +405,15 @@ function drawWorld() {
   g.strokeStyle = "#889";
   g.lineWidth = 2 * k;
   g.strokeRect(X(0), Y(scene.height_m), scene.width_m * scale, scene.height_m * scale);
+  if (scene.door) { // the door people leave by: its opening on the wall
+    const [[x0, y0], [x1, y1]] = scene.door;
+    g.strokeStyle = paint("door");
+    g.lineWidth = 6 * k;
+    g.beginPath();
+    g.moveTo(X(x0), Y(y0));
+    g.lineTo(X(x1), Y(y1));
+    g.stroke();
+  }
   g.fillStyle = paint("obstacle");
   for (const o of scene.obstacles || []) {
     if (o.radius_m > 0) {
