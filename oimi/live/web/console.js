@@ -413,6 +413,11 @@ function drawWorld() {
     g.moveTo(X(x0), Y(y0));
     g.lineTo(X(x1), Y(y1));
     g.stroke();
+    g.fillStyle = "#333";
+    g.font = `${Math.round(13 * k)}px system-ui`;
+    const width = g.measureText("door").width;
+    const labelX = Math.min(Math.max(X((x0 + x1) / 2) + 6 * k, 2), canvas.width - width - 2);
+    g.fillText("door", labelX, Math.max(Y((y0 + y1) / 2) - 6 * k, 14 * k));
   }
   g.fillStyle = paint("obstacle");
   for (const o of scene.obstacles || []) {
