@@ -212,8 +212,7 @@ OTHER_HUMAN_COLOR: Final = Color(r=0.6, g=0.3, b=0.8)
 OBJECT_COLOR: Final = Color(r=0.2, g=0.8, b=0.3)
 WALL_COLOR: Final = Color(r=0.35, g=0.35, b=0.4)
 OBSTACLE_COLOR: Final = Color(r=0.5, g=0.4, b=0.3)
-DOOR_COLOR: Final = Color(r=0.35, g=0.78, b=0.67)
-"""The door people leave by (the Rerun view's ``door`` colour)."""
+DOOR_COLOR: Final = Color(r=0.35, g=0.78, b=0.67)  # the door (the palette's ``door``)
 HEADING_COLOR: Final = Color(r=1.0, g=1.0, b=1.0)
 LABEL_COLOR: Final = Color(r=1.0, g=1.0, b=1.0)
 
@@ -264,22 +263,17 @@ def static_scene(scene: SceneGeometry, time_ns: int) -> SceneUpdate:
         for x, y, sx, sy in walls
     )
     entities = [SceneEntity(timestamp=t, id="arena", cubes=cubes)]
-    if scene.door is not None:
-        entities.append(_door(scene.door, k, t))
+    entities += [_door(scene.door, 1.5 * k, t)] if scene.door is not None else []
     entities.extend(_obstacle(obstacle, t) for obstacle in scene.obstacles)
     return SceneUpdate(entities=tuple(entities))
 
 
-def _door(
-    door: tuple[tuple[float, float], tuple[float, float]], thickness_m: float, t: Time
-) -> SceneEntity:
+def _door(door: tuple[tuple[float, float], ...], across_m: float, t: Time) -> SceneEntity:
     """The door: a coloured panel over its opening in the wall, a little proud of it."""
     (x0, y0), (x1, y1) = door
-    across = 1.5 * thickness_m
-    size = (abs(x1 - x0) or across, abs(y1 - y0) or across, WALL_HEIGHT_M + 0.01)
     panel = CubePrimitive(
         pose=Pose(position=Vector3(x=(x0 + x1) / 2, y=(y0 + y1) / 2, z=WALL_HEIGHT_M / 2)),
-        size=Vector3(x=size[0], y=size[1], z=size[2]),
+        size=Vector3(x=abs(x1 - x0) or across_m, y=abs(y1 - y0) or across_m, z=WALL_HEIGHT_M),
         color=DOOR_COLOR,
     )
     return SceneEntity(timestamp=t, id="door", cubes=(panel,))
