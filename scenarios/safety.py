@@ -63,6 +63,13 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         f"two of the sensors' status_period_s {period_s!r} ({two_periods_ms} ms): the"
         " supervisor would take them for offline between two reports and stop the robot",
     )
+    slower = min((sensors.rate_hz, "camera's frame"), (sensors.sonar_scan_hz, "sonar ring's scan"))
+    period_ms = math.ceil(1000 / slower[0] + scenario.tick_ms - 1e-6)
+    found["max_data_age_ms"] = Need(
+        period_ms,
+        f"the {slower[1]} and a tick ({period_ms} ms at {slower[0]!r} Hz): readings would"
+        " age past it between two reports, their margins short of the walk since",
+    )
     two_scans_ms = math.ceil(2 * 1000 / sensors.sonar_scan_hz - 1e-6)
     found["max_scan_age_ms"] = Need(
         two_scans_ms,

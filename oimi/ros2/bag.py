@@ -50,7 +50,7 @@ from oimi.recorder.reader import open_recording
 from oimi.ros2 import topics, types
 from oimi.ros2.bridge import rule_message, script_info
 from oimi.ros2.joy import joy_of, pad_of
-from oimi.ros2.remote import RemoteBody, RemoteSensors, odometry
+from oimi.ros2.remote import RemoteBody, odometry, remote_sensors
 from oimi.ros2.topics import RosTopic
 from oimi.scenarios.loader import LoadedScenario
 from oimi.scenarios.session.recording import recorded
@@ -286,7 +286,7 @@ def replay_rosbag(
     ticks run and notes on refused inputs."""
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
     body = RemoteBody(loaded.scenario.robot.radius_m)
-    sensors = RemoteSensors(max_data_age_ms=loaded.scenario.robot.safety.max_data_age_ms)
+    sensors = remote_sensors(loaded.scenario)
     session = BagSession(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own

@@ -43,7 +43,7 @@ from oimi.ros2 import topics, types
 from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.network import network_from_args
-from oimi.ros2.remote import RemoteBody, RemoteSensors, outputs_message
+from oimi.ros2.remote import RemoteBody, outputs_message, remote_sensors
 from oimi.scenarios.loader import LoadedScenario
 
 JOY_OWNER: Final = "ros2:/joy"
@@ -118,9 +118,7 @@ class BridgeSession(LiveSession):
         on_note: Callable[[str], None] | None = None,
     ) -> None:
         self.body = RemoteBody(loaded.scenario.robot.radius_m)
-        self.remote_sensors = RemoteSensors(
-            max_data_age_ms=loaded.scenario.robot.safety.max_data_age_ms
-        )
+        self.remote_sensors = remote_sensors(loaded.scenario)
         super().__init__(loaded, seed=seed, world=self.body, sensors=self.remote_sensors)
         self.network = node.network
         self.on_note = on_note

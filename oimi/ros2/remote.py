@@ -22,14 +22,15 @@ from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.pipeline.sense.updates import INT_MAX
 from oimi.pipeline.sink import NS_PER_MS
 from oimi.ros2 import types
-from oimi.scenarios.schema import BehaviourEvent, FaultEvent, TouchEvent
+from oimi.scenarios.safety import supervisor_config
+from oimi.scenarios.schema import BehaviourEvent, FaultEvent, Scenario, TouchEvent
 
 CLOCK_WINDOW_MS: Final = 5000
 """How long, in session time, a sample of the robot's clock counts (at least twice the
-scenario's ``max_data_age_ms``: :func:`clock_window_ms`). A robot whose clock jumps back,
-restarted, is followed within it (its readings look older meanwhile: the safe side); a
-frozen sensor's readings, repeated with their old times, cannot make them look younger than
-it (they look that old, stale)."""
+scenario's ``max_data_age_ms`` and ``max_scan_age_ms``: :func:`clock_window_ms`). A robot
+whose clock jumps back, restarted, is followed within it (its readings look older
+meanwhile: the safe side); a frozen sensor's readings, repeated with their old times,
+cannot make them look younger than it (they look that old, stale)."""
 TIMES: Final = {
     "poses": ("positionchangetime",),
     "tracking": ("appearanceon",),
@@ -47,10 +48,12 @@ BARE_TIMES: Final = frozenset({"startingtime", "scantime"})
 ``scantime``)."""
 
 
-def clock_window_ms(max_data_age_ms: int) -> int:
+def clock_window_ms(max_data_age_ms: int, max_scan_age_ms: int = 0) -> int:
     """The robot clock's window for a supervisor that takes readings older than
-    ``max_data_age_ms`` as stale: :data:`CLOCK_WINDOW_MS`, or twice that age if longer."""
-    return max(CLOCK_WINDOW_MS, 2 * max_data_age_ms)
+    ``max_data_age_ms`` as stale and a ring whose scan is older than ``max_scan_age_ms`` as
+    down: :data:`CLOCK_WINDOW_MS`, or twice the longer of them if longer (a time repeated
+    old looks as old as the window at most: it must look older than both)."""
+    return max(CLOCK_WINDOW_MS, 2 * max_data_age_ms, 2 * max_scan_age_ms)
 
 
 class RobotClock:
@@ -143,15 +146,25 @@ def _is_time(value: object) -> bool:
     return type(value) is int and 0 <= value <= INT_MAX
 
 
+def remote_sensors(scenario: Scenario) -> RemoteSensors:
+    """Remote sensors for a session of ``scenario``, their clock's window as long as its
+    supervisor needs (:func:`clock_window_ms`)."""
+    config = supervisor_config(scenario)
+    assert config.max_scan_age_ms is not None  # filled
+    return RemoteSensors(
+        max_data_age_ms=config.max_data_age_ms, max_scan_age_ms=config.max_scan_age_ms
+    )
+
+
 class RemoteSensors:
     """The map updates received, given to the session once, at the next tick, their times
     on the session's clock (``clock``, fed with the robot's odometry and the poses' times;
     before the first, a time is the tick's that takes it), none later than that tick."""
 
-    def __init__(self, *, max_data_age_ms: int = 500) -> None:
+    def __init__(self, *, max_data_age_ms: int = 500, max_scan_age_ms: int = 500) -> None:
         self._inbox: list[MapUpdate] = []
         self._seq = 0
-        self.clock = RobotClock(clock_window_ms(max_data_age_ms))
+        self.clock = RobotClock(clock_window_ms(max_data_age_ms, max_scan_age_ms))
         self.refused: list[str] = []
         """Why an update was refused before it reached the pipeline (read and cleared)."""
 

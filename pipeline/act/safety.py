@@ -11,15 +11,16 @@ docs/actuator-and-joystick.md tells it whole; in short:
 | ``stop_distance_m <= s < slow``    | at most ``slow_speed_mps``, and braking room    |
 | ``s < stop_distance_m``            | none: a protective stop of the closing component |
 
-A protective stop holds until ``s`` is halfway back to the slow zone (hysteresis: the margin
-shrinks with each camera frame). Moving away and sideways stays allowed. ``s`` is the
-centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age +
-one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion is
-dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` (a cut is
-braked to, not taken at once). Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s -
-stop``, a tick at ``c``, braking at ``a`` while the human walks on (a bound that falls no
-faster than the base can brake). Inside the stop zone ``v`` may not point at any point of the
-uncertainty disc (a cone).
+A protective stop holds until ``s`` is halfway back to the slow zone (hysteresis: the
+margin shrinks with each camera frame). Moving away and sideways stays allowed. ``s`` is
+the centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age
++ one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion
+is dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` and
+``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once).
+Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s - stop``, a tick at ``c``,
+braking at ``a`` while the human walks on (a bound that falls no faster than the base can
+brake). Inside the stop zone ``v`` may not point at any point of the uncertainty disc (a
+cone).
 
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
@@ -115,10 +116,11 @@ class SafetySupervisor:
         self._dt_s = tick_ms / 1000
         # odometry: the robot's pose in its own start frame, at each recent tick
         self._pose = (0.0, 0.0, 0.0)
-        self._moving = (0.0, 0.0)
-        """The base's body-frame linear velocity as the dead reckoning takes it, m/s: it
-        follows the velocities let through at ``max_accel_mps2`` at most (a cut velocity
-        is braked to, not taken at once)."""
+        self._moving = (0.0, 0.0, 0.0)
+        """The base's velocity as the dead reckoning takes it, in the odometry frame (m/s,
+        m/s, rad/s): it follows the velocities let through at ``max_accel_mps2`` and
+        ``max_angular_accel_radps2`` at most (a cut velocity, or a spin a lock release
+        ends, is braked to, not taken at once), as the simulated base does."""
         self._history: deque[tuple[int, tuple[float, float, float]]] = deque(
             maxlen=config.max_data_age_ms // tick_ms + 3
         )
@@ -401,23 +403,23 @@ class SafetySupervisor:
         return self._history[0][1]
 
     def _advance(self, velocity: Velocity) -> None:
-        """Dead reckoning: the base moves towards the body-frame velocity let through,
-        changing by ``max_accel_mps2`` at most (braking a cut takes time), with the heading
-        at the start of the step, and turns at ``v_theta``."""
+        """Dead reckoning: the base moves towards the velocity let through (turned into the
+        odometry frame with the heading at the start of the step), changing by
+        ``max_accel_mps2`` at most, and its turn towards ``v_theta`` by
+        ``max_angular_accel_radps2`` at most: it rolls and spins on after a cut."""
         x, y, theta = self._pose
-        dt = self._dt_s
-        v_x, v_y = self._moving
-        d_x, d_y = velocity.v_x - v_x, velocity.v_y - v_y
-        change, most = math.hypot(d_x, d_y), self._limits.max_accel_mps2 * dt
+        dt, limits = self._dt_s, self._limits
+        cos, sin = math.cos(theta), math.sin(theta)
+        v_x, v_y, omega = self._moving
+        d_x = cos * velocity.v_x - sin * velocity.v_y - v_x
+        d_y = sin * velocity.v_x + cos * velocity.v_y - v_y
+        change, most = math.hypot(d_x, d_y), limits.max_accel_mps2 * dt
         if change > most:
             d_x, d_y = d_x * most / change, d_y * most / change
-        v_x, v_y = self._moving = (v_x + d_x, v_y + d_y)
-        cos, sin = math.cos(theta), math.sin(theta)
-        self._pose = (
-            x + dt * (cos * v_x - sin * v_y),
-            y + dt * (sin * v_x + cos * v_y),
-            theta + dt * velocity.v_theta,
-        )
+        most_turn = limits.max_angular_accel_radps2 * dt
+        turn = min(max(velocity.v_theta - omega, -most_turn), most_turn)
+        v_x, v_y, omega = self._moving = (v_x + d_x, v_y + d_y, omega + turn)
+        self._pose = (x + dt * v_x, y + dt * v_y, theta + dt * omega)
 
 
 def _online(

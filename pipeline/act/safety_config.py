@@ -16,6 +16,7 @@ ASSUMED: Final[dict[str, float]] = {
     "human_radius_m": 0.25,  # unless a scenario's humans are larger
     "human_speed_mps": 1.0,  # unless a scenario's humans walk faster
     "sensing_error_m": 0.02,  # unless a scenario's sensor noise needs more
+    "max_data_age_ms": 500,  # unless a scenario's sensors report less often: a period
     "max_status_age_ms": 2000,  # unless a scenario's status period is longer: one report
     # of a status repeated every second may be missed
     "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
@@ -39,8 +40,12 @@ class SafetyConfig(Message):
     """Surface distance below which the closing speed is capped at ``slow_speed_mps``, m."""
     slow_speed_mps: float = 0.2
     """Largest closing speed in the slow zone, and largest speed when sensing is stale, m/s."""
-    max_data_age_ms: int = 500
-    """A human's position older than this (or a camera offline) is stale: slow-zone speed."""
+    max_data_age_ms: int | None = None
+    """A human's position older than this (or a camera offline) is stale: slow-zone speed;
+    the walk a reading's margin covers is capped at this age, ms; None: the longer of 500 and
+    a scenario's slower sensor's period (a camera frame or a sonar scan) and a tick (a
+    scenario may not set it below that: readings would age past it between two reports,
+    their margins short of the walk)."""
     human_speed_mps: float | None = None
     """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
     m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario

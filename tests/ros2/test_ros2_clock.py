@@ -110,6 +110,25 @@ def test_a_rings_scan_time_moves_to_the_session_and_a_frozen_one_ages() -> None:
         assert scan_time_at(30_790, now_ms) == 800
 
 
+def test_a_frozen_rings_scan_time_looks_older_than_any_scan_age_the_scenario_allows() -> None:
+    """The clock's window covers the supervisor's scan age too: a ring repeating its last
+    scan time, no /odom and nobody seen, looks older than ``max_scan_age_ms`` however
+    long that is (with a window of the data age alone, 5 s, a scan age of 4.8 s or more
+    let a frozen ring pass for a scanning one)."""
+    from oimi.scenarios.loader import parse_scenario
+
+    from oimi.ros2.remote import remote_sensors
+
+    text = b'name = "x"\n[robot.safety]\nmax_scan_age_ms = 8000\n'
+    sensors = remote_sensors(parse_scenario(text).scenario)
+    ages = []
+    for now_ms in range(0, 20_000, 200):
+        sensors.receive(update("Sonar/ring", "scantime", "1000"))  # frozen at its first scan
+        (moved,) = sensors.sample(None, tick=now_ms // 20, time_ms=now_ms)
+        ages.append(now_ms - int(moved.jsonmsg))
+    assert max(ages) > 8000
+
+
 @pytest.mark.parametrize("max_data_age_ms", [500, 4000])
 def test_a_sensor_frozen_on_an_old_reading_never_looks_fresh(max_data_age_ms):
     """Thesis-robot driver repeating its last pose with its old time, and no /odom: each

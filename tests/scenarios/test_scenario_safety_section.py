@@ -147,6 +147,23 @@ def test_left_out_the_status_age_covers_two_status_periods() -> None:
     assert pipeline_config(parse_scenario(slow).scenario).safety.max_status_age_ms == 3001
 
 
+def test_left_out_the_data_age_covers_the_slower_sensors_period_and_a_tick() -> None:
+    """A 1 Hz ring: its echoes are a second old before the next scan, so a 500 ms age
+    would cap their margins at half the walk (a child walking up behind a reversing robot
+    met it closing at 0.09 m/s inside the stop zone)."""
+    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert alone.max_data_age_ms == 500, "never below this"
+    slow = b'name = "x"\n[sensors]\nsonar_scan_hz = 1\n'
+    assert pipeline_config(parse_scenario(slow).scenario).safety.max_data_age_ms == 1020
+    camera = b'name = "x"\ntick_hz = 10\n[sensors]\nrate_hz = 2.5\n'
+    assert pipeline_config(parse_scenario(camera).scenario).safety.max_data_age_ms == 500
+    text = b'name = "x"\n[robot.safety]\nmax_data_age_ms = 500\n[sensors]\nrate_hz = 1.5\n'
+    assert refused(text).startswith(
+        "s.toml:3:1: robot.safety.max_data_age_ms (ms): 500 is below the camera's frame and a"
+        " tick (687 ms at 1.5 Hz): readings would age past it"
+    )
+
+
 def test_left_out_the_scan_age_covers_two_of_the_rings_scans() -> None:
     alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
     assert alone.max_scan_age_ms == 500, "never below this"

@@ -227,21 +227,27 @@ def test_dead_reckoning_takes_a_stop_to_be_braked_not_taken_at_once() -> None:
 
 @pytest.mark.parametrize("max_age_ms", [60_000, 100])
 def test_dead_reckoning_follows_the_robot_turning(max_age_ms: int) -> None:
-    # A reading ahead; the robot turns a quarter turn left: the human is now on its right,
-    # so driving forward stays free and driving right is stopped. With a short age the
-    # reading is stale long before the robot moves: it must still be placed with the
-    # heading the robot had when it was taken.
+    """A reading ahead; the robot turns a quarter turn left: the human is now on its right,
+    so driving forward stays free and driving right is stopped. The turn, as the actuator
+    asks it, ramps up at max_angular_accel_radps2 (3 rad/s²) to 1.5 rad/s and stops at
+    once (a lock release): 1.2 rad asked, and the base spins on 0.375 rad while it brakes
+    (ω²/2α), which the reckoning counts (it once took the spin to stop at once: 0.375 rad
+    off at each release, and a kept echo at the wrong bearing). With a short age the reading
+    is stale long before the robot moves: it must still be placed with the heading the robot
+    had when it was taken."""
     config = SafetyConfig(robot_radius_m=0.3, max_data_age_ms=max_age_ms, human_speed_mps=0.0)
     supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
     world_map = room(seen(0.6))  # in the stop zone: 0.6 - 0.55 - 0.02 < 0.1
-    spin = Velocity(0.0, 0.0, math.pi / 2)
-    for tick in range(50):  # 1 s at pi/2 rad/s
-        supervise(spin, world_map, now_ms=tick * TICK_MS, supervisor=supervisor)
-    ahead, _ = supervise(Velocity(0.3, 0.0, 0.0), world_map, now_ms=1000, supervisor=supervisor)
-    top = 0.3 if max_age_ms > 1000 else config.slow_speed_mps  # stale: the slow speed
+    spins = [0.06 * n for n in range(1, 26)] + [1.5] * 27 + [0.0] * 30
+    assert sum(spins) * TICK_MS / 1000 + 1.5**2 / (2 * 3.0) == pytest.approx(math.pi / 2, 3e-3)
+    for tick, spin in enumerate(spins):
+        supervise(Velocity(0.0, 0.0, spin), world_map, now_ms=tick * TICK_MS, supervisor=supervisor)
+    now = len(spins) * TICK_MS
+    ahead, _ = supervise(Velocity(0.3, 0.0, 0.0), world_map, now_ms=now, supervisor=supervisor)
+    top = 0.3 if max_age_ms > now else config.slow_speed_mps  # stale: the slow speed
     assert ahead.velocity.v_x == pytest.approx(top, abs=1e-3)  # bent a hair away (left)
     assert ahead.velocity.v_y >= 0.0
-    right, _ = supervise(Velocity(0.0, -0.3, 0.0), world_map, now_ms=1020, supervisor=supervisor)
+    right, _ = supervise(Velocity(0.0, -0.3, 0.0), world_map, now_ms=now, supervisor=supervisor)
     assert right.velocity.v_y == pytest.approx(0.0, abs=1e-9)
 
 
