@@ -99,8 +99,9 @@ class MapProducer:
         self.max_entities = max_entities
         self._pending: list[DecodedUpdate] = []
         self._pending_keys: set[tuple[EntityClass, str, str]] = set()
-        self._changes_pending = False
         """The keys of the pending updates (an ``R`` scans the queue only for one of them)."""
+        self._changes_pending = False
+        """Whether a pending update may change the map (one that is not a heartbeat)."""
         self.heard: dict[tuple[str, str], int] = {}
         """When each sensor's status (``isonline``) and each entity's reading (``poses``)
         was last applied, ms, by (class, id), for the entities the perceived map holds: a
