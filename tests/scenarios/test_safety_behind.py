@@ -210,3 +210,68 @@ def test_a_ring_frozen_while_it_saw_nothing_does_not_pass_for_an_empty_room(tmp_
     assert summary.min_surface_distance_m["child"] > 0.5
     travelled = 5.2 - session.world.robot_pose()[0]
     assert 0 < travelled < 0.5 * 0.7  # stopped within the scan age and a tick
+
+
+PUSHED_AGAINST_A_TABLE = """name = "ring offline, a child beside, the robot pushed against a table"
+duration_s = 16.0
+[world]
+width_m = 10.0
+height_m = 10.0
+[[world.obstacles]]
+id = "table"
+x_m = 5.9
+y_m = 5.0
+width_m = 1.0
+height_m = 4.0
+[robot]
+x_m = 5.0
+y_m = 5.0
+[[humans]]
+id = "child"
+x_m = 5.1476
+y_m = 5.8371
+behaviour = [{ kind = "stand" }]
+[[activities]]
+script = "still.txt"
+[[events]]
+at_s = 0.5
+kind = "fault"
+sensor = "sonar"
+mode = "offline"
+[[events]]
+at_s = 1.0
+kind = "joystick"
+left_y = 1.0
+buttons = ["LB"]
+[[events]]
+at_s = 9.0
+kind = "joystick"
+left_x = -1.0
+buttons = ["LB"]
+hold_s = 6.0
+"""
+STILL = """[still]
+[goal:g]
+[action]
+[b#b1#blk_inst: MV("0, 0, 0, 0, 16000") LD() AO()]
+[b#end#blk_terminus]
+"""
+
+
+def test_a_robot_pushed_against_furniture_with_the_ring_down_keeps_off_the_child(
+    tmp_path,
+) -> None:
+    """The ring goes offline with a child beside the robot (80 degrees left, 0.3 m surface
+    to surface): its last echo is kept. The operator pushes into a table for 8 s: the
+    table stops the robot, the dead reckoning (which does not see furniture) takes it 1.6 m
+    on. Then the operator pushes left, and the robot slides along the table towards the
+    child. With the ring down a kept reading's margin grows by the distance reckoned since
+    it, so the robot stays put (before, the echo was placed behind the robot and the robot
+    touched the child: robot-initiated, 0.18 m/s; found by an adversarial review)."""
+    (tmp_path / "still.txt").write_text(STILL)
+    (tmp_path / "s.toml").write_text(PUSHED_AGAINST_A_TABLE)
+    session = Session(load_scenario(tmp_path / "s.toml"))
+    session.run()
+    summary = session.result().summary
+    assert summary.contacts == 0 and summary.robot_initiated_contacts == 0
+    assert summary.min_surface_distance_m["child"] > 0.25
