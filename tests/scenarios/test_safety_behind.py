@@ -135,6 +135,16 @@ def test_with_the_ring_down_the_pad_cannot_reverse_into_the_child(mode) -> None:
     assert limited[0].zone is SafetyZone.BLIND and limited[0].allowed[:2] == (0.0, 0.0)
 
 
+def written(folder: Path, scenario: str, scripts: dict[str, str]) -> Session:
+    """The session of ``scenario`` (TOML text) run, written in ``folder`` with its scripts."""
+    for name, text in scripts.items():
+        (folder / name).write_text(text)
+    (folder / "s.toml").write_text(scenario)
+    session = Session(load_scenario(folder / "s.toml"))
+    session.run()
+    return session
+
+
 REVERSE = """[reverse]
 [goal:back]
 [action]
@@ -166,10 +176,7 @@ def test_a_ring_that_misses_the_child_now_and_then_does_not_forget_them(tmp_path
     for ``echo_hold_ms`` (4 s at 5 Hz, from the dropout), so the robot stays stopped at the
     stop zone's edge (before, it was taken for a body that left at the ring's next status:
     contact with seed 1, and 0.10 to 0.18 m with seeds 2 to 4)."""
-    (tmp_path / "reverse.txt").write_text(REVERSE)
-    (tmp_path / "s.toml").write_text(f"seed = {seed}\n" + DROPPING_RING)
-    session = Session(load_scenario(tmp_path / "s.toml"))
-    session.run()
+    session = written(tmp_path, f"seed = {seed}\n" + DROPPING_RING, {"reverse.txt": REVERSE})
     summary = session.result().summary
     assert summary.contacts == 0
     assert summary.min_surface_distance_m["child"] > 0.25
@@ -201,10 +208,7 @@ def test_a_ring_frozen_while_it_saw_nothing_does_not_pass_for_an_empty_room(tmp_
     the child then walks. The ring's heartbeat (``scantime``) stops advancing, so it counts
     as down and the robot drives only where the camera looks: it stops reversing (before,
     it reversed at full speed into the child)."""
-    (tmp_path / "reverse.txt").write_text(REVERSE)
-    (tmp_path / "s.toml").write_text(FROZEN_EMPTY)
-    session = Session(load_scenario(tmp_path / "s.toml"))
-    session.run()
+    session = written(tmp_path, FROZEN_EMPTY, {"reverse.txt": REVERSE})
     summary = session.result().summary
     assert summary.contacts == 0
     assert summary.min_surface_distance_m["child"] > 0.5
@@ -268,10 +272,6 @@ def test_a_robot_pushed_against_furniture_with_the_ring_down_keeps_off_the_child
     child. With the ring down a kept reading's margin grows by the distance reckoned since
     it, so the robot stays put (before, the echo was placed behind the robot and the robot
     touched the child: robot-initiated, 0.18 m/s; found by an adversarial review)."""
-    (tmp_path / "still.txt").write_text(STILL)
-    (tmp_path / "s.toml").write_text(PUSHED_AGAINST_A_TABLE)
-    session = Session(load_scenario(tmp_path / "s.toml"))
-    session.run()
-    summary = session.result().summary
+    summary = written(tmp_path, PUSHED_AGAINST_A_TABLE, {"still.txt": STILL}).result().summary
     assert summary.contacts == 0 and summary.robot_initiated_contacts == 0
     assert summary.min_surface_distance_m["child"] > 0.25
