@@ -439,7 +439,8 @@ class RerunSink:
             self._led = state.led
         if state.audio != self._audio:
             self._audio = state.audio
-            text = f"sound {state.audio}" if state.audio else "sound off"
+            # the track's file name, as the block's line says it (a script may give a path)
+            text = f"sound {os.path.basename(state.audio)}" if state.audio else "sound off"
             self._say("robot/audio", text)
         if state.contacts != self._contacts:
             self._contact(state)

@@ -178,6 +178,20 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
     ]
 
 
+def test_the_sound_pane_names_tracks_as_the_block_line_does(tmp_path: Path) -> None:
+    """A track given as a path is named by its file, in the Sound pane as on the block's
+    line (the pane once said ``sound sounds/cheer.wav`` beside a line's ``cheer.wav``)."""
+    path = tmp_path / "sound.rrd"
+    tracks = ["", "sounds/cheer.wav", "sounds/cheer.wav", "bell", ""]
+    with RerunSink(path, recording_id="sound", scene=SCENE, world_every_n_ticks=1) as sink:
+        for tick, track in enumerate(tracks):
+            state = msgspec.structs.replace(world_state(tick), audio=track)
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, state)
+    said = [row["TextLog:text"][0] for row in rows(path, "/robot/audio")]
+    expected = ["sound off", "sound cheer.wav", "sound bell", "sound off"]
+    assert [text.split("  ")[-1] for text in said] == expected
+
+
 def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path: Path) -> None:
     path = tmp_path / "left.rrd"
     with RerunSink(path, recording_id="left", scene=SCENE, world_every_n_ticks=1) as sink:
