@@ -37,7 +37,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import InstructionBlock
+from oimi.pipeline.messages import InstructionBlock, RuleAction
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
@@ -616,7 +616,7 @@ class RerunSink:
             self._say("rules/decisions", "; ".join(parts))
 
     def _chain(self, chain: RuleChainState) -> None:
-        applied = ", ".join(f"{m.action.name} {m.id}" for m in chain.applied)
+        applied = ", ".join(f"{m.id} {_DONE[m.action]} ({m.action.name})" for m in chain.applied)
         text = f"{applied}; active: {', '.join(chain.active) or '-'}"
         if chain.locked:
             text += " (locked)"
@@ -709,6 +709,16 @@ def block_line(block: InstructionBlock) -> str:
     sounds = [f"sound {os.path.basename(a.track_path)}" for a in block.audioout]
     channels = [" then ".join(items) for items in (moves, leds, sounds) if items]
     return " · ".join(channels) or "nothing"
+
+
+_DONE: Final = {
+    RuleAction.A: "activated",
+    RuleAction.R: "removed",
+    RuleAction.D: "held",
+    RuleAction.B: "brought back",
+    RuleAction.C: "recovered",
+}
+"""What an alfa/omega action did to its rule, in words (the Rules pane)."""
 
 
 def recording_id_of(metadata: RecordingMetadata, fallback: str) -> str:

@@ -178,6 +178,13 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
     ]
 
 
+def test_the_rules_pane_says_what_each_alfa_omega_message_did_in_words(rrd: Path) -> None:
+    """One letter (``A avoid``) told a designer little: the action is said in words."""
+    said = [row["TextLog:text"][0].split("  ")[-1] for row in rows(rrd, "/rules/chain")]
+    assert said[0] == "avoid activated (A); active: avoid"
+    assert said[1] == "avoid activated (A); active: avoid (locked)"
+
+
 def test_the_sound_pane_names_tracks_as_the_block_line_does(tmp_path: Path) -> None:
     """A track given as a path is named by its file, in the Sound pane as on the block's
     line (the pane once said ``sound sounds/cheer.wav`` beside a line's ``cheer.wav``)."""
