@@ -28,8 +28,7 @@ Sensing: a camera offline (or none), every sonar down, or a human's reading olde
 (``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
 still says it is on). The ring's echoes (obstacles not fixed) are kept as anonymous humans
-unless a fresh reading of a tracked human explains them (while a ring is down, a stale
-reading's margin grows by the distance reckoned since it); one no longer reported is gone once
+unless a fresh reading of a tracked human explains them; one no longer reported is gone once
 every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated with an old
 reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
 repeats an old echo, linear motion stays inside the camera's view (``camera_fov_rad``).
@@ -117,10 +116,6 @@ class SafetySupervisor:
         self._dt_s = tick_ms / 1000
         # odometry: the robot's pose in its own start frame, at each recent tick
         self._pose = (0.0, 0.0, 0.0)
-        self._travelled = 0.0
-        """How far the dead reckoning has taken the robot, m (a path length)."""
-        self._travelled_at: dict[str, float] = {}
-        """``_travelled`` when each reading (by the anchors' keys) was placed."""
         self._moving = (0.0, 0.0, 0.0)
         """The base's velocity as the dead reckoning takes it, in the odometry frame (m/s,
         m/s, rad/s): it follows the velocities let through at ``max_accel_mps2`` and
@@ -255,7 +250,6 @@ class SafetySupervisor:
             else None
         )
         stale = repeating = False
-        unseen = bool(sonars) and scanning_since is None  # a ring down: nothing sees around
         echo_hold_ms = config.echo_hold_ms
         assert echo_hold_ms is not None  # filled
         constraints: list[_Constraint] = []
@@ -265,7 +259,7 @@ class SafetySupervisor:
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
-                constraints.append(self._constraint(human.id, human, age_ms, unseen))
+                constraints.append(self._constraint(human.id, human, age_ms))
                 if age_ms <= config.max_data_age_ms:
                     seen.append(self._anchors[human.id])
         for key, echo in echoes:
@@ -279,7 +273,7 @@ class SafetySupervisor:
                 elif scanning_since > reported_ms and now_ms - reported_ms > echo_hold_ms:
                     continue  # every ring said it was on since, and went on without it: gone
             if not self._explained(self._anchors[key], seen):
-                constraints.append(self._constraint(key, echo, age_ms, unseen))
+                constraints.append(self._constraint(key, echo, age_ms))
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None
         if blind or stale:
@@ -321,18 +315,13 @@ class SafetySupervisor:
         age_ms = now_ms - reading.positionchangetime
         return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
 
-    def _constraint(self, key: str, human: Entity, age_ms: int, ring_down: bool) -> _Constraint:
-        """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it.
-        A stale reading while a ring is down (nothing may see them again) is placed no
-        better than the dead reckoning since: its margin grows by the distance reckoned
-        since it (furniture may have stopped the robot, which the reckoning does not see)."""
+    def _constraint(self, key: str, human: Entity, age_ms: int) -> _Constraint:
+        """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it."""
         config = self.config
         x, y = self._estimate(key)
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
-        if ring_down and age_ms > config.max_data_age_ms:
-            margin += self._travelled - self._travelled_at[key]
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
         if distance > 0:
             u_x, u_y = x / distance, y / distance
@@ -384,7 +373,6 @@ class SafetySupervisor:
             px + human.positionrho * math.cos(bearing),
             py + human.positionrho * math.sin(bearing),
         )
-        self._travelled_at[key] = self._travelled
 
     def _echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
         """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
@@ -431,7 +419,6 @@ class SafetySupervisor:
         most_turn = limits.max_angular_accel_radps2 * dt
         turn = min(max(velocity.v_theta - omega, -most_turn), most_turn)
         v_x, v_y, omega = self._moving = (v_x + d_x, v_y + d_y, omega + turn)
-        self._travelled += dt * math.hypot(v_x, v_y)
         self._pose = (x + dt * v_x, y + dt * v_y, theta + dt * omega)
 
 
