@@ -155,8 +155,8 @@ def test_left_out_the_data_age_covers_the_slower_sensors_period_and_a_tick() -> 
     assert alone.max_data_age_ms == 500, "never below this"
     slow = b'name = "x"\n[sensors]\nsonar_scan_hz = 1\n'
     assert pipeline_config(parse_scenario(slow).scenario).safety.max_data_age_ms == 1020
-    camera = b'name = "x"\ntick_hz = 10\n[sensors]\nrate_hz = 2.5\n'
-    assert pipeline_config(parse_scenario(camera).scenario).safety.max_data_age_ms == 500
+    camera = b'name = "x"\ntick_hz = 10\n[sensors]\nrate_hz = 2\n'  # 500 ms and a tick
+    assert pipeline_config(parse_scenario(camera).scenario).safety.max_data_age_ms == 600
     text = b'name = "x"\n[robot.safety]\nmax_data_age_ms = 500\n[sensors]\nrate_hz = 1.5\n'
     assert refused(text).startswith(
         "s.toml:3:1: robot.safety.max_data_age_ms (ms): 500 is below the camera's frame and a"
