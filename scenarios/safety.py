@@ -57,20 +57,20 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             " margin would not cover their walk",
         )
     period_s = sensors.status_period_s
-    two_periods_ms = math.ceil(2 * period_s * 1000 - 1e-6)
+    two_periods_ms = _whole_ms(2 * period_s)
     found["max_status_age_ms"] = Need(
         two_periods_ms,
         f"two of the sensors' status_period_s {period_s!r} ({two_periods_ms} ms): the"
         " supervisor would take them for offline between two reports and stop the robot",
     )
     slower = min((sensors.rate_hz, "camera's frame"), (sensors.sonar_scan_hz, "sonar ring's scan"))
-    period_ms = math.ceil(1000 / slower[0] + scenario.tick_ms - 1e-6)
+    period_ms = _whole_ms(1 / slower[0] + scenario.tick_ms / 1000)
     found["max_data_age_ms"] = Need(
         period_ms,
         f"the {slower[1]} and a tick ({period_ms} ms at {slower[0]!r} Hz): readings would"
         " age past it between two reports, their margins short of the walk since",
     )
-    two_scans_ms = math.ceil(2 * 1000 / sensors.sonar_scan_hz - 1e-6)
+    two_scans_ms = _whole_ms(2 / sensors.sonar_scan_hz)
     found["max_scan_age_ms"] = Need(
         two_scans_ms,
         f"two of the sonar ring's scans ({two_scans_ms} ms at sonar_scan_hz"
@@ -80,7 +80,7 @@ def needs(scenario: Scenario) -> dict[str, Need]:
     dropout = sensors.dropout_probability
     if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)
         scans = scans_to_see(dropout)
-        hold_ms = math.ceil(scans * 1000 / sensors.sonar_scan_hz - 1e-6)
+        hold_ms = _whole_ms(scans / sensors.sonar_scan_hz)
         found["echo_hold_ms"] = Need(
             hold_ms,
             f"{scans} of the sonar ring's scans ({hold_ms} ms at sonar_scan_hz"
@@ -105,6 +105,12 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             " their errors",
         )
     return found
+
+
+def _whole_ms(seconds: float) -> int:
+    """``seconds`` in whole milliseconds, rounded up (not for a float's dust: 1.5005 s is
+    1501 ms, 0.6666... s is 667)."""
+    return math.ceil(seconds * 1000 - 1e-6)
 
 
 def scans_to_see(dropout: float) -> float:

@@ -134,6 +134,16 @@ def _moved(
     return msgspec.structs.replace(update, jsonmsg=msgspec.json.encode(payload).decode())
 
 
+def _taken_at(update: MapUpdate, payload: dict[str, object] | None) -> int | None:
+    """When a reading was taken, on the robot's clock: a pose's ``positionchangetime``, a
+    scan's ``scantime`` (None: neither, or no valid time)."""
+    if update.attributename == "scantime":
+        return _bare_time(update.jsonmsg)
+    if payload is not None and update.attributename == "poses":
+        return payload["positionchangetime"]  # type: ignore[return-value]  # a time
+    return None
+
+
 def _bare_time(text: str) -> int | None:
     """The time a bare payload holds, if it is one the tables allow."""
     at = int(text) if text.isascii() and text.isdigit() else None
@@ -194,11 +204,10 @@ class RemoteSensors:
         clock."""
         updates, self._inbox = self._inbox, []
         payloads = [_timed_payload(update) for update in updates]
-        for update, payload in zip(updates, payloads, strict=True):  # when each was taken
-            if payload is not None and update.attributename == "poses":
-                self.clock.sample(payload["positionchangetime"], now_ms=time_ms)  # type: ignore[arg-type]
-            elif update.attributename == "scantime" and _bare_time(update.jsonmsg) is not None:
-                self.clock.sample(int(update.jsonmsg), now_ms=time_ms)
+        for update, payload in zip(updates, payloads, strict=True):
+            taken = _taken_at(update, payload)
+            if taken is not None:
+                self.clock.sample(taken, now_ms=time_ms)
         offset = self.clock.offset_ms
 
         def moved(at: int) -> int:  # never before the session, nor after the tick taking it

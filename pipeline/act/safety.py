@@ -44,7 +44,7 @@ from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
 from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
@@ -116,7 +116,7 @@ class SafetySupervisor:
         self._dt_s = tick_ms / 1000
         # odometry: the robot's pose in its own start frame, at each recent tick
         self._pose = (0.0, 0.0, 0.0)
-        self._moving = (0.0, 0.0, 0.0)
+        self._moving = Velocity()
         """The base's velocity as the dead reckoning takes it, in the odometry frame (m/s,
         m/s, rad/s): it follows the velocities let through at ``max_accel_mps2`` and
         ``max_angular_accel_radps2`` at most (a cut velocity, or a spin a lock release
@@ -408,17 +408,16 @@ class SafetySupervisor:
         ``max_accel_mps2`` at most, and its turn towards ``v_theta`` by
         ``max_angular_accel_radps2`` at most: it rolls and spins on after a cut."""
         x, y, theta = self._pose
-        dt, limits = self._dt_s, self._limits
         cos, sin = math.cos(theta), math.sin(theta)
-        v_x, v_y, omega = self._moving
-        d_x = cos * velocity.v_x - sin * velocity.v_y - v_x
-        d_y = sin * velocity.v_x + cos * velocity.v_y - v_y
-        change, most = math.hypot(d_x, d_y), limits.max_accel_mps2 * dt
-        if change > most:
-            d_x, d_y = d_x * most / change, d_y * most / change
-        most_turn = limits.max_angular_accel_radps2 * dt
-        turn = min(max(velocity.v_theta - omega, -most_turn), most_turn)
-        v_x, v_y, omega = self._moving = (v_x + d_x, v_y + d_y, omega + turn)
+        target = Velocity(
+            cos * velocity.v_x - sin * velocity.v_y,
+            sin * velocity.v_x + cos * velocity.v_y,
+            velocity.v_theta,
+        )
+        v_x, v_y, omega = self._moving = ramp_velocity(
+            self._moving, target, self._limits, dt_ms=self._tick_ms
+        )
+        dt = self._dt_s
         self._pose = (x + dt * v_x, y + dt * v_y, theta + dt * omega)
 
 

@@ -140,45 +140,29 @@ def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
     )
 
 
-def test_left_out_the_status_age_covers_two_status_periods() -> None:
-    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
-    assert alone.max_status_age_ms == 2000, "never below this"
-    slow = b'name = "x"\n[sensors]\nstatus_period_s = 1.5005\n'
-    assert pipeline_config(parse_scenario(slow).scenario).safety.max_status_age_ms == 3001
-
-
-def test_left_out_the_data_age_covers_the_slower_sensors_period_and_a_tick() -> None:
-    """A 1 Hz ring: its echoes are a second old before the next scan, so a 500 ms age
-    would cap their margins at half the walk (a child walking up behind a reversing robot
-    met it closing at 0.09 m/s inside the stop zone)."""
-    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
-    assert alone.max_data_age_ms == 500, "never below this"
-    slow = b'name = "x"\n[sensors]\nsonar_scan_hz = 1\n'
-    assert pipeline_config(parse_scenario(slow).scenario).safety.max_data_age_ms == 1020
-    camera = b'name = "x"\ntick_hz = 10\n[sensors]\nrate_hz = 2\n'  # 500 ms and a tick
-    assert pipeline_config(parse_scenario(camera).scenario).safety.max_data_age_ms == 600
-    text = b'name = "x"\n[robot.safety]\nmax_data_age_ms = 500\n[sensors]\nrate_hz = 1.5\n'
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.max_data_age_ms (ms): 500 is below the camera's frame and a"
-        " tick (687 ms at 1.5 Hz): readings would age past it"
-    )
-
-
-def test_left_out_the_scan_age_covers_two_of_the_rings_scans() -> None:
-    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
-    assert alone.max_scan_age_ms == 500, "never below this"
-    slow = b'name = "x"\n[sensors]\nsonar_scan_hz = 3\n'
-    assert pipeline_config(parse_scenario(slow).scenario).safety.max_scan_age_ms == 667
-
-
-def test_left_out_the_echo_hold_covers_the_rings_dropouts() -> None:
-    alone = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
-    assert alone.echo_hold_ms == 2000, "never below this"
-    dropping = b'name = "x"\n[sensors]\ndropout_probability = 0.5\n'
-    # 0.5 ** 20 < 1e-6 <= 0.5 ** 19: twenty scans at 5 Hz
-    assert pipeline_config(parse_scenario(dropping).scenario).safety.echo_hold_ms == 4000
-    slow = dropping + b"sonar_scan_hz = 2\n"
-    assert pipeline_config(parse_scenario(slow).scenario).safety.echo_hold_ms == 10_000
+@pytest.mark.parametrize(
+    ("name", "alone", "scenario", "taken"),
+    [
+        ("max_status_age_ms", 2000, "[sensors]\nstatus_period_s = 1.5005", 3001),
+        # a 1 Hz ring's echoes are a second old before the next scan: a 500 ms age would
+        # cap their margins at half the walk (a child walking up behind a reversing robot
+        # met it closing at 0.09 m/s inside the stop zone)
+        ("max_data_age_ms", 500, "[sensors]\nsonar_scan_hz = 1", 1020),
+        ("max_data_age_ms", 500, "tick_hz = 10\n[sensors]\nrate_hz = 2", 600),  # 500 + a tick
+        ("max_scan_age_ms", 500, "[sensors]\nsonar_scan_hz = 3", 667),
+        # 0.5 ** 20 < 1e-6 <= 0.5 ** 19: twenty scans at 5 Hz, or at 2 Hz
+        ("echo_hold_ms", 2000, "[sensors]\ndropout_probability = 0.5", 4000),
+        ("echo_hold_ms", 2000, "[sensors]\ndropout_probability = 0.5\nsonar_scan_hz = 2", 10_000),
+    ],
+)
+def test_left_out_a_time_covers_what_the_scenarios_sensors_need(
+    name, alone, scenario, taken
+) -> None:
+    """Never below the supervisor's own (``alone``), and at least what the sensors need."""
+    default = pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety
+    assert getattr(default, name) == alone, "never below this"
+    text = f'name = "x"\n{scenario}\n'.encode()
+    assert getattr(pipeline_config(parse_scenario(text).scenario).safety, name) == taken
 
 
 @pytest.mark.parametrize(
@@ -197,6 +181,13 @@ def test_left_out_the_echo_hold_covers_the_rings_dropouts() -> None:
             2000,
             "1500 is below two of the sonar ring's scans (2000 ms at sonar_scan_hz 1): the"
             " supervisor would take the ring for down",
+        ),
+        (
+            "max_data_age_ms = 1500",
+            "rate_hz = 0.5",
+            2020,
+            "1500 is below the camera's frame and a tick (2020 ms at 0.5 Hz): readings would"
+            " age past it",
         ),
         (
             "echo_hold_ms = 1500",
