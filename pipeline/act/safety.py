@@ -16,7 +16,9 @@ margin shrinks with each camera frame). Moving away and sideways stays allowed. 
 the centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age
 + one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion
 is dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` and
-``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once).
+``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once), and
+while a sonar is down the margin grows by the slip the robot's measured speed shows since
+the reading (``pipeline/act/reckoning.py``: a base blocked by furniture or pushed).
 Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s - stop``, a tick at ``c``,
 braking at ``a`` while the human walks on (a bound that falls no faster than the base can
 brake). Inside the stop zone ``v`` may not point at any point of the uncertainty disc (a
@@ -40,11 +42,11 @@ message, script or joystick input reaches it. No clock, no IO.
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.reckoning import DeadReckoning, Slip
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
 from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
@@ -75,6 +77,17 @@ class Supervised(NamedTuple):
 
     verdict: Verdict
     event: SafetyIntervention | None = None
+
+
+class _Anchor(NamedTuple):
+    """A reading placed in the odometry frame."""
+
+    at_ms: int
+    """When it was taken (its ``positionchangetime``)."""
+    x: float
+    y: float
+    slip: Slip
+    """The slip counted up to then (what is counted since widens its margin)."""
 
 
 class _Constraint(NamedTuple):
@@ -114,21 +127,19 @@ class SafetySupervisor:
         self._limits = limits
         self._tick_ms = tick_ms
         self._dt_s = tick_ms / 1000
-        # odometry: the robot's pose in its own start frame, at each recent tick
-        self._pose = (0.0, 0.0, 0.0)
-        self._moving = Velocity()
-        """The base's velocity as the dead reckoning takes it, in the odometry frame (m/s,
-        m/s, rad/s): it follows the velocities let through at ``max_accel_mps2`` and
-        ``max_angular_accel_radps2`` at most (a cut velocity, or a spin a lock release
-        ends, is braked to, not taken at once), as the simulated base does."""
-        self._history: deque[tuple[int, tuple[float, float, float]]] = deque(
-            maxlen=config.max_data_age_ms // tick_ms + 3
+        self._reckoning = DeadReckoning(
+            limits,
+            tick_ms=tick_ms,
+            kept_ms=config.max_data_age_ms,
+            error_mps=config.speed_error_mps,
+            radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
         )
-        self._anchors: dict[str, tuple[int, float, float]] = {}
+        """The robot's pose in its own start frame, and how far it may have slipped."""
+        self._anchors: dict[str, _Anchor] = {}
+        """Human id (``Obstacle/<id>`` for an echo) -> its last reading in the odometry
+        frame."""
         self._echo_keys: dict[str, str] = {}
         """An echo's key by its obstacle id (made once)."""
-        """Human id (``Obstacle/<id>`` for an echo) -> (positionchangetime, x, y) of its last
-        reading in the odometry frame."""
         self._held: dict[str, None] = {}
         """Humans under a protective stop: it holds until they are halfway out of the slow
         zone, so that the margin's saw-tooth between camera frames does not let the robot
@@ -154,8 +165,11 @@ class SafetySupervisor:
         each sensor's status and each obstacle's reading was last heard, ms, by
         (``"Camera"``, ``"Sonar"`` or ``"Obstacle"``, id) (``MapProducer.heard``);
         ``scanned``: when each sonar took its latest scan, ms, by id (``MapProducer.scanned``)."""
-        if not self._history or self._history[-1][0] != now_ms:
-            self._history.append((now_ms, self._pose))
+        reckoning = self._reckoning
+        reckoning.mark(now_ms)
+        speeds = world_map.robotstatus.speed
+        if speeds:
+            reckoning.measured(speeds[-1])
         anchors = self._anchors
         for human in world_map.humans:  # most readings are placed already: tested inline
             if human.poses:
@@ -168,7 +182,7 @@ class SafetySupervisor:
             if anchor is None or anchor[0] != echo.positionchangetime:
                 self._anchor(key, echo)
         verdict = self._limit(requested, world_map, echoes, heard, scanned, now_ms)
-        self._advance(verdict.velocity)
+        reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
             return Supervised(verdict)
@@ -252,14 +266,14 @@ class SafetySupervisor:
         stale = repeating = False
         echo_hold_ms = config.echo_hold_ms
         assert echo_hold_ms is not None  # filled
-        constraints: list[_Constraint] = []
-        seen: list[tuple[int, float, float]] = []  # fresh humans' anchors: what an echo may be
+        placed: list[tuple[str, Entity, int]] = []  # what limits the robot, and its age
+        seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             age_ms = self._age(human, now_ms)
             if not human.poses or age_ms > config.max_data_age_ms:
                 stale = True
             if human.poses:
-                constraints.append(self._constraint(human.id, human, age_ms))
+                placed.append((human.id, human, age_ms))
                 if age_ms <= config.max_data_age_ms:
                     seen.append(self._anchors[human.id])
         for key, echo in echoes:
@@ -273,7 +287,14 @@ class SafetySupervisor:
                 elif scanning_since > reported_ms and now_ms - reported_ms > echo_hold_ms:
                     continue  # every ring said it was on since, and went on without it: gone
             if not self._explained(self._anchors[key], seen):
-                constraints.append(self._constraint(key, echo, age_ms))
+                placed.append((key, echo, age_ms))
+        # A ring down, or one repeating old readings (frozen: it says it is on, and may see
+        # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
+        ring_down = scanning_since is None or repeating
+        # Slip widens margins only then: a working ring sees where the bodies are, whatever
+        # the reckoning says (its echoes are fresh); counted with it, a child's reading the
+        # camera lost long ago would grow with every push until the robot froze
+        constraints = [self._constraint(*reading, slipped=ring_down) for reading in placed]
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None
         if blind or stale:
@@ -282,9 +303,6 @@ class SafetySupervisor:
                 scale = config.slow_speed_mps / speed
                 v_x, v_y = v_x * scale, v_y * scale
                 zone = SafetyZone.BLIND if blind else SafetyZone.STALE
-        # A ring down, or one repeating old readings (frozen: it says it is on, and may see
-        # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
-        ring_down = scanning_since is None or repeating
         half_view = config.camera_fov_rad / 2 if sonars and ring_down else math.pi
         looking = _within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
@@ -315,13 +333,19 @@ class SafetySupervisor:
         age_ms = now_ms - reading.positionchangetime
         return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
 
-    def _constraint(self, key: str, human: Entity, age_ms: int) -> _Constraint:
-        """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it."""
+    def _constraint(self, key: str, human: Entity, age_ms: int, *, slipped: bool) -> _Constraint:
+        """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it;
+        ``slipped``: its margin grows by the slip counted since it was taken."""
         config = self.config
-        x, y = self._estimate(key)
+        anchor = self._anchors[key]
+        x, y = self._estimate(anchor)
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
+        slip = self._reckoning.slip
+        if slipped and slip is not anchor.slip:  # the base slipped since: placed that far off
+            turned = min(slip.heading_rad - anchor.slip.heading_rad, math.pi)
+            margin += slip.distance_m - anchor.slip.distance_m + distance * turned
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
         if distance > 0:
             u_x, u_y = x / distance, y / distance
@@ -345,16 +369,14 @@ class SafetySupervisor:
             cap = min(cap, config.slow_speed_mps)
         return _Constraint(key, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
 
-    def _explained(
-        self, echo: tuple[int, float, float], seen: list[tuple[int, float, float]]
-    ) -> bool:
+    def _explained(self, echo: _Anchor, seen: list[_Anchor]) -> bool:
         """Whether an echo is a human the map tracks: their readings place them closer
         than both readings' errors and the walk between their times allow. The distance
         accepted is at most ``human_radius_m``, so an echo is never taken for another
         body (two bodies' centres are at least two radii apart)."""
         config = self.config
-        at_ms, x, y = echo
-        for human_ms, hx, hy in seen:
+        at_ms, x, y, _ = echo
+        for human_ms, hx, hy, _ in seen:
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
             gate = min(2 * config.sensing_error_m + walked, config.human_radius_m)
             if math.hypot(x - hx, y - hy) <= gate:
@@ -366,12 +388,14 @@ class SafetySupervisor:
         was taken (looked for every tick, so that a reading is placed while that pose is
         kept)."""
         at_ms = human.positionchangetime
-        px, py, ptheta = self._pose_at(at_ms)
+        reckoning = self._reckoning
+        px, py, ptheta = reckoning.pose_at(at_ms)
         bearing = ptheta + human.positiontheta
-        self._anchors[key] = (
+        self._anchors[key] = _Anchor(
             at_ms,
             px + human.positionrho * math.cos(bearing),
             py + human.positionrho * math.sin(bearing),
+            reckoning.slip_at(at_ms),
         )
 
     def _echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
@@ -387,38 +411,12 @@ class SafetySupervisor:
             if not obstacle.isfixed and obstacle.poses
         ]
 
-    def _estimate(self, key: str) -> tuple[float, float]:
-        """The last reported position of ``key`` in the robot's current body frame."""
-        anchor = self._anchors[key]
-        x, y, theta = self._pose
-        dx, dy = anchor[1] - x, anchor[2] - y
+    def _estimate(self, anchor: _Anchor) -> tuple[float, float]:
+        """A reading's position in the robot's current body frame."""
+        x, y, theta = self._reckoning.pose
+        dx, dy = anchor.x - x, anchor.y - y
         cos, sin = math.cos(theta), math.sin(theta)
         return (cos * dx + sin * dy, -sin * dx + cos * dy)
-
-    def _pose_at(self, time_ms: int) -> tuple[float, float, float]:
-        """The odometry pose at ``time_ms`` (the oldest kept for older readings)."""
-        for at_ms, pose in reversed(self._history):
-            if at_ms <= time_ms:
-                return pose
-        return self._history[0][1]
-
-    def _advance(self, velocity: Velocity) -> None:
-        """Dead reckoning: the base moves towards the velocity let through (turned into the
-        odometry frame with the heading at the start of the step), changing by
-        ``max_accel_mps2`` at most, and its turn towards ``v_theta`` by
-        ``max_angular_accel_radps2`` at most: it rolls and spins on after a cut."""
-        x, y, theta = self._pose
-        cos, sin = math.cos(theta), math.sin(theta)
-        target = Velocity(
-            cos * velocity.v_x - sin * velocity.v_y,
-            sin * velocity.v_x + cos * velocity.v_y,
-            velocity.v_theta,
-        )
-        v_x, v_y, omega = self._moving = ramp_velocity(
-            self._moving, target, self._limits, dt_ms=self._tick_ms
-        )
-        dt = self._dt_s
-        self._pose = (x + dt * v_x, y + dt * v_y, theta + dt * omega)
 
 
 def _online(
