@@ -4,30 +4,60 @@ Between readings the supervisor places what its sensors last saw by the robot's 
 the base is taken to follow the velocities let through at ``max_accel_mps2`` and
 ``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once), as
 the simulated base does. That model does not see a base blocked by furniture or pushed by
-a person; the robot's measured speed (``RobotStatus speed``, table 4.1) does. Each time a
-new one comes, how far it differs from the reckoned velocity at the time it was taken,
-beyond the measurement's error, is counted as *slip* for the whole time since the previous
-one: the reckoning may have drifted that far. A reading's position is then uncertain by the
-slip counted since it was taken (:attr:`DeadReckoning.slip` less
-:meth:`DeadReckoning.slip_at` its time), which the supervisor adds to its margin.
-No clock, no IO.
+a person; the robot's measured speed (``RobotStatus speed``, table 4.1: its mean velocity
+for ``duration`` ms from ``startingtime``, body frame) does. For each report, how far the
+distance it says the base went differs from the distance reckoned over the same time,
+beyond the measurement's error, is counted as *slip*; the reckoned path since the last time
+a report covers is not checked yet, and counts whole (reports that stop coming leave all of
+it unchecked; a robot that never sends one has nothing counted). A reading's position is
+uncertain by what was counted since it was taken (:meth:`DeadReckoning.drift`), which the
+supervisor adds to its margin. No clock, no IO.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Final, NamedTuple
 
 from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
 from oimi.pipeline.messages import SpeedStatus
 
+LOST_M: Final = 1000.0
+"""The most one report counts as slip (a report that cannot be read counts this much, and
+the reckoning is lost for every reading taken before it), m or rad."""
+
+
+class Odometer(NamedTuple):
+    """What the reckoning took the base to drive since the start: the body-frame distances
+    (the integral of its forward, leftward and turning velocity) and the path's length."""
+
+    forward_m: float = 0.0
+    left_m: float = 0.0
+    turn_rad: float = 0.0
+    path_m: float = 0.0
+
 
 class Slip(NamedTuple):
-    """How far the reckoning may have drifted since the session started."""
+    """How far the reports say the reckoning drifted since the start."""
 
     distance_m: float = 0.0
     heading_rad: float = 0.0
+
+
+class Placed(NamedTuple):
+    """The reckoning at a reading's time: what its drift since is counted from."""
+
+    pose: tuple[float, float, float]
+    slip: Slip
+    path_m: float
+
+
+class _State(NamedTuple):
+    time_ms: int
+    pose: tuple[float, float, float]
+    odometer: Odometer
 
 
 class DeadReckoning:
@@ -47,61 +77,86 @@ class DeadReckoning:
         """The robot's pose in its own start frame (m, m, rad)."""
         self._moving = Velocity()
         """The base's velocity as the reckoning takes it, in the odometry frame."""
-        self._history: deque[tuple[int, tuple[float, float, float], Velocity]] = deque(
-            maxlen=kept_ms // tick_ms + 3
-        )
-        """Recent ticks' (time, pose, velocity) at their start, oldest first."""
+        self.odometer = Odometer()
+        """What the reckoning took the base to drive so far."""
+        self._history: deque[_State] = deque(maxlen=kept_ms // tick_ms + 3)
+        """Recent ticks' states at their start, oldest first."""
         self.slip = Slip()
         """The slip counted so far."""
         self._slips: deque[tuple[int, Slip]] = deque(maxlen=64)
-        """When each recent speed report was taken, ms, and the slip counted up to it."""
-        self._measured_ms: int | None = None
-        """When the latest speed report counted was taken, ms."""
+        """Up to when each recent report was counted, ms, and the slip counted up to then."""
+        self._covered_ms: int | None = None
+        """Up to when the reports counted so far cover, ms (None: none yet)."""
+        self._covered_path_m = -math.inf
+        """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
 
     def mark(self, now_ms: int) -> None:
-        """Keep the pose at the start of the tick at ``now_ms`` (once per tick)."""
-        if not self._history or self._history[-1][0] != now_ms:
-            self._history.append((now_ms, self.pose, self._moving))
+        """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
+        if not self._history or self._history[-1].time_ms != now_ms:
+            self._history.append(_State(now_ms, self.pose, self.odometer))
 
-    def pose_at(self, time_ms: int) -> tuple[float, float, float]:
-        """The odometry pose at ``time_ms`` (the oldest kept for older times)."""
-        return self._state_at(time_ms)[1]
+    def placed(self, time_ms: int) -> Placed:
+        """The reckoning at ``time_ms``: the pose then (the oldest kept for older times), the
+        slip counted up to the last report that covers it and the path driven up to then
+        (for a time older than what is kept, none: all that was counted since the start)."""
+        state = self._state_at(time_ms)
+        slip = Slip()
+        for until_ms, counted in reversed(self._slips):
+            if until_ms <= time_ms:
+                slip = counted
+                break
+        path_m = state.odometer.path_m if state.time_ms <= time_ms else 0.0
+        return Placed(state.pose, slip, path_m)
 
-    def slip_at(self, time_ms: int) -> Slip:
-        """The slip counted up to the latest speed report taken at ``time_ms`` or before
-        (none for a time older than the reports kept: all the slip since is then counted
-        for a reading taken at that time)."""
-        for at_ms, slip in reversed(self._slips):
-            if at_ms <= time_ms:
-                return slip
-        return Slip()
+    def drift(self, since: Placed) -> Slip:
+        """How far the reckoning may have drifted since ``since``: the slip counted since,
+        and the path driven since the reports last covered (or since ``since``). A robot
+        that never reported its speed has no drift counted: nothing tells a blocked base."""
+        slip = self.slip
+        unchecked = 0.0
+        if self._covered_ms is not None:  # reports come: what they do not cover yet counts
+            unchecked = self.odometer.path_m - max(since.path_m, self._covered_path_m)
+        return Slip(
+            slip.distance_m - since.slip.distance_m + unchecked,
+            slip.heading_rad - since.slip.heading_rad,
+        )
 
-    def measured(self, speed: SpeedStatus) -> None:
-        """Count the slip a speed report shows (body frame, taken at ``startingtime``): the
-        difference from the reckoned velocity then, taken to have held since the previous
-        report. A report counted already, or older than it, changes nothing."""
-        at_ms = speed.startingtime
-        previous = self._measured_ms
-        if previous is not None and at_ms <= previous:
+    def measured(self, speeds: Sequence[SpeedStatus], *, now_ms: int) -> None:
+        """Count the slip the reports in ``speeds`` (the map's register, oldest first) not
+        counted yet show, in order."""
+        covered = self._covered_ms
+        new: list[SpeedStatus] = []
+        for speed in reversed(speeds):
+            if covered is not None and speed.startingtime + speed.duration <= covered:
+                break
+            new.append(speed)
+        for speed in reversed(new):
+            self._count(speed, now_ms)
+
+    def _count(self, speed: SpeedStatus, now_ms: int) -> None:
+        """Count the slip a speed report shows: the distance its mean velocity over its
+        ``duration`` makes, against the distance reckoned over that time. A report covered
+        already, or ending after the current tick (a clock ahead), changes nothing."""
+        start_ms, end_ms = speed.startingtime, speed.startingtime + speed.duration
+        covered = self._covered_ms
+        if (covered is not None and end_ms <= covered) or not start_ms <= end_ms <= now_ms:
             return
-        self._measured_ms = at_ms
-        _, (_, _, theta), moving = self._state_at(at_ms)
-        cos, sin = math.cos(theta), math.sin(theta)
-        forward = cos * moving.v_x + sin * moving.v_y
-        left = -sin * moving.v_x + cos * moving.v_y
-        lasted_s = 0.0 if previous is None else (at_ms - previous) / 1000
-        gap = math.hypot(speed.xspeed - forward, speed.yspeed - left) - self._error_mps
-        turn = abs(speed.thetaspeed - moving.v_theta) - self._error_radps
+        self._covered_ms = end_ms
+        before, after = self._state_at(start_ms).odometer, self._state_at(end_ms).odometer
+        self._covered_path_m = after.path_m
+        lasted_s = speed.duration / 1000
+        gap = math.hypot(
+            speed.xspeed * lasted_s - (after.forward_m - before.forward_m),
+            speed.yspeed * lasted_s - (after.left_m - before.left_m),
+        )
+        turn = abs(speed.thetaspeed * lasted_s - (after.turn_rad - before.turn_rad))
+        gap -= self._error_mps * lasted_s
+        turn -= self._error_radps * lasted_s
         if gap <= 0.0 and turn <= 0.0:
             return  # within the measurement's error: the reckoning holds
-        if not (math.isfinite(gap) and math.isfinite(turn)):
-            gap, turn = math.inf, math.pi  # a report that cannot be read: lost
         slip = self.slip
-        self.slip = Slip(
-            slip.distance_m + max(gap, 0.0) * lasted_s,
-            slip.heading_rad + max(turn, 0.0) * lasted_s,
-        )
-        self._slips.append((at_ms, self.slip))
+        self.slip = Slip(slip.distance_m + _counted(gap), slip.heading_rad + _counted(turn))
+        self._slips.append((end_ms, self.slip))
 
     def advance(self, velocity: Velocity) -> None:
         """One tick of the base towards ``velocity`` (body frame, turned into the odometry
@@ -118,10 +173,28 @@ class DeadReckoning:
             self._moving, target, self._limits, dt_ms=self._tick_ms
         )
         dt = self._dt_s
-        self.pose = (x + dt * v_x, y + dt * v_y, theta + dt * omega)
+        theta += dt * omega
+        self.pose = (x + dt * v_x, y + dt * v_y, theta)
+        if v_x or v_y or omega:  # the odometer in the body frame after the step, as measured
+            cos, sin = math.cos(theta), math.sin(theta)
+            forward, left, turn, path = self.odometer
+            self.odometer = Odometer(
+                forward + dt * (cos * v_x + sin * v_y),
+                left + dt * (cos * v_y - sin * v_x),
+                turn + dt * omega,
+                path + dt * math.hypot(v_x, v_y),
+            )
 
-    def _state_at(self, time_ms: int) -> tuple[int, tuple[float, float, float], Velocity]:
+    def _state_at(self, time_ms: int) -> _State:
         for state in reversed(self._history):
-            if state[0] <= time_ms:
+            if state.time_ms <= time_ms:
                 return state
-        return self._history[0] if self._history else (time_ms, self.pose, self._moving)
+        return self._history[0] if self._history else _State(time_ms, self.pose, self.odometer)
+
+
+def _counted(excess: float) -> float:
+    """What a report's excess over the error counts: none below it, at most ``LOST_M`` (and
+    that much for one that is not a number)."""
+    if excess <= 0.0:
+        return 0.0
+    return excess if excess < LOST_M else LOST_M

@@ -46,7 +46,7 @@ from collections.abc import Mapping, Sequence
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.limits import RobotLimits, Velocity
-from oimi.pipeline.act.reckoning import DeadReckoning, Slip
+from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
 from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
@@ -86,8 +86,8 @@ class _Anchor(NamedTuple):
     """When it was taken (its ``positionchangetime``)."""
     x: float
     y: float
-    slip: Slip
-    """The slip counted up to then (what is counted since widens its margin)."""
+    since: Placed
+    """The reckoning then (its drift since widens the margin while a sonar is down)."""
 
 
 class _Constraint(NamedTuple):
@@ -130,7 +130,7 @@ class SafetySupervisor:
         self._reckoning = DeadReckoning(
             limits,
             tick_ms=tick_ms,
-            kept_ms=config.max_data_age_ms,
+            kept_ms=max(config.max_data_age_ms, config.max_status_age_ms),  # type: ignore[type-var]
             error_mps=config.speed_error_mps,
             radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
         )
@@ -167,9 +167,7 @@ class SafetySupervisor:
         ``scanned``: when each sonar took its latest scan, ms, by id (``MapProducer.scanned``)."""
         reckoning = self._reckoning
         reckoning.mark(now_ms)
-        speeds = world_map.robotstatus.speed
-        if speeds:
-            reckoning.measured(speeds[-1])
+        reckoning.measured(world_map.robotstatus.speed, now_ms=now_ms)
         anchors = self._anchors
         for human in world_map.humans:  # most readings are placed already: tested inline
             if human.poses:
@@ -342,10 +340,9 @@ class SafetySupervisor:
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
-        slip = self._reckoning.slip
-        if slipped and slip is not anchor.slip:  # the base slipped since: placed that far off
-            turned = min(slip.heading_rad - anchor.slip.heading_rad, math.pi)
-            margin += slip.distance_m - anchor.slip.distance_m + distance * turned
+        if slipped:  # the base may have slipped since: the reading placed that far off
+            drift = self._reckoning.drift(anchor.since)
+            margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
         if distance > 0:
             u_x, u_y = x / distance, y / distance
@@ -388,14 +385,14 @@ class SafetySupervisor:
         was taken (looked for every tick, so that a reading is placed while that pose is
         kept)."""
         at_ms = human.positionchangetime
-        reckoning = self._reckoning
-        px, py, ptheta = reckoning.pose_at(at_ms)
+        since = self._reckoning.placed(at_ms)
+        px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
         self._anchors[key] = _Anchor(
             at_ms,
             px + human.positionrho * math.cos(bearing),
             py + human.positionrho * math.sin(bearing),
-            reckoning.slip_at(at_ms),
+            since,
         )
 
     def _echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:

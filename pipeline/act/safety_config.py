@@ -73,11 +73,12 @@ class SafetyConfig(Message):
     None: the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not
     set it above its camera's; 2 pi or more: it sees all around)."""
     speed_error_mps: float = 0.05
-    """Largest error of the robot's measured speed (``RobotStatus speed``: its odometry),
-    m/s. A measured speed further than this from the dead reckoning's shows the base slipped
-    (blocked by furniture, pushed): the excess, taken to have held since the previous
-    report, widens every older reading's margin; a turn rate further than this over
-    ``robot_radius_m`` widens it by the heading it may have turned."""
+    """Largest error of the robot's measured speed (``RobotStatus speed``: its odometry's
+    mean velocity over a report's interval), m/s. A distance over the interval further than
+    this (times the interval) from the dead reckoning's shows the base slipped (blocked by
+    furniture, pushed): the excess widens every older reading's margin while a sonar is
+    down; a turn further than this over ``robot_radius_m`` widens it by the heading it may
+    have turned."""
     max_scan_age_ms: int | None = None
     """A sonar whose latest scan (its ``scantime``, the ring's heartbeat) was taken longer
     ago than this, or never reported, counts as down, as one offline does: a ring frozen

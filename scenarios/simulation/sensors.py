@@ -12,8 +12,9 @@ seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows a
 entity while it stays in view; ``isfixed``, ``istarget``, ``category`` come once,
 on first sight; the ring's ``scantime`` with every scan (its heartbeat: a frozen ring
 repeats an old one). Sensor status comes at the start and on faults; touches from
-touch events and from contacts; the robot's speed, battery and elapsed time every
-``status_period_s``.
+touch events and from contacts; the robot's speed (its mean velocity since the last
+report, from the odometer: how far the base went, blocked or pushed too), battery and
+elapsed time every ``status_period_s``.
 
 Encoding decisions: ``poses`` use policy ``A`` (the map keeps the history),
 everything else ``R``; scalar contents are bare text (``s_true``, ``640``,
@@ -103,6 +104,8 @@ class Sensors:
         self.camera = _Sensor(config.camera_id, _period_ms(config.rate_hz))
         self.sonar = _Sensor(config.sonar_id, _period_ms(config.sonar_scan_hz))
         self._status = Schedule(config.status_period_s * 1000)
+        self._odometer: tuple[int, tuple[float, float, float]] = (0, (0.0, 0.0, 0.0))
+        """When the robot's speed was last reported, ms, and the odometer then."""
         self._seq = 0
         self._started = False
         self._pending: list[_Update] = []
@@ -298,14 +301,17 @@ class Sensors:
         return updates
 
     def _robot_status(self, world: World, time_ms: int) -> list[_Update]:
-        forward, left, omega = world.robot_body_velocity()
-        speed = {
-            "xspeed": round(forward, DECIMALS) + 0.0,
-            "yspeed": round(left, DECIMALS) + 0.0,
-            "thetaspeed": round(omega, DECIMALS) + 0.0,
-            "duration": round(self._status.period_ms),
-            "startingtime": time_ms,
+        since_ms, (forward, left, turn) = self._odometer
+        odometer = world.odometer
+        lasted_s = (time_ms - since_ms) / 1000 or math.inf  # the first: nothing to average
+        speed = {  # the mean velocity since the last report (the odometer's reading)
+            "xspeed": round((odometer[0] - forward) / lasted_s, DECIMALS) + 0.0,
+            "yspeed": round((odometer[1] - left) / lasted_s, DECIMALS) + 0.0,
+            "thetaspeed": round((odometer[2] - turn) / lasted_s, DECIMALS) + 0.0,
+            "duration": time_ms - since_ms,
+            "startingtime": since_ms,
         }
+        self._odometer = (time_ms, odometer)
         battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
         return [
             _Update("RobotStatus", "speed", Policy.R, _json(speed)),

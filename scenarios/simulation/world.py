@@ -103,6 +103,9 @@ class World:
         self.led: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self.audio = ""
         self.last_report = StepReport(tick=-1, time_ms=0)
+        self.odometer = (0.0, 0.0, 0.0)
+        """How far the robot went since the start, in its own frame after each step (m
+        forward, m left, rad turned): what its wheels' odometry measures."""
         self._contact_start_ms: dict[str, int] = {}
         self._add_walls()
         self._add_obstacles()
@@ -196,7 +199,7 @@ class World:
     def step(self, outputs: ActuatorOutputs, *, tick: int) -> StepReport:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
-        robot_xy = self._robot.xy
+        robot_xy, before = self._robot.xy, self._robot.motion
         step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
         for human in self.humans:
             velocity = human.driver.velocity(human.xy, robot_xy, time_ms, step_s)
@@ -222,6 +225,8 @@ class World:
         else:  # after a human came or left: pymunk checks new bodies, forgets removed shapes
             space.step(step_s)
         self._reader.read()
+        if self._robot.motion is not before:
+            self._count_odometer(before)
         self._reclamp_robot()
         for thing in self.things:
             self._roll(thing)
@@ -230,6 +235,19 @@ class World:
             tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
         )
         return self.last_report
+
+    def _count_odometer(self, before: Motion) -> None:
+        """Add the step's motion (from ``before``) to the odometer, in the robot's frame after
+        the step (a push and a blocked drive are in it: the base's wheels go as it goes)."""
+        after = self._robot.motion
+        dx, dy = after.x_m - before.x_m, after.y_m - before.y_m
+        cos, sin = math.cos(after.angle_rad), math.sin(after.angle_rad)
+        forward, left, turn = self.odometer
+        self.odometer = (
+            forward + cos * dx + sin * dy,
+            left + cos * dy - sin * dx,
+            turn + after.angle_rad - before.angle_rad,
+        )
 
     def _drive_robot(self, outputs: ActuatorOutputs) -> None:
         top, top_spin, limit, turn_limit = self._limits

@@ -1,13 +1,15 @@
-"""The dead reckoning's slip: a measured speed that the reckoned velocity does not explain."""
+"""The dead reckoning's slip: what the robot's measured speed says it drove, against what
+was reckoned."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import msgspec
 import pytest
 from oimi.pipeline.act.limits import Velocity
-from oimi.pipeline.act.reckoning import DeadReckoning, Slip
+from oimi.pipeline.act.reckoning import LOST_M, DeadReckoning, Slip
 from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.messages import RobotStatus, Sonar, SpeedStatus, WorldMap
@@ -18,89 +20,147 @@ ERROR = 0.05
 TICKS_PER_S = 1000 // TICK_MS
 
 
-def report(at_ms: int, forward: float = 0.0, left: float = 0.0, turn: float = 0.0) -> SpeedStatus:
+def report(end_ms: int, forward: float = 0.0, turn: float = 0.0, lasted_ms: int = 1000):
+    """A speed report: the mean velocity over the ``lasted_ms`` up to ``end_ms``."""
+    start = max(end_ms - lasted_ms, 0)
     return SpeedStatus(
-        xspeed=forward, yspeed=left, thetaspeed=turn, duration=1000, startingtime=at_ms
+        xspeed=forward, yspeed=0.0, thetaspeed=turn, duration=end_ms - start, startingtime=start
     )
 
 
-def driven(reports: dict[int, SpeedStatus], velocity: Velocity, seconds: int) -> DeadReckoning:
-    """A reckoning driven at ``velocity`` for ``seconds``, told ``reports`` by tick."""
-    reckoning = DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=500, error_mps=ERROR, radius_m=0.3)
-    for tick in range(seconds * TICKS_PER_S + 1):
-        reckoning.mark(tick * TICK_MS)
+def reckoning() -> DeadReckoning:
+    return DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=2000, error_mps=ERROR, radius_m=0.3)
+
+
+def driven(velocities, reports: dict[int, SpeedStatus]) -> DeadReckoning:
+    """A reckoning driven at ``velocities[tick]``, told ``reports`` by tick."""
+    reckoned = reckoning()
+    for tick, velocity in enumerate(velocities):
+        reckoned.mark(tick * TICK_MS)
         if tick in reports:
-            reckoning.measured(reports[tick])
-        reckoning.advance(velocity)
-    return reckoning
+            reckoned.measured([reports[tick]], now_ms=tick * TICK_MS)
+        reckoned.advance(velocity)
+    return reckoned
 
 
-def every_second(seconds: int, **measured: float) -> dict[int, SpeedStatus]:
-    return {s * TICKS_PER_S: report(s * 1000, **measured) for s in range(seconds + 1)}
+def every_second(seconds: int, mean_mps=lambda second: 0.0) -> dict[int, SpeedStatus]:
+    """A report at each whole second, of the mean speed over the second before it."""
+    return {s * TICKS_PER_S: report(s * 1000, mean_mps(s)) for s in range(seconds + 1)}
+
+
+FORWARD = Velocity(0.2, 0.0, 0.0)
+
+
+def reckoned_means(velocities) -> list[float]:
+    """The mean forward speed the reckoning makes over each whole second, by its end (the
+    first: 0)."""
+    free, went = reckoning(), [0.0]
+    for tick, velocity in enumerate(velocities, 1):
+        free.advance(velocity)
+        if tick % TICKS_PER_S == 0:
+            went.append(free.pose[0])  # straight on: x is the distance
+    return [0.0] + [b - a for a, b in itertools.pairwise(went)]
 
 
 def test_a_measured_speed_the_reckoning_explains_is_no_slip() -> None:
-    """Driving forward at 0.2 m/s, told 0.2 m/s each second (or 0.2 within the error):
-    nothing slipped."""
-    for measured in (0.2, 0.2 + 0.9 * ERROR, 0.2 - 0.9 * ERROR):
-        reports = every_second(8, forward=measured)
-        reports[0] = report(0)  # standing at the start
-        reckoning = driven(reports, Velocity(0.2, 0.0, 0.0), 8)
-        assert reckoning.slip == Slip()
+    """Driving forward at 0.2 m/s for 8 s, told the mean speeds the reckoning made, or the
+    same within the error: nothing slipped, nothing is unchecked once the last report
+    covers the drive."""
+    drive = [FORWARD] * (8 * TICKS_PER_S)
+    made = reckoned_means(drive)
+    assert made[1] < 0.2 == pytest.approx(made[2])  # the first second ramps up
+    for error in (0.0, 0.9 * ERROR, -0.9 * ERROR):
+        means = every_second(8, lambda s, e=error: made[s] + e if s else 0.0)
+        reckoned = driven([*drive, Velocity()], means)
+        assert reckoned.slip == Slip()
+        rolled = reckoned.drift(reckoned.placed(0)).distance_m  # braking after the last report
+        assert 0.0 < rolled < 0.2**2 / 2 / LIMITS.max_accel_mps2 + 1e-9
 
 
-def test_a_blocked_base_slips_by_the_speed_it_did_not_make() -> None:
-    """Pushed into a table at 0.2 m/s for 8 s, the base stands (told 0 each second): the
-    reckoning took it 1.6 m on, and each report counts 0.2 - 0.05 m/s for its second."""
-    reckoning = driven(every_second(8), Velocity(0.2, 0.0, 0.0), 8)
-    assert reckoning.pose[0] == pytest.approx(1.58, abs=0.01)
-    assert reckoning.slip.distance_m == pytest.approx(8 * (0.2 - ERROR))
-    assert reckoning.slip.heading_rad == 0.0
-    assert reckoning.slip_at(3500).distance_m == pytest.approx(3 * (0.2 - ERROR))
-    assert reckoning.slip_at(-1) == Slip()  # before every report: all of it counts since
+def test_a_blocked_base_slips_by_the_distance_it_did_not_go() -> None:
+    """Pushed into a table at 0.2 m/s for 8 s, the base stands (told 0): the reckoning took
+    it 1.6 m on, and each report counts that second's reckoned distance less the error."""
+    reckoned = driven([FORWARD] * (8 * TICKS_PER_S + 1), every_second(8))
+    assert reckoned.pose[0] == pytest.approx(1.58, abs=0.01)
+    assert reckoned.slip.distance_m == pytest.approx(1.58 - 8 * ERROR, abs=0.01)
+    assert reckoned.slip.heading_rad == 0.0
+    since_3_5 = reckoned.drift(reckoned.placed(3500))
+    assert since_3_5.distance_m == pytest.approx(5 * (0.2 - ERROR), abs=0.01)  # seconds 4-8
+
+
+def test_a_push_between_two_reports_is_counted_by_the_next() -> None:
+    """Taps forward (0.6 s in each second) against the table: the speed at each report's
+    instant is 0, the distance over its second is not (a sampled speed missed it all)."""
+    taps = [FORWARD if tick % TICKS_PER_S < 30 else Velocity() for tick in range(8 * TICKS_PER_S)]
+    reckoned = driven([*taps, Velocity()], every_second(8))
+    assert reckoned.slip.distance_m > 8 * (0.1 - ERROR)
+
+
+def test_what_no_report_covers_yet_counts_whole() -> None:
+    """Reports that stopped after the first: a reading's drift is the whole path reckoned
+    since it; with a report each second, only the path since the last (0.5 s of driving);
+    with none ever (a robot that sends none), nothing."""
+    drive = [FORWARD] * (4 * TICKS_PER_S)
+    stopped = driven(drive, {0: report(0)})
+    assert stopped.drift(stopped.placed(0)).distance_m == pytest.approx(0.78, abs=0.01)
+    assert driven(drive, {}).drift(stopped.placed(0)) == Slip()
+    told = [FORWARD] * (3 * TICKS_PER_S + 25)
+    made = reckoned_means(told[: 3 * TICKS_PER_S])
+    reported = driven(told, every_second(3, lambda s: made[s]))
+    assert reported.slip == Slip()
+    assert reported.drift(reported.placed(0)).distance_m == pytest.approx(0.1, abs=0.005)
 
 
 def test_a_blocked_turn_slips_by_the_heading_it_did_not_make() -> None:
-    """Spinning at 1 rad/s told 0: the rim's error (0.05 m/s at 0.3 m) is no slip, the rest
-    is."""
-    reckoning = driven(every_second(3), Velocity(0.0, 0.0, 1.0), 3)
-    assert reckoning.slip.heading_rad == pytest.approx(3 * (1.0 - ERROR / 0.3))
-    assert reckoning.slip.distance_m == 0.0
+    """Spinning at 1 rad/s told 0: the rim's error (0.05 m/s at 0.3 m) is no slip."""
+    reckoned = driven([Velocity(0.0, 0.0, 1.0)] * (3 * TICKS_PER_S + 1), every_second(3))
+    turned = reckoned.placed(3000).pose[2]
+    assert reckoned.slip.heading_rad == pytest.approx(turned - 3 * ERROR / 0.3)
+    assert reckoned.slip.distance_m == 0.0
 
 
-def test_a_report_seen_again_or_older_counts_once() -> None:
-    reckoning = DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=500, error_mps=ERROR, radius_m=0.3)
-    reckoning.mark(0)
-    reckoning.measured(report(0, forward=1.0))
-    for at_ms in (1000, 1000, 400):
-        reckoning.mark(at_ms)
-        reckoning.measured(report(at_ms, forward=1.0))
-    assert reckoning.slip.distance_m == pytest.approx(1.0 - ERROR)
+def test_a_report_covered_already_or_ahead_of_the_clock_counts_nothing() -> None:
+    """A report seen again, an older one, and one that ends after now (a clock ahead: it
+    once stopped every later report from counting) count nothing; the next one does."""
+    reckoned = reckoning()
+    reckoned.mark(0)
+    reckoned.advance(Velocity(0.0, 0.0, 0.0))
+    reckoned.mark(1000)
+    ahead = SpeedStatus(xspeed=9.0, yspeed=0.0, thetaspeed=0.0, duration=5000, startingtime=1000)
+    for speeds in ([report(1000, 1.0)], [report(1000, 1.0)], [report(400, 1.0)], [ahead]):
+        reckoned.measured(speeds, now_ms=1000)
+    assert reckoned.slip.distance_m == pytest.approx(1.0 - ERROR)
+    reckoned.mark(2000)
+    reckoned.measured([report(2000, 1.0)], now_ms=2000)
+    assert reckoned.slip.distance_m == pytest.approx(2 * (1.0 - ERROR))
 
 
-def test_a_report_that_cannot_be_read_loses_the_reckoning() -> None:
-    reckoning = DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=500, error_mps=ERROR, radius_m=0.3)
-    reckoning.mark(0)
-    reckoning.measured(report(0))
-    reckoning.mark(1000)
-    reckoning.measured(report(1000, forward=math.nan))
-    assert reckoning.slip.distance_m == math.inf
+@pytest.mark.parametrize("forward", [math.nan, 1e308, -1e308])
+def test_a_report_that_cannot_be_right_loses_the_reckoning_finitely(forward: float) -> None:
+    """A NaN or absurd speed counts ``LOST_M``: every earlier reading is lost, and the
+    arithmetic stays finite (an infinite slip once made a margin NaN)."""
+    reckoned = reckoning()
+    reckoned.mark(0)
+    reckoned.measured([report(1000, forward)], now_ms=1000)
+    assert reckoned.slip.distance_m == LOST_M
+    later = reckoned.placed(1000)
+    assert reckoned.drift(later).distance_m == 0.0
 
 
-def _pushed(
-    seconds: int, measured: float, *, ring: bool = False
-) -> tuple[SafetySupervisor, WorldMap]:
+def _pushed(seconds: int, measured: float, *, ring: bool = False):
     """A child seen once, 1 m to the left (then never again: stale); the robot driven 0.2
-    m/s forward for ``seconds``, its speed measured as ``measured`` each second; a sonar
-    ring on and scanning (that sees no echo) if ``ring``."""
+    m/s forward for ``seconds``, told a mean speed of ``measured`` each second; a sonar ring
+    on and scanning (that sees no echo) if ``ring``."""
     supervisor = SafetySupervisor(SafetyConfig(robot_radius_m=0.3), LIMITS, tick_ms=TICK_MS)
     child = seen(1.0, math.pi / 2)
     sonars = [Sonar(id="ring", isonline=True)] if ring else []
+    world_map = room(child)
     for tick in range(seconds * TICKS_PER_S + 1):
         now = tick * TICK_MS
-        status = RobotStatus(speed=[report(now // 1000 * 1000, forward=measured)])
+        mean = 0.0 if now < 1000 else measured
+        status = RobotStatus(speed=[report(now // 1000 * 1000, mean)])
         world_map = msgspec.structs.replace(room(child), robotstatus=status, sonars=sonars)
-        supervise(Velocity(0.2, 0.0, 0.0), world_map, now_ms=now, supervisor=supervisor)
+        supervise(FORWARD, world_map, now_ms=now, supervisor=supervisor)
     return supervisor, world_map
 
 
@@ -108,11 +168,10 @@ def test_a_base_pushed_against_furniture_keeps_off_a_child_it_no_longer_sees() -
     """8 s against a table: the reckoning puts the child 1.6 m behind, but the measured
     speed (0) showed the slip, so driving left towards where the child may still be is
     stopped; told the speed it reckoned, the same drive is free (the child far behind)."""
-    now = 8 * 1000
     for measured, free in ((0.0, False), (0.2, True)):
         supervisor, world_map = _pushed(8, measured)
         verdict, _ = supervise(
-            Velocity(0.0, 0.2, 0.0), world_map, now_ms=now, supervisor=supervisor
+            Velocity(0.0, 0.2, 0.0), world_map, now_ms=8000, supervisor=supervisor
         )
         assert (verdict.velocity.v_y == pytest.approx(0.2)) is free, measured
         if not free:
@@ -126,3 +185,7 @@ def test_with_the_ring_working_slip_widens_nothing() -> None:
     supervisor, world_map = _pushed(8, 0.0, ring=True)
     verdict, _ = supervise(Velocity(0.0, 0.2, 0.0), world_map, now_ms=8000, supervisor=supervisor)
     assert verdict.velocity.v_y == pytest.approx(0.2)
+
+
+def test_the_map_type_is_what_the_supervisor_reads() -> None:
+    assert WorldMap().robotstatus.speed == []
