@@ -6,7 +6,7 @@ import contextlib
 import datetime
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import msgspec
 from oimi.pipeline.errors import LocatedError
@@ -19,13 +19,15 @@ from oimi.recorder.outputs import (
     finish_partial,
     partial_path,
 )
-from oimi.recorder.rerun_sink import RerunSink
 from oimi.recorder.scene import ObstacleGeometry, SafetyZones, SceneGeometry, door_on_wall
 from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 from oimi.scenarios.schema import Scenario
 from oimi.scenarios.session.info import SESSION_RECORD, SessionInfo, TickCounter
 from oimi.scenarios.session.interrupts import interrupts_held
 from oimi.scenarios.session.runner import Session
+
+if TYPE_CHECKING:  # rerun (and numpy, with its BLAS threads) only for a Rerun recording
+    from oimi.recorder.rerun_sink import RerunSink
 
 
 def scene_of(scenario: Scenario) -> SceneGeometry:
@@ -58,9 +60,6 @@ def scene_of(scenario: Scenario) -> SceneGeometry:
 def recording_id(scenario: Scenario) -> str:
     """A fixed id for a scenario and seed, so a re-run writes the same recording id."""
     return f"{scenario.name}-seed{scenario.seed}"
-
-
-_Sink = McapSink | RerunSink
 
 
 class ClosingSink(Protocol):
@@ -123,7 +122,7 @@ def recorded(
     """
     check_outputs((mcap, rrd), overwrite=overwrite)
     claimed: list[tuple[Path, Path]] = []
-    opened: list[tuple[_Sink, Path, Path]] = []
+    opened: list[tuple[McapSink | RerunSink, Path, Path]] = []
     closers: list[ClosingSink] = list(sinks)
     started = False
     scene = scene_of(session.scenario)
@@ -152,8 +151,10 @@ def recorded(
                     chunk_size_bytes=chunk_size_bytes,
                     world_every_n_ticks=world_every_n_ticks,
                 )
-                sink: _Sink = mcap_sink
+                sink: McapSink | RerunSink = mcap_sink
             else:
+                from oimi.recorder.rerun_sink import RerunSink
+
                 sink = RerunSink(partial, recording_id=ident, scene=scene)
             opened.append((sink, partial, path))
             session.sink.add(sink)
