@@ -163,8 +163,11 @@ class Recording:
             scan = ChunkScan(
                 stream, frozenset(t.value for t in wanted), check_indexes=check_indexes
             )
+            counts: dict[str, int] = {}
             try:
-                for topic, sequence, log_time_ns, data in scan.messages():
+                for topic, _, log_time_ns, data in scan.messages():
+                    sequence = counts.get(topic, 0)  # its place on its channel (the record: 0)
+                    counts[topic] = sequence + 1
                     try:
                         tick = _stamp_decoder.decode(data).tick
                     except msgspec.DecodeError as error:

@@ -98,8 +98,10 @@ def _inline_refs(node: object, defs: dict[str, object], seen: tuple[str, ...]) -
 
 @cache
 def foxglove_schema(topic: FoxgloveTopic) -> tuple[str, bytes]:
-    """``(title, file bytes)`` of a Foxglove schema shipped in ``recorder/foxglove_schemas``."""
+    """``(title, JSON)`` of a Foxglove schema shipped in ``recorder/foxglove_schemas``: the
+    file's JSON written compactly (the same keys in the same order)."""
     data = (
         resources.files("oimi.recorder") / "foxglove_schemas" / FOXGLOVE_SCHEMA_FILES[topic]
     ).read_bytes()
-    return msgspec.json.decode(data)["title"], data
+    schema = msgspec.json.decode(data)
+    return schema["title"], msgspec.json.encode(schema)  # compact: written twice a file

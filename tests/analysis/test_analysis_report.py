@@ -7,6 +7,7 @@ from pathlib import Path
 
 import matplotlib.image
 import polars as pl
+from mcap.reader import make_reader
 from oimi.analysis.dataset import build_dataset
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import session_metrics
@@ -119,8 +120,10 @@ def test_cli_compares_a_folder_of_sessions(recordings_dir: Path, tmp_path: Path,
 
 def test_cli_warns_about_a_truncated_file(too_close_mcap: Path, tmp_path: Path, capsys) -> None:
     cut = tmp_path / "cut.mcap"
-    whole = too_close_mcap.read_bytes()
-    cut.write_bytes(whole[: len(whole) * 6 // 10])  # past the first chunk: something to analyse
+    with too_close_mcap.open("rb") as stream:
+        first = make_reader(stream).get_summary().chunk_indexes[0]
+    end = first.chunk_start_offset + first.chunk_length  # past the first chunk: to analyse
+    cut.write_bytes(too_close_mcap.read_bytes()[: end + 10])
     assert main(["analyse", str(cut)]) == 0
     assert f"warning: {cut}: damaged at byte " in capsys.readouterr().err
 
