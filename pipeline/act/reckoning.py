@@ -29,16 +29,6 @@ LOST_M: Final = 1000.0
 the reckoning is lost for every reading taken before it), m or rad."""
 
 
-class Odometer(NamedTuple):
-    """What the reckoning took the base to drive since the start: the body-frame distances
-    (the integral of its forward, leftward and turning velocity) and the path's length."""
-
-    forward_m: float = 0.0
-    left_m: float = 0.0
-    turn_rad: float = 0.0
-    path_m: float = 0.0
-
-
 class Slip(NamedTuple):
     """How far the reports say the reckoning drifted since the start."""
 
@@ -54,10 +44,9 @@ class Placed(NamedTuple):
     path_m: float
 
 
-class _State(NamedTuple):
-    time_ms: int
-    pose: tuple[float, float, float]
-    odometer: Odometer
+_State = tuple[int, tuple[float, float, float], float]
+"""A tick's time, ms, and the pose and the path's length (m) at its start (plain tuples:
+one a tick)."""
 
 
 class DeadReckoning:
@@ -77,8 +66,8 @@ class DeadReckoning:
         """The robot's pose in its own start frame (m, m, rad)."""
         self._moving = Velocity()
         """The base's velocity as the reckoning takes it, in the odometry frame."""
-        self.odometer = Odometer()
-        """What the reckoning took the base to drive so far."""
+        self.path_m = 0.0
+        """The length of the path the reckoning took the base along so far."""
         self._history: deque[_State] = deque(maxlen=kept_ms // tick_ms + 3)
         """Recent ticks' states at their start, oldest first."""
         self.slip = Slip()
@@ -92,21 +81,20 @@ class DeadReckoning:
 
     def mark(self, now_ms: int) -> None:
         """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
-        if not self._history or self._history[-1].time_ms != now_ms:
-            self._history.append(_State(now_ms, self.pose, self.odometer))
+        if not self._history or self._history[-1][0] != now_ms:
+            self._history.append((now_ms, self.pose, self.path_m))
 
     def placed(self, time_ms: int) -> Placed:
         """The reckoning at ``time_ms``: the pose then (the oldest kept for older times), the
         slip counted up to the last report that covers it and the path driven up to then
         (for a time older than what is kept, none: all that was counted since the start)."""
-        state = self._state_at(time_ms)
+        at_ms, pose, path_m = self._state_at(time_ms)
         slip = Slip()
         for until_ms, counted in reversed(self._slips):
             if until_ms <= time_ms:
                 slip = counted
                 break
-        path_m = state.odometer.path_m if state.time_ms <= time_ms else 0.0
-        return Placed(state.pose, slip, path_m)
+        return Placed(pose, slip, path_m if at_ms <= time_ms else 0.0)
 
     def drift(self, since: Placed) -> Slip:
         """How far the reckoning may have drifted since ``since``: the slip counted since,
@@ -115,16 +103,20 @@ class DeadReckoning:
         slip = self.slip
         unchecked = 0.0
         if self._covered_ms is not None:  # reports come: what they do not cover yet counts
-            unchecked = self.odometer.path_m - max(since.path_m, self._covered_path_m)
+            unchecked = self.path_m - max(since.path_m, self._covered_path_m)
         return Slip(
             slip.distance_m - since.slip.distance_m + unchecked,
             slip.heading_rad - since.slip.heading_rad,
         )
 
-    def measured(self, speeds: Sequence[SpeedStatus], *, now_ms: int) -> None:
+    def measured(self, speeds: Sequence[SpeedStatus], now_ms: int) -> None:
         """Count the slip the reports in ``speeds`` (the map's register, oldest first) not
         counted yet show, in order."""
         covered = self._covered_ms
+        if not speeds or (
+            covered is not None and speeds[-1].startingtime + speeds[-1].duration <= covered
+        ):
+            return  # most ticks: nothing new
         new: list[SpeedStatus] = []
         for speed in reversed(speeds):
             if covered is not None and speed.startingtime + speed.duration <= covered:
@@ -142,14 +134,10 @@ class DeadReckoning:
         if (covered is not None and end_ms <= covered) or not start_ms <= end_ms <= now_ms:
             return
         self._covered_ms = end_ms
-        before, after = self._state_at(start_ms).odometer, self._state_at(end_ms).odometer
-        self._covered_path_m = after.path_m
+        forward, left, turn, self._covered_path_m = self._driven(start_ms, end_ms)
         lasted_s = speed.duration / 1000
-        gap = math.hypot(
-            speed.xspeed * lasted_s - (after.forward_m - before.forward_m),
-            speed.yspeed * lasted_s - (after.left_m - before.left_m),
-        )
-        turn = abs(speed.thetaspeed * lasted_s - (after.turn_rad - before.turn_rad))
+        gap = math.hypot(speed.xspeed * lasted_s - forward, speed.yspeed * lasted_s - left)
+        turn = abs(speed.thetaspeed * lasted_s - turn)
         gap -= self._error_mps * lasted_s
         turn -= self._error_radps * lasted_s
         if gap <= 0.0 and turn <= 0.0:
@@ -175,21 +163,39 @@ class DeadReckoning:
         dt = self._dt_s
         theta += dt * omega
         self.pose = (x + dt * v_x, y + dt * v_y, theta)
-        if v_x or v_y or omega:  # the odometer in the body frame after the step, as measured
-            cos, sin = math.cos(theta), math.sin(theta)
-            forward, left, turn, path = self.odometer
-            self.odometer = Odometer(
-                forward + dt * (cos * v_x + sin * v_y),
-                left + dt * (cos * v_y - sin * v_x),
-                turn + dt * omega,
-                path + dt * math.hypot(v_x, v_y),
-            )
+        if v_x or v_y:
+            self.path_m += dt * math.hypot(v_x, v_y)
+
+    def _driven(self, start_ms: int, end_ms: int) -> tuple[float, float, float, float]:
+        """What the reckoning took the base to drive from ``start_ms`` to ``end_ms`` (from the
+        oldest state kept, for an older start), as its odometry would measure it: each tick's
+        step in the body frame after it (m forward, m left) and the turn (rad); and the
+        path's length at ``end_ms``. (Worked out here, once a report, not at every tick.)"""
+        forward = left = 0.0
+        history = self._history
+        if not history:
+            return 0.0, 0.0, 0.0, self.path_m
+        first = len(history) - 1
+        while first > 0 and history[first][0] > start_ms:
+            first -= 1
+        at_ms, (x, y, theta), path_m = history[first]
+        turned = theta
+        for index in range(first + 1, len(history)):
+            at_ms, (next_x, next_y, next_theta), next_path_m = history[index]
+            if at_ms > end_ms:
+                break
+            cos, sin = math.cos(next_theta), math.sin(next_theta)
+            dx, dy = next_x - x, next_y - y
+            forward += cos * dx + sin * dy
+            left += cos * dy - sin * dx
+            x, y, theta, path_m = next_x, next_y, next_theta, next_path_m
+        return forward, left, theta - turned, path_m
 
     def _state_at(self, time_ms: int) -> _State:
         for state in reversed(self._history):
-            if state.time_ms <= time_ms:
+            if state[0] <= time_ms:
                 return state
-        return self._history[0] if self._history else _State(time_ms, self.pose, self.odometer)
+        return self._history[0] if self._history else (time_ms, self.pose, self.path_m)
 
 
 def _counted(excess: float) -> float:

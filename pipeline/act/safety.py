@@ -135,6 +135,8 @@ class SafetySupervisor:
             radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
         )
         """The robot's pose in its own start frame, and how far it may have slipped."""
+        self._pose = (0.0, 0.0, 0.0)
+        """The reckoned pose at the start of the tick being supervised (read once a tick)."""
         self._anchors: dict[str, _Anchor] = {}
         """Human id (``Obstacle/<id>`` for an echo) -> its last reading in the odometry
         frame."""
@@ -167,7 +169,8 @@ class SafetySupervisor:
         ``scanned``: when each sonar took its latest scan, ms, by id (``MapProducer.scanned``)."""
         reckoning = self._reckoning
         reckoning.mark(now_ms)
-        reckoning.measured(world_map.robotstatus.speed, now_ms=now_ms)
+        reckoning.measured(world_map.robotstatus.speed, now_ms)
+        self._pose = reckoning.pose
         anchors = self._anchors
         for human in world_map.humans:  # most readings are placed already: tested inline
             if human.poses:
@@ -292,7 +295,7 @@ class SafetySupervisor:
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
-        constraints = [self._constraint(*reading, slipped=ring_down) for reading in placed]
+        constraints = [self._constraint(k, reading, age, ring_down) for k, reading, age in placed]
         v_x, v_y = requested.v_x, requested.v_y
         zone: SafetyZone | None = None
         if blind or stale:
@@ -331,7 +334,7 @@ class SafetySupervisor:
         age_ms = now_ms - reading.positionchangetime
         return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
 
-    def _constraint(self, key: str, human: Entity, age_ms: int, *, slipped: bool) -> _Constraint:
+    def _constraint(self, key: str, human: Entity, age_ms: int, slipped: bool) -> _Constraint:
         """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it;
         ``slipped``: its margin grows by the slip counted since it was taken."""
         config = self.config
@@ -410,7 +413,7 @@ class SafetySupervisor:
 
     def _estimate(self, anchor: _Anchor) -> tuple[float, float]:
         """A reading's position in the robot's current body frame."""
-        x, y, theta = self._reckoning.pose
+        x, y, theta = self._pose
         dx, dy = anchor.x - x, anchor.y - y
         cos, sin = math.cos(theta), math.sin(theta)
         return (cos * dx + sin * dy, -sin * dx + cos * dy)

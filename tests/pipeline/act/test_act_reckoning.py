@@ -38,7 +38,7 @@ def driven(velocities, reports: dict[int, SpeedStatus]) -> DeadReckoning:
     for tick, velocity in enumerate(velocities):
         reckoned.mark(tick * TICK_MS)
         if tick in reports:
-            reckoned.measured([reports[tick]], now_ms=tick * TICK_MS)
+            reckoned.measured([reports[tick]], tick * TICK_MS)
         reckoned.advance(velocity)
     return reckoned
 
@@ -128,10 +128,10 @@ def test_a_report_covered_already_or_ahead_of_the_clock_counts_nothing() -> None
     reckoned.mark(1000)
     ahead = SpeedStatus(xspeed=9.0, yspeed=0.0, thetaspeed=0.0, duration=5000, startingtime=1000)
     for speeds in ([report(1000, 1.0)], [report(1000, 1.0)], [report(400, 1.0)], [ahead]):
-        reckoned.measured(speeds, now_ms=1000)
+        reckoned.measured(speeds, 1000)
     assert reckoned.slip.distance_m == pytest.approx(1.0 - ERROR)
     reckoned.mark(2000)
-    reckoned.measured([report(2000, 1.0)], now_ms=2000)
+    reckoned.measured([report(2000, 1.0)], 2000)
     assert reckoned.slip.distance_m == pytest.approx(2 * (1.0 - ERROR))
 
 
@@ -141,7 +141,7 @@ def test_a_report_that_cannot_be_right_loses_the_reckoning_finitely(forward: flo
     arithmetic stays finite (an infinite slip once made a margin NaN)."""
     reckoned = reckoning()
     reckoned.mark(0)
-    reckoned.measured([report(1000, forward)], now_ms=1000)
+    reckoned.measured([report(1000, forward)], 1000)
     assert reckoned.slip.distance_m == LOST_M
     later = reckoned.placed(1000)
     assert reckoned.drift(later).distance_m == 0.0
