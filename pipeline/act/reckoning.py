@@ -7,9 +7,10 @@ the simulated base does. That model does not see a base blocked by furniture or 
 a person; the robot's measured speed (``RobotStatus speed``, table 4.1: its mean velocity
 for ``duration`` ms from ``startingtime``, body frame) does. For each report, how far the
 distance it says the base went differs from the distance reckoned over the same time,
-beyond the measurement's error, is counted as *slip*; the reckoned path since the last time
-a report covers is not checked yet, and counts whole (reports that stop coming leave all of
-it unchecked; a robot that never sends one has nothing counted). A reading's position is
+beyond the measurement's error, is counted as *slip*; the path reckoned over a time no
+report covers (since the last one's end, or between two) counts whole (reports that stop
+coming leave all of it unchecked; a robot that never sends one has nothing counted; a push
+between two reports is seen only by the next). A reading's position is
 uncertain by what was counted since it was taken (:meth:`DeadReckoning.drift`), which the
 supervisor adds to its margin. No clock, no IO.
 """
@@ -131,8 +132,11 @@ class DeadReckoning:
         already, or ending after the current tick (a clock ahead), changes nothing."""
         start_ms, end_ms = speed.startingtime, speed.startingtime + speed.duration
         covered = self._covered_ms
-        if (covered is not None and end_ms <= covered) or not start_ms <= end_ms <= now_ms:
-            return
+        if (covered is not None and end_ms <= covered) or not start_ms < end_ms <= now_ms:
+            return  # (one of no duration covers nothing)
+        gap_m = 0.0
+        if covered is not None and start_ms > covered:  # a time no report covers: the path
+            gap_m = self._state_at(start_ms)[2] - self._covered_path_m  # reckoned, unchecked
         self._covered_ms = end_ms
         forward, left, turn, self._covered_path_m = self._driven(start_ms, end_ms)
         lasted_s = speed.duration / 1000
@@ -140,10 +144,10 @@ class DeadReckoning:
         turn = abs(speed.thetaspeed * lasted_s - turn)
         gap -= self._error_mps * lasted_s
         turn -= self._error_radps * lasted_s
-        if gap <= 0.0 and turn <= 0.0:
+        if gap <= 0.0 and turn <= 0.0 and not gap_m:
             return  # within the measurement's error: the reckoning holds
         slip = self.slip
-        self.slip = Slip(slip.distance_m + _counted(gap), slip.heading_rad + _counted(turn))
+        self.slip = Slip(slip.distance_m + _counted(gap) + gap_m, slip.heading_rad + _counted(turn))
         self._slips.append((end_ms, self.slip))
 
     def advance(self, velocity: Velocity) -> None:

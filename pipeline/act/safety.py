@@ -204,6 +204,11 @@ class SafetySupervisor:
         )
         return Supervised(verdict, event)
 
+    @property
+    def reckoned_pose(self) -> tuple[float, float, float]:
+        """Where the dead reckoning has the robot, in its start frame (m, m, rad)."""
+        return self._reckoning.pose
+
     # ---------------------------------------------------------------- internal
 
     def _phase(self, verdict: Verdict, source: MotionSource, now_ms: int) -> SafetyPhase | None:
@@ -268,6 +273,7 @@ class SafetySupervisor:
         echo_hold_ms = config.echo_hold_ms
         assert echo_hold_ms is not None  # filled
         placed: list[tuple[str, Entity, int]] = []  # what limits the robot, and its age
+        kept: list[tuple[str, Entity, int]] = []  # the echoes kept, and their age
         seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             age_ms = self._age(human, now_ms)
@@ -287,11 +293,13 @@ class SafetySupervisor:
                     stale = True  # a ring down may have made it
                 elif scanning_since > reported_ms and now_ms - reported_ms > echo_hold_ms:
                     continue  # every ring said it was on since, and went on without it: gone
-            if not self._explained(self._anchors[key], seen):
-                placed.append((key, echo, age_ms))
+            kept.append((key, echo, age_ms))
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
+        for key, echo, age_ms in kept:
+            if not self._explained(self._anchors[key], seen, ring_down):
+                placed.append((key, echo, age_ms))
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
@@ -369,16 +377,24 @@ class SafetySupervisor:
             cap = min(cap, config.slow_speed_mps)
         return _Constraint(key, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
 
-    def _explained(self, echo: _Anchor, seen: list[_Anchor]) -> bool:
+    def _explained(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> bool:
         """Whether an echo is a human the map tracks: their readings place them closer
         than both readings' errors and the walk between their times allow. The distance
         accepted is at most ``human_radius_m``, so an echo is never taken for another
-        body (two bodies' centres are at least two radii apart)."""
+        body (two bodies' centres are at least two radii apart); ``slipped``: less the
+        drift since the echo (placed that far off, it may be another body)."""
+        if not seen:
+            return False
         config = self.config
-        at_ms, x, y, _ = echo
+        at_ms, x, y, since = echo
+        largest = config.human_radius_m
+        if slipped:
+            drift = self._reckoning.drift(since)
+            e_x, e_y = self._estimate(echo)
+            largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
         for human_ms, hx, hy, _ in seen:
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
-            gate = min(2 * config.sensing_error_m + walked, config.human_radius_m)
+            gate = min(2 * config.sensing_error_m + walked, largest)
             if math.hypot(x - hx, y - hy) <= gate:
                 return True
         return False
