@@ -75,8 +75,8 @@ class DeadReckoning:
         """The slip counted so far."""
         self._slips: deque[tuple[int, Slip]] = deque(maxlen=64)
         """Up to when each recent report was counted, ms, and the slip counted up to then."""
-        self._covered_ms: int | None = None
-        """Up to when the reports counted so far cover, ms (None: none yet)."""
+        self._covered_ms: float = -math.inf
+        """Up to when the reports counted so far cover, ms (-inf: none yet)."""
         self._covered_path_m = -math.inf
         """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
 
@@ -103,7 +103,7 @@ class DeadReckoning:
         that never reported its speed has no drift counted: nothing tells a blocked base."""
         slip = self.slip
         unchecked = 0.0
-        if self._covered_ms is not None:  # reports come: what they do not cover yet counts
+        if self._covered_ms > -math.inf:  # reports come: what they do not cover yet counts
             unchecked = self.path_m - max(since.path_m, self._covered_path_m)
         return Slip(
             slip.distance_m - since.slip.distance_m + unchecked,
@@ -114,13 +114,11 @@ class DeadReckoning:
         """Count the slip the reports in ``speeds`` (the map's register, oldest first) not
         counted yet show, in order."""
         covered = self._covered_ms
-        if not speeds or (
-            covered is not None and speeds[-1].startingtime + speeds[-1].duration <= covered
-        ):
+        if not speeds or _end_ms(speeds[-1]) <= covered:
             return  # most ticks: nothing new
         new: list[SpeedStatus] = []
         for speed in reversed(speeds):
-            if covered is not None and speed.startingtime + speed.duration <= covered:
+            if _end_ms(speed) <= covered:
                 break
             new.append(speed)
         for speed in reversed(new):
@@ -130,15 +128,15 @@ class DeadReckoning:
         """Count the slip a speed report shows: the distance its mean velocity over its
         ``duration`` makes, against the distance reckoned over that time. A report covered
         already, or ending after the current tick (a clock ahead), changes nothing."""
-        start_ms, end_ms = speed.startingtime, speed.startingtime + speed.duration
+        start_ms, end_ms = speed.startingtime, _end_ms(speed)
         covered = self._covered_ms
-        if (covered is not None and end_ms <= covered) or not start_ms < end_ms <= now_ms:
+        if end_ms <= covered or not start_ms < end_ms <= now_ms:
             return  # (one of no duration covers nothing)
+        forward, left, turn, start_path_m, end_path_m = self._driven(start_ms, end_ms)
         gap_m = 0.0
-        if covered is not None and start_ms > covered:  # a time no report covers: the path
-            gap_m = self._state_at(start_ms)[2] - self._covered_path_m  # reckoned, unchecked
-        self._covered_ms = end_ms
-        forward, left, turn, self._covered_path_m = self._driven(start_ms, end_ms)
+        if -math.inf < covered < start_ms:  # a time no report covers: its path, unchecked
+            gap_m = start_path_m - self._covered_path_m
+        self._covered_ms, self._covered_path_m = end_ms, end_path_m
         lasted_s = speed.duration / 1000
         gap = math.hypot(speed.xspeed * lasted_s - forward, speed.yspeed * lasted_s - left)
         turn = abs(speed.thetaspeed * lasted_s - turn)
@@ -170,20 +168,20 @@ class DeadReckoning:
         if v_x or v_y:
             self.path_m += dt * math.hypot(v_x, v_y)
 
-    def _driven(self, start_ms: int, end_ms: int) -> tuple[float, float, float, float]:
+    def _driven(self, start_ms: int, end_ms: int) -> tuple[float, float, float, float, float]:
         """What the reckoning took the base to drive from ``start_ms`` to ``end_ms`` (from the
         oldest state kept, for an older start), as its odometry would measure it: each tick's
         step in the body frame after it (m forward, m left) and the turn (rad); and the
-        path's length at ``end_ms``. (Worked out here, once a report, not at every tick.)"""
+        path's length at both ends. (Worked out here, once a report, not at every tick.)"""
         forward = left = 0.0
         history = self._history
         if not history:
-            return 0.0, 0.0, 0.0, self.path_m
+            return 0.0, 0.0, 0.0, self.path_m, self.path_m
         first = len(history) - 1
         while first > 0 and history[first][0] > start_ms:
             first -= 1
         at_ms, (x, y, theta), path_m = history[first]
-        turned = theta
+        turned, start_path_m = theta, path_m
         for index in range(first + 1, len(history)):
             at_ms, (next_x, next_y, next_theta), next_path_m = history[index]
             if at_ms > end_ms:
@@ -193,7 +191,7 @@ class DeadReckoning:
             forward += cos * dx + sin * dy
             left += cos * dy - sin * dx
             x, y, theta, path_m = next_x, next_y, next_theta, next_path_m
-        return forward, left, theta - turned, path_m
+        return forward, left, theta - turned, start_path_m, path_m
 
     def _state_at(self, time_ms: int) -> _State:
         for state in reversed(self._history):
@@ -208,3 +206,8 @@ def _counted(excess: float) -> float:
     if excess <= 0.0:
         return 0.0
     return excess if excess < LOST_M else LOST_M
+
+
+def _end_ms(speed: SpeedStatus) -> int:
+    """When a speed report's interval ends, ms."""
+    return speed.startingtime + speed.duration

@@ -135,8 +135,6 @@ class SafetySupervisor:
             radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
         )
         """The robot's pose in its own start frame, and how far it may have slipped."""
-        self._pose = (0.0, 0.0, 0.0)
-        """The reckoned pose at the start of the tick being supervised (read once a tick)."""
         self._anchors: dict[str, _Anchor] = {}
         """Human id (``Obstacle/<id>`` for an echo) -> its last reading in the odometry
         frame."""
@@ -170,7 +168,6 @@ class SafetySupervisor:
         reckoning = self._reckoning
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
-        self._pose = reckoning.pose
         anchors = self._anchors
         for human in world_map.humans:  # most readings are placed already: tested inline
             if human.poses:
@@ -429,7 +426,7 @@ class SafetySupervisor:
 
     def _estimate(self, anchor: _Anchor) -> tuple[float, float]:
         """A reading's position in the robot's current body frame."""
-        x, y, theta = self._pose
+        x, y, theta = self._reckoning.pose
         dx, dy = anchor.x - x, anchor.y - y
         cos, sin = math.cos(theta), math.sin(theta)
         return (cos * dx + sin * dy, -sin * dx + cos * dy)

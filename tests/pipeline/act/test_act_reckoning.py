@@ -161,19 +161,20 @@ def test_a_report_that_cannot_be_right_loses_the_reckoning_finitely(forward: flo
     assert reckoned.drift(later).distance_m == 0.0
 
 
-def _pushed(seconds: int, measured: float, *, ring: bool = False):
-    """A child seen once, 1 m to the left (then never again: stale); the robot driven 0.2
-    m/s forward for ``seconds``, told a mean speed of ``measured`` each second; a sonar ring
-    on and scanning (that sees no echo) if ``ring``."""
+def _pushed(seconds: int, measured: float, *, ring: bool = False, echoed: bool = False):
+    """A child seen once, 1 m to the left (then never again: stale; the ring's echo of them,
+    kept, if ``echoed``); the robot driven 0.2 m/s forward for ``seconds``, told a mean
+    speed of ``measured`` each second; a sonar ring on and scanning (that sees no echo) if
+    ``ring``."""
     supervisor = SafetySupervisor(SafetyConfig(robot_radius_m=0.3), LIMITS, tick_ms=TICK_MS)
-    child = seen(1.0, math.pi / 2)
+    left = math.pi / 2
+    remembered = {"obstacles": [echo(1.0, left)]} if echoed else {"humans": [seen(1.0, left)]}
     sonars = [Sonar(id="ring", isonline=True)] if ring else []
-    world_map = room(child)
     for tick in range(seconds * TICKS_PER_S + 1):
         now = tick * TICK_MS
         mean = 0.0 if now < 1000 else measured
         status = RobotStatus(speed=[report(now // 1000 * 1000, mean)])
-        world_map = msgspec.structs.replace(room(child), robotstatus=status, sonars=sonars)
+        world_map = msgspec.structs.replace(room(), robotstatus=status, sonars=sonars, **remembered)
         supervise(FORWARD, world_map, now_ms=now, supervisor=supervisor)
     return supervisor, world_map
 
@@ -211,14 +212,7 @@ def test_a_kept_echo_is_not_taken_for_another_child_once_the_base_slipped() -> N
     is not that child (placed that far off, it may be anyone), so driving left, towards
     where the first child truly is, is still held back (it was taken for the second child
     and dropped: the robot drove into the first; found by an adversarial review)."""
-    supervisor = SafetySupervisor(SafetyConfig(robot_radius_m=0.3), LIMITS, tick_ms=TICK_MS)
-    kept = echo(1.0, math.pi / 2)
-    world_map = room()
-    for tick in range(8 * TICKS_PER_S + 1):
-        now = tick * TICK_MS
-        status = RobotStatus(speed=[report(now // 1000 * 1000, 0.0)])
-        world_map = msgspec.structs.replace(room(), robotstatus=status, obstacles=[kept])
-        supervise(FORWARD, world_map, now_ms=now, supervisor=supervisor)
+    supervisor, world_map = _pushed(8, 0.0, echoed=True)
     x, y, theta = supervisor.reckoned_pose  # where the reckoning has it: 1.4 m on
     rho, bearing = math.hypot(-x, 1.0 - y), math.atan2(1.0 - y, -x) - theta  # at the echo
     other = seen(rho, bearing, at_ms=8000, ident="other")
