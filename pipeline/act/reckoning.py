@@ -7,10 +7,11 @@ the simulated base does. That model does not see a base blocked by furniture or 
 a person; the robot's measured speed (``RobotStatus speed``, table 4.1: its mean velocity
 for ``duration`` ms from ``startingtime``, body frame) does. For each report, how far the
 distance it says the base went differs from the distance reckoned over the same time,
-beyond the measurement's error, is counted as *slip*; the path reckoned over a time no
-report covers (since the last one's end, or between two) counts whole (reports that stop
-coming leave all of it unchecked; a robot that never sends one has nothing counted; a push
-between two reports is seen only by the next). A reading's position is
+beyond the measurement's error, is counted as *slip*. Once reports come, a time none covers
+yet (since the last one's end, or between two) is unchecked: the path reckoned over it counts
+whole, and so does the way a person could have pushed the base meanwhile (``push_mps``, the
+fastest a person moves, for that long: a push between two reports is seen only by the
+next). A robot that never sends a report has nothing counted. A reading's position is
 uncertain by what was counted since it was taken (:meth:`DeadReckoning.drift`), which the
 supervisor adds to its margin. No clock, no IO.
 """
@@ -40,6 +41,7 @@ class Slip(NamedTuple):
 class Placed(NamedTuple):
     """The reckoning at a reading's time: what its drift since is counted from."""
 
+    at_ms: int
     pose: tuple[float, float, float]
     slip: Slip
     path_m: float
@@ -54,9 +56,18 @@ class DeadReckoning:
     """The robot's odometry pose, its base's velocity, and the slip its speed reports show."""
 
     def __init__(
-        self, limits: RobotLimits, *, tick_ms: int, kept_ms: int, error_mps: float, radius_m: float
+        self,
+        limits: RobotLimits,
+        *,
+        tick_ms: int,
+        kept_ms: int,
+        error_mps: float,
+        radius_m: float,
+        push_mps: float,
     ) -> None:
         self._limits = limits
+        self._push_mps = push_mps
+        """The fastest a person may push the base, m/s (over a time no report covers)."""
         self._error_mps = error_mps
         """A measured speed's error: a difference up to it is no slip, m/s."""
         self._error_radps = error_mps / radius_m if radius_m > 0 else math.inf
@@ -79,9 +90,12 @@ class DeadReckoning:
         """Up to when the reports counted so far cover, ms (-inf: none yet)."""
         self._covered_path_m = -math.inf
         """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
+        self._now_ms = 0
+        """The current tick's time, ms."""
 
     def mark(self, now_ms: int) -> None:
         """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
+        self._now_ms = now_ms
         if not self._history or self._history[-1][0] != now_ms:
             self._history.append((now_ms, self.pose, self.path_m))
 
@@ -95,16 +109,19 @@ class DeadReckoning:
             if until_ms <= time_ms:
                 slip = counted
                 break
-        return Placed(pose, slip, path_m if at_ms <= time_ms else 0.0)
+        return Placed(time_ms, pose, slip, path_m if at_ms <= time_ms else 0.0)
 
     def drift(self, since: Placed) -> Slip:
         """How far the reckoning may have drifted since ``since``: the slip counted since,
-        and the path driven since the reports last covered (or since ``since``). A robot
-        that never reported its speed has no drift counted: nothing tells a blocked base."""
+        and over the time since the reports last covered (or since ``since``) the path
+        driven and a person's push (at most ``LOST_M``). A robot that never reported its
+        speed has no drift counted: nothing tells a blocked or pushed base."""
         slip = self.slip
         unchecked = 0.0
         if self._covered_ms > -math.inf:  # reports come: what they do not cover yet counts
-            unchecked = self.path_m - max(since.path_m, self._covered_path_m)
+            unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms)
+            pushed = self._push_mps * unchecked_ms / 1000 if unchecked_ms > 0 else 0.0
+            unchecked = self.path_m - max(since.path_m, self._covered_path_m) + _counted(pushed)
         return Slip(
             slip.distance_m - since.slip.distance_m + unchecked,
             slip.heading_rad - since.slip.heading_rad,

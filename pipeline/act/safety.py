@@ -18,7 +18,8 @@ the centre distance less both radii and a margin ``sensing_error_m + human_speed
 is dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` and
 ``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once), and
 while a sonar is down the margin grows by the slip the robot's measured speed shows since
-the reading (``pipeline/act/reckoning.py``: a base blocked by furniture or pushed).
+the reading, and by a push no report covers yet (``pipeline/act/reckoning.py``: a base
+blocked by furniture or pushed).
 Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s - stop``, a tick at ``c``,
 braking at ``a`` while the human walks on (a bound that falls no faster than the base can
 brake). Inside the stop zone ``v`` may not point at any point of the uncertainty disc (a
@@ -133,6 +134,7 @@ class SafetySupervisor:
             kept_ms=max(config.max_data_age_ms, config.max_status_age_ms),  # type: ignore[type-var]
             error_mps=config.speed_error_mps,
             radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
+            push_mps=config.human_speed_mps,  # type: ignore[arg-type]  # filled
         )
         """The robot's pose in its own start frame, and how far it may have slipped."""
         self._anchors: dict[str, _Anchor] = {}

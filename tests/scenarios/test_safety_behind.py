@@ -276,3 +276,55 @@ def test_a_robot_pushed_against_furniture_with_the_ring_down_keeps_off_the_child
     summary = written(tmp_path, PUSHED_AGAINST_A_TABLE, {"still.txt": STILL}).result().summary
     assert summary.contacts == 0 and summary.robot_initiated_contacts == 0
     assert summary.min_surface_distance_m["child"] > 0.25
+
+
+PUSHED_BETWEEN_REPORTS = """name = "a child pushes the robot towards another between two reports"
+duration_s = 8.0
+[sensors]
+status_period_s = 3.0
+[world]
+width_m = 12.0
+height_m = 12.0
+[robot]
+x_m = 5.0
+y_m = 5.0
+[[humans]]
+id = "b"
+x_m = 5.6508
+y_m = 6.4617
+behaviour = [{ kind = "stand" }]
+[[humans]]
+id = "a"
+x_m = 3.5357
+y_m = 1.7112
+behaviour = [{ kind = "waypoints", at_s = 0.0, waypoints = [[5.1424, 5.3197]], speed_mps = 1.0 }]
+[[activities]]
+script = "still.txt"
+[[events]]
+at_s = 0.5
+kind = "fault"
+sensor = "sonar"
+mode = "offline"
+[[events]]
+at_s = 3.9
+kind = "joystick"
+left_x = -0.9135
+left_y = 0.4067
+buttons = ["LB"]
+hold_s = 2.1
+"""
+
+
+def test_a_push_between_two_speed_reports_does_not_carry_the_robot_into_a_child(
+    tmp_path,
+) -> None:
+    """The ring offline, the robot's speed reported every 3 s. Child ``a`` walks in from
+    behind and pushes the robot 0.9 m towards child ``b``, whom the camera does not see
+    (their kept echo is all the supervisor has), just after a report; then the operator
+    drives towards ``b``. Until the next report the reckoning does not know of the push:
+    a person could have pushed the base as fast as they walk for as long as no report
+    covers, and the kept echo's margin grows by that much (an adversarial review found a
+    robot-initiated contact with ``b`` at 0.12 m/s)."""
+    summary = written(tmp_path, PUSHED_BETWEEN_REPORTS, {"still.txt": STILL}).result().summary
+    assert summary.robot_initiated_contacts == 0
+    assert summary.min_surface_distance_m["b"] > 0.05
