@@ -114,18 +114,19 @@ class DeadReckoning:
     def drift(self, since: Placed) -> Slip:
         """How far the reckoning may have drifted since ``since``: the slip counted since,
         and over the time since the reports last covered (or since ``since``) the path
-        driven and a person's push (at most ``LOST_M``). A robot that never reported its
-        speed has no drift counted: nothing tells a blocked or pushed base."""
+        driven and a person's push (at most ``LOST_M``); and the path driven since with a
+        heading that far off. A robot that never reported its speed has no drift counted:
+        nothing tells a blocked or pushed base."""
         slip = self.slip
         unchecked = 0.0
         if self._covered_ms > -math.inf:  # reports come: what they do not cover yet counts
             unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms)
             pushed = self._push_mps * unchecked_ms / 1000 if unchecked_ms > 0 else 0.0
             unchecked = self.path_m - max(since.path_m, self._covered_path_m) + _counted(pushed)
-        return Slip(
-            slip.distance_m - since.slip.distance_m + unchecked,
-            slip.heading_rad - since.slip.heading_rad,
-        )
+        heading = slip.heading_rad - since.slip.heading_rad
+        if heading:  # each metre driven since went that far off course
+            unchecked += (self.path_m - since.path_m) * min(heading, math.pi)
+        return Slip(slip.distance_m - since.slip.distance_m + unchecked, heading)
 
     def measured(self, speeds: Sequence[SpeedStatus], now_ms: int) -> None:
         """Count the slip the reports in ``speeds`` (the map's register, oldest first) not

@@ -152,6 +152,26 @@ def test_a_blocked_turn_slips_by_the_heading_it_did_not_make() -> None:
     assert reckoned.slip.distance_m == 0.0
 
 
+def test_driving_on_after_a_blocked_turn_drifts_by_the_path_times_the_heading_slip() -> None:
+    """A turn told 0 (blocked) for a second, then 3 s forward, each second told what the
+    reckoning made: the reckoning faces the wrong way by the heading slip, so every metre
+    driven since went that far off course (once left out: only a reading's distance times
+    the heading slip counted)."""
+    spin, turn_s, drive_s = Velocity(0.0, 0.0, 1.0), 1, 3
+    velocities = [spin] * (turn_s * TICKS_PER_S) + [FORWARD] * (drive_s * TICKS_PER_S)
+    forward = reckoned_means([FORWARD] * (drive_s * TICKS_PER_S))
+    reports = {TICKS_PER_S: report(1000, 0.0, 0.0)}
+    for s in range(1, drive_s + 1):  # what the reckoning made, in its own body frame
+        reports[(turn_s + s) * TICKS_PER_S] = report((turn_s + s) * 1000, forward[s])
+    reckoned = driven([*velocities, Velocity()], reports)
+    heading = reckoned.slip.heading_rad
+    assert heading > 0.5
+    since = reckoned.drift(reckoned.placed(0))
+    path = reckoned.path_m
+    assert since.heading_rad == heading
+    assert since.distance_m == pytest.approx(path * heading, rel=0.05)
+
+
 def test_a_report_covered_already_or_ahead_of_the_clock_counts_nothing() -> None:
     """A report seen again, an older one, and one that ends after now (a clock ahead: it
     once stopped every later report from counting) count nothing; the next one does."""
