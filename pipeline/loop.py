@@ -299,7 +299,7 @@ class Pipeline:
                 requested,
                 self.producer.perceived,
                 heard=self.producer.heard,
-                scanned=self.producer.scanned,
+                beats=self.producer.beats,
                 tick=emitter.tick,
                 now_ms=emitter.time_ms,
                 source=self.actuator.motion_source,

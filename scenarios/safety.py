@@ -77,6 +77,13 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         f" {sensors.sonar_scan_hz!r}): the supervisor would take the ring for down between"
         " two scans and keep the robot to where the camera looks",
     )
+    two_frames_ms = _whole_ms(2 / sensors.rate_hz)
+    found["max_frame_age_ms"] = Need(
+        two_frames_ms,
+        f"two of the camera's frames ({two_frames_ms} ms at rate_hz {sensors.rate_hz!r}):"
+        " the supervisor would take the camera for offline between two frames and slow the"
+        " robot",
+    )
     dropout = sensors.dropout_probability
     if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)
         scans = scans_to_see(dropout)

@@ -42,6 +42,7 @@ MODULES: Final = (
     "oimi.pipeline.act.channels",
     "oimi.pipeline.act.reckoning",
     "oimi.pipeline.act.safety",
+    "oimi.pipeline.act.separation",
     "oimi.pipeline.operator.handler",
     "oimi.pipeline.sense.producer",
     "oimi.pipeline.sense.updates",

@@ -27,7 +27,8 @@ from oimi.scenarios.schema import BehaviourEvent, FaultEvent, Scenario, TouchEve
 
 CLOCK_WINDOW_MS: Final = 5000
 """How long, in session time, a sample of the robot's clock counts (at least twice the
-scenario's ``max_data_age_ms`` and ``max_scan_age_ms``: :func:`clock_window_ms`). A robot
+scenario's ``max_data_age_ms``, ``max_scan_age_ms`` and ``max_frame_age_ms``:
+:func:`clock_window_ms`). A robot
 whose clock jumps back, restarted, is followed within it (its readings look older
 meanwhile: the safe side); a frozen sensor's readings, repeated with their old times,
 cannot make them look younger than it (they look that old, stale)."""
@@ -43,17 +44,20 @@ TIMES: Final = {
     "goalinterrupted": ("timestamp",),
 }
 """The times (ms) in each attribute's JSON payload (tables 4.1 and 4.2; durations stay)."""
-BARE_TIMES: Final = frozenset({"startingtime", "scantime"})
+BARE_TIMES: Final = frozenset({"startingtime", "scantime", "frametime"})
 """The attributes whose payload is a bare time (the robot's ``startingtime``, a sonar's
-``scantime``)."""
+``scantime``, a camera's ``frametime``)."""
+HEARTBEATS: Final = frozenset({"scantime", "frametime"})
+"""The sensors' heartbeats: when a scan or a frame was taken."""
 
 
-def clock_window_ms(max_data_age_ms: int, max_scan_age_ms: int = 0) -> int:
+def clock_window_ms(*max_ages_ms: int) -> int:
     """The robot clock's window for a supervisor that takes readings older than
-    ``max_data_age_ms`` as stale and a ring whose scan is older than ``max_scan_age_ms`` as
-    down: :data:`CLOCK_WINDOW_MS`, or twice the longer of them if longer (a time repeated
-    old looks as old as the window at most: it must look older than both)."""
-    return max(CLOCK_WINDOW_MS, 2 * max_data_age_ms, 2 * max_scan_age_ms)
+    ``max_data_age_ms``, and a ring or camera whose scan or frame is older than
+    ``max_scan_age_ms`` or ``max_frame_age_ms``, as stale or down (``max_ages_ms``):
+    :data:`CLOCK_WINDOW_MS`, or twice the longest of them if longer (a time repeated old
+    looks as old as the window at most: it must look older than each)."""
+    return max(CLOCK_WINDOW_MS, *(2 * age for age in max_ages_ms))
 
 
 class RobotClock:
@@ -65,8 +69,8 @@ class RobotClock:
     bounds the clocks' offset: ``offset_ms`` is the least (session time at the tick that
     took it - robot time) over the samples of the last ``window_ms`` of session time (the
     latest is kept however old): the odometry's stamps, and the poses' own
-    ``positionchangetime`` and the sonars' ``scantime`` (so a robot without ``/odom`` has a
-    clock too). A reading thus
+    ``positionchangetime`` and the sensors' ``scantime`` and ``frametime`` (so a robot
+    without ``/odom`` has a clock too). A reading thus
     keeps the age it had on the robot (younger by the promptest delivery at most, within
     the tick of age the supervisor's margin adds), and a sensor frozen on an old reading
     cannot make it look fresh: repeated, its samples only bound the offset from above."""
@@ -136,8 +140,8 @@ def _moved(
 
 def _taken_at(update: MapUpdate, payload: dict[str, object] | None) -> int | None:
     """When a reading was taken, on the robot's clock: a pose's ``positionchangetime``, a
-    scan's ``scantime`` (None: neither, or no valid time)."""
-    if update.attributename == "scantime":
+    scan's ``scantime``, a frame's ``frametime`` (None: none, or no valid time)."""
+    if update.attributename in HEARTBEATS:
         return _bare_time(update.jsonmsg)
     if payload is not None and update.attributename == "poses":
         return payload["positionchangetime"]  # type: ignore[return-value]  # a time
@@ -160,9 +164,11 @@ def remote_sensors(scenario: Scenario) -> RemoteSensors:
     """Remote sensors for a session of ``scenario``, their clock's window as long as its
     supervisor needs (:func:`clock_window_ms`)."""
     config = supervisor_config(scenario)
-    assert config.max_scan_age_ms is not None  # filled
+    assert config.max_scan_age_ms is not None and config.max_frame_age_ms is not None  # filled
     return RemoteSensors(
-        max_data_age_ms=config.max_data_age_ms, max_scan_age_ms=config.max_scan_age_ms
+        max_data_age_ms=config.max_data_age_ms,
+        max_scan_age_ms=config.max_scan_age_ms,
+        max_frame_age_ms=config.max_frame_age_ms,
     )
 
 
@@ -171,10 +177,12 @@ class RemoteSensors:
     on the session's clock (``clock``, fed with the robot's odometry and the poses' times;
     before the first, a time is the tick's that takes it), none later than that tick."""
 
-    def __init__(self, *, max_data_age_ms: int = 500, max_scan_age_ms: int = 500) -> None:
+    def __init__(
+        self, *, max_data_age_ms: int = 500, max_scan_age_ms: int = 500, max_frame_age_ms: int = 500
+    ) -> None:
         self._inbox: list[MapUpdate] = []
         self._seq = 0
-        self.clock = RobotClock(clock_window_ms(max_data_age_ms, max_scan_age_ms))
+        self.clock = RobotClock(clock_window_ms(max_data_age_ms, max_scan_age_ms, max_frame_age_ms))
         self.refused: list[str] = []
         """Why an update was refused before it reached the pipeline (read and cleared)."""
 

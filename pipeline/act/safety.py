@@ -20,17 +20,18 @@ is dead-reckoned, its base taken to follow what is let through at ``max_accel_mp
 while a sonar is down the margin grows by the slip the robot's measured speed shows since
 the reading, and by a push no report covers yet (``pipeline/act/reckoning.py``: a base
 blocked by furniture or pushed).
-Braking room: ``c * dt + c**2 / (2 a) + walk * c / a <= s - stop``, a tick at ``c``,
-braking at ``a`` while the human walks on (a bound that falls no faster than the base can
-brake). Inside the stop zone ``v`` may not point at any point of the uncertainty disc (a
-cone).
+Braking room: ``c * dt + (c + 2 walk) * speed / (2 a) <= s - stop``, a tick at ``c``,
+then the base braking its whole velocity at ``a`` while the human walks on (``speed`` taken
+as ``c`` plus what moves across: ``pipeline/act/separation.py``). Inside the stop zone
+``v`` may not point at any point of the uncertainty disc (a cone).
 
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
 ``slow_speed_mps``; no sensor on: none. A sensor is on only while its status keeps coming
 (``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
-still says it is on). The ring's echoes (obstacles not fixed) are kept as anonymous humans
+still says it is on), and a camera only while its frames do (``frametime`` within
+``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
 unless a fresh reading of a tracked human explains them; one no longer reported is gone once
 every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated with an old
 reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
@@ -49,6 +50,7 @@ from typing import Final, NamedTuple
 from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
+from oimi.pipeline.act.separation import Constraint, allowed_by, satisfied, within_view
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
 from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
 
@@ -91,22 +93,6 @@ class _Anchor(NamedTuple):
     """The reckoning then (its drift since widens the margin while a sonar is down)."""
 
 
-class _Constraint(NamedTuple):
-    human: str
-    surface_m: float
-    u_x: float
-    u_y: float
-    """Unit vector from the robot to the human, body frame."""
-    cap_mps: float
-    """Largest velocity component along u (outside the stop zone)."""
-    sin_cone: float | None
-    """Inside the stop zone: v must satisfy v.u <= -sin_cone * |v|."""
-    zone: SafetyZone
-
-
-_TOLERANCE: Final = 1e-12
-_ANGLE_TOLERANCE: Final = 1e-9
-"""A velocity projected onto the view's edge points along it, give or take rounding."""
 EPISODE_GAP_MS: Final = 500
 """An intervention episode ends after this long without a limited tick."""
 _SEVERITY: Final = {
@@ -157,7 +143,7 @@ class SafetySupervisor:
         world_map: WorldMap,
         *,
         heard: Mapping[tuple[str, str], int],
-        scanned: Mapping[str, int],
+        beats: Mapping[tuple[str, str], int],
         tick: int,
         now_ms: int,
         source: MotionSource,
@@ -166,7 +152,8 @@ class SafetySupervisor:
         the robot is then taken to drive it for one tick (dead reckoning). ``heard``: when
         each sensor's status and each obstacle's reading was last heard, ms, by
         (``"Camera"``, ``"Sonar"`` or ``"Obstacle"``, id) (``MapProducer.heard``);
-        ``scanned``: when each sonar took its latest scan, ms, by id (``MapProducer.scanned``)."""
+        ``beats``: when each sensor took its latest scan or frame, ms, by (``"Camera"`` or
+        ``"Sonar"``, id) (``MapProducer.beats``)."""
         reckoning = self._reckoning
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
@@ -181,7 +168,7 @@ class SafetySupervisor:
             anchor = anchors.get(key)
             if anchor is None or anchor[0] != echo.positionchangetime:
                 self._anchor(key, echo)
-        verdict = self._limit(requested, world_map, echoes, heard, scanned, now_ms)
+        verdict = self._limit(requested, world_map, echoes, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -240,7 +227,7 @@ class SafetySupervisor:
         world_map: WorldMap,
         echoes: list[tuple[str, Entity]],
         heard: Mapping[tuple[str, str], int],
-        scanned: Mapping[str, int],
+        beats: Mapping[tuple[str, str], int],
         now_ms: int,
     ) -> Verdict:
         if requested.v_x == 0.0 and requested.v_y == 0.0:
@@ -248,13 +235,19 @@ class SafetySupervisor:
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
         max_age = config.max_status_age_ms
-        seeing = _online(cameras, "Camera", heard, now_ms - max_age)
-        # A ring counts only while its heartbeat says it scans (frozen, it says it is on)
+        # A sensor counts only while its heartbeat says it works (frozen, it says it is on)
+        newest_ms = now_ms + self._tick_ms  # (a clock ahead: no scan or frame to trust)
+        oldest_frame_ms = now_ms - config.max_frame_age_ms  # type: ignore[operator]  # filled
+        framing = [
+            c
+            for c in cameras
+            if oldest_frame_ms <= beats.get(("Camera", c.id), _NEVER) <= newest_ms
+        ]
+        seeing = _online(framing, "Camera", heard, now_ms - max_age)
         oldest_scan_ms = now_ms - config.max_scan_age_ms  # type: ignore[operator]  # filled
-        scans = [scanned.get(s.id, _NEVER) for s in sonars]
-        newest_scan_ms = now_ms + self._tick_ms  # (a clock ahead: no scan to trust)
+        scans = [beats.get(("Sonar", s.id), _NEVER) for s in sonars]
         scanning = [
-            s for s, at in zip(sonars, scans, strict=True) if oldest_scan_ms <= at <= newest_scan_ms
+            s for s, at in zip(sonars, scans, strict=True) if oldest_scan_ms <= at <= newest_ms
         ]
         sounding = _online(scanning, "Sonar", heard, now_ms - max_age)
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
@@ -312,20 +305,20 @@ class SafetySupervisor:
                 v_x, v_y = v_x * scale, v_y * scale
                 zone = SafetyZone.BLIND if blind else SafetyZone.STALE
         half_view = config.camera_fov_rad / 2 if sonars and ring_down else math.pi
-        looking = _within_view(v_x, v_y, half_view)
+        looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking
             zone = SafetyZone.BLIND
-        binding: _Constraint | None = None
+        binding: Constraint | None = None
         for _ in range(3):  # a few passes settle several humans; otherwise stop
             for constraint in constraints:
-                limited = _apply(constraint, v_x, v_y)
+                limited = allowed_by(constraint, v_x, v_y)
                 if limited != (v_x, v_y):
                     v_x, v_y = limited
                     if binding is None or constraint.surface_m < binding.surface_m:
                         binding = constraint
-            v_x, v_y = _within_view(v_x, v_y, half_view)
-            if all(_satisfied(c, v_x, v_y) for c in constraints):
+            v_x, v_y = within_view(v_x, v_y, half_view)
+            if all(satisfied(c, v_x, v_y) for c in constraints):
                 break
         else:
             v_x = v_y = 0.0
@@ -341,7 +334,7 @@ class SafetySupervisor:
         age_ms = now_ms - reading.positionchangetime
         return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
 
-    def _constraint(self, key: str, human: Entity, age_ms: int, slipped: bool) -> _Constraint:
+    def _constraint(self, key: str, human: Entity, age_ms: int, slipped: bool) -> Constraint:
         """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it;
         ``slipped``: its margin grows by the slip counted since it was taken."""
         config = self.config
@@ -365,16 +358,29 @@ class SafetySupervisor:
             del self._held[key]
         if key in self._held:
             sin_cone = 1.0 if margin >= distance else margin / distance
-            return _Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
+            return Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
         gap = surface - config.stop_distance_m
         a = self._limits.max_accel_mps2
         # c * dt + c**2 / (2 a) + walk * c / a <= gap: a tick at c, braking at a, and the
         # human walking on meanwhile (the cap then falls no faster than the base brakes)
         lead = a * self._dt_s + config.human_speed_mps  # type: ignore[operator]  # filled
-        cap = -lead + math.sqrt(lead**2 + 2 * a * max(gap, 0.0))
+        room = 2 * a * max(gap, 0.0)
+        cap = -lead + math.sqrt(lead**2 + room)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        return _Constraint(key, surface, u_x, u_y, cap, None, SafetyZone.SLOW)
+        walk = config.human_speed_mps
+        return Constraint(
+            key,
+            surface,
+            u_x,
+            u_y,
+            cap,
+            None,
+            SafetyZone.SLOW,
+            lead,
+            room,
+            walk,  # type: ignore[arg-type]
+        )
 
     def _explained(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> bool:
         """Whether an echo is a human the map tracks: their readings place them closer
@@ -450,46 +456,3 @@ def _late(heard_ms: list[int], now_ms: int, max_age_ms: int) -> bool:
     """Whether the oldest of ``heard_ms`` was heard more than three quarters of
     ``max_age_ms`` ago (a status late: its link may be dying)."""
     return 4 * (now_ms - min(heard_ms)) > 3 * max_age_ms
-
-
-def _apply(c: _Constraint, v_x: float, v_y: float) -> tuple[float, float]:
-    """The nearest velocity to (v_x, v_y) that meets the constraint."""
-    along = v_x * c.u_x + v_y * c.u_y
-    if c.sin_cone is None:
-        if along <= c.cap_mps:
-            return v_x, v_y
-        cut = along - c.cap_mps
-        return v_x - cut * c.u_x, v_y - cut * c.u_y
-    if c.sin_cone >= 1.0:  # the robot is inside the human's uncertainty disc
-        return 0.0, 0.0
-    p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
-    across = math.hypot(p_x, p_y)
-    cos_cone = math.sqrt(1.0 - c.sin_cone**2)
-    if along * cos_cone <= -c.sin_cone * across:
-        return v_x, v_y
-    # project onto the cone's edge: direction (-sin, cos) in the (along, across) plane
-    reach = -along * c.sin_cone + across * cos_cone
-    if reach <= 0.0 or across == 0.0:
-        return 0.0, 0.0
-    new_along, new_across = -reach * c.sin_cone, reach * cos_cone
-    return (
-        new_along * c.u_x + new_across * p_x / across,
-        new_along * c.u_y + new_across * p_y / across,
-    )
-
-
-def _within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:
-    """(v_x, v_y) (body frame) when it points within ``half_view`` rad of straight ahead,
-    else its projection onto the nearer edge of that cone (none when it points away)."""
-    if half_view >= math.pi or abs(math.atan2(v_y, v_x)) <= half_view + _ANGLE_TOLERANCE:
-        return v_x, v_y
-    e_x, e_y = math.cos(half_view), math.copysign(math.sin(half_view), v_y)
-    along = v_x * e_x + v_y * e_y
-    return (along * e_x, along * e_y) if along > 0.0 else (0.0, 0.0)
-
-
-def _satisfied(c: _Constraint, v_x: float, v_y: float) -> bool:
-    along = v_x * c.u_x + v_y * c.u_y
-    if c.sin_cone is None:
-        return along <= c.cap_mps + _TOLERANCE
-    return along <= -c.sin_cone * math.hypot(v_x, v_y) + _TOLERANCE

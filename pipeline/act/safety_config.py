@@ -22,6 +22,7 @@ ASSUMED: Final[dict[str, float]] = {
     "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
     "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
     "max_scan_age_ms": 500,  # unless a scenario's ring scans slower: two of its scans
+    "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -85,6 +86,12 @@ class SafetyConfig(Message):
     while it saw nothing still says it is on, and would otherwise pass for one that sees an
     empty room, ms; None: the longer of 500 and two of a scenario's sonar scans (a scenario
     may not set it below that)."""
+    max_frame_age_ms: int | None = None
+    """A camera whose latest frame (its ``frametime``, the camera's heartbeat) was taken
+    longer ago than this, or never reported, counts as offline: a camera frozen while it
+    saw nobody still says it is on, and would otherwise pass for one that sees an empty
+    room, ms; None: the longer of 500 and two of a scenario's camera frames (a scenario may
+    not set it below that)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

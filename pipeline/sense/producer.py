@@ -7,8 +7,9 @@ and a RobotStatus field is marked as set (``RobotStatus.setfields``).
 ``consume`` applies the pending updates, in order, at the simulated time ``now_ms``.
 A rejected update leaves the map exactly as it was and yields a ``Rejection``.
 
-A sonar's ``scantime`` (its heartbeat, not in the thesis's tables) changes neither map: it
-is noted in :attr:`MapProducer.scanned` for the safety supervisor.
+A sonar's ``scantime`` and a camera's ``frametime`` (their heartbeats, not in the thesis's
+tables) change neither map: they are noted in :attr:`MapProducer.beats` for the safety
+supervisor.
 
 Each update is applied to a second map too, :attr:`MapProducer.perceived`, which nothing
 else writes: the map as the sensors alone made it. Rules, scripts and their functions
@@ -107,11 +108,12 @@ class MapProducer:
         was last applied, ms, by (class, id), for the entities the perceived map holds: a
         sensor whose status stops coming has a dead link, whatever it last said; a reading
         still coming but long taken is a sensor repeating itself (frozen) or lagging."""
-        self.scanned: dict[str, int] = {}
-        """When each sonar the perceived map holds took its latest scan, ms, by id: its
-        ``scantime``, the ring's heartbeat (not in the thesis's map, which it leaves as it
-        was: a ring frozen while it saw nothing still says it is on, and only a scan time
-        repeated old tells it from one that sees an empty room)."""
+        self.beats: dict[tuple[str, str], int] = {}
+        """When each sensor the perceived map holds took its latest scan or frame, ms, by
+        (class, id): a sonar's ``scantime``, a camera's ``frametime``, their heartbeats (not
+        in the thesis's map, which they leave as it was: a sensor frozen while it saw
+        nothing still says it is on, and only a time repeated old tells it from one that
+        sees an empty room)."""
 
     # ---------------------------------------------------------------- queue
 
@@ -210,10 +212,11 @@ class MapProducer:
                 heard[decoded.target.klass, decoded.target.id] = now_ms  # a str enum
         if applied:
             world.lastupdatetime = now_ms
-        if heard is not None:  # the perceived map: its sonars' heartbeats, in any order
+        if heard is not None:  # the perceived map: its sensors' heartbeats, in any order
             for decoded in noted:
                 if index.find(decoded.target) is not None:
-                    self.scanned[decoded.target.id] = decoded.value  # type: ignore[assignment]
+                    target = decoded.target
+                    self.beats[target.klass, target.id] = decoded.value  # type: ignore[assignment]
         return rejections
 
     def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:

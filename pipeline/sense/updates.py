@@ -76,7 +76,8 @@ class Storage(enum.StrEnum):
     drops the pending updates issued before it)."""
     NOTED = "noted"
     """Not in the thesis's map: the producer notes the latest value for the safety
-    supervisor (a sonar's ``scantime``, its heartbeat: ``MapProducer.scanned``)."""
+    supervisor (a sonar's ``scantime``, a camera's ``frametime``, their heartbeats:
+    ``MapProducer.beats``)."""
 
 
 class Target(msgspec.Struct, frozen=True, kw_only=True):
@@ -336,6 +337,7 @@ UPDATE_TABLE: Final[Mapping[EntityClass, Mapping[str, AttributeSpec]]] = {
         _updateable("width", _INT, _decode_int),
         _updateable("height", _INT, _decode_int),
         _updateable("fps", _INT, _decode_int),
+        _noted("frametime", _INT, _decode_int),
     ),
     EntityClass.SONAR: _table(
         _updateable("isonline", _BOOL, _decode_bool),

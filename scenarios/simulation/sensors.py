@@ -10,10 +10,11 @@ is reported relative to the robot (``positionrho`` m from its centre,
 ``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
 seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
 entity while it stays in view; ``isfixed``, ``istarget``, ``category`` come once,
-on first sight; the ring's ``scantime`` with every scan (its heartbeat: a frozen ring
-repeats an old one). Sensor status comes at the start and on faults; touches from
-touch events and from contacts; the robot's speed (its mean velocity since the last
-report, from the odometer: how far the base went, blocked or pushed too), battery and
+on first sight; the ring's ``scantime`` and the camera's ``frametime`` with every scan or
+frame (their heartbeats: a frozen sensor repeats an old one). Sensor status comes at the
+start and on faults; touches from touch events and from contacts; the robot's speed (its
+mean velocity since the last report, from the odometer: how far the base went, blocked or
+pushed too), battery and
 elapsed time every ``status_period_s``.
 
 Encoding decisions: ``poses`` use policy ``A`` (the map keeps the history),
@@ -255,10 +256,15 @@ class Sensors:
         for objectid in list(tracks):
             if objectid not in in_view:
                 del tracks[objectid]
-        if sensor is self.sonar:  # the ring's heartbeat: when this scan was taken
-            reading.append(_Update(f"Sonar/{sensor.ident}", "scantime", Policy.R, str(time_ms)))
+        reading.append(self._heartbeat(sensor, time_ms))
         sensor.last = reading
         return reading
+
+    def _heartbeat(self, sensor: _Sensor, time_ms: int) -> _Update:
+        """When this scan or frame was taken (a frozen sensor repeats it, old)."""
+        if sensor is self.sonar:
+            return _Update(f"Sonar/{sensor.ident}", "scantime", Policy.R, str(time_ms))
+        return _Update(f"Camera/{sensor.ident}", "frametime", Policy.R, str(time_ms))
 
     def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
         if cls == "Obstacle":

@@ -36,17 +36,16 @@ def reverse_into_the_child(
 
 
 def test_the_sonar_echo_of_an_unseen_child_stops_the_robot_before_contact() -> None:
+    """The echo alone slows the robot to a stand short of the child (braking its whole
+    velocity, it no longer reaches the stop zone)."""
     session, memory = reverse_into_the_child(SensorSpec())
     summary = session.result().summary
     assert summary.contacts == 0
     assert summary.contact_episodes == 0
     assert summary.min_surface_distance_m["child"] > 0.05
-    stops = [
-        e
-        for e in memory.on(Topic.SAFETY)
-        if isinstance(e, SafetyIntervention) and e.zone is SafetyZone.STOP
-    ]
-    assert stops and {e.human for e in stops} == {"Obstacle/echo-0"}
+    limited = [e for e in memory.on(Topic.SAFETY) if isinstance(e, SafetyIntervention)]
+    assert limited and {e.human for e in limited} == {"Obstacle/echo-0"}
+    assert {e.zone for e in limited} <= {SafetyZone.SLOW, SafetyZone.STOP}
     assert session.pipeline.map.humans == []  # the camera never saw the child
 
 
@@ -328,3 +327,45 @@ def test_a_push_between_two_speed_reports_does_not_carry_the_robot_into_a_child(
     summary = written(tmp_path, PUSHED_BETWEEN_REPORTS, {"still.txt": STILL}).result().summary
     assert summary.robot_initiated_contacts == 0
     assert summary.min_surface_distance_m["b"] > 0.05
+
+
+FROZEN_CAMERA = """name = "a camera frozen on an empty room, the ring offline"
+duration_s = 7.0
+[robot]
+x_m = 3.0
+y_m = 3.0
+[[humans]]
+id = "child"
+x_m = 3.0
+y_m = 5.0
+behaviour = [{ kind = "waypoints", at_s = 0.5, waypoints = [[4.0, 3.0]], speed_mps = 1.0 }]
+[[activities]]
+script = "still.txt"
+[[events]]
+at_s = 0.2
+kind = "fault"
+sensor = "camera"
+mode = "frozen"
+[[events]]
+at_s = 0.2
+kind = "fault"
+sensor = "sonar"
+mode = "offline"
+[[events]]
+at_s = 3.5
+kind = "joystick"
+left_y = 1.0
+buttons = ["LB"]
+hold_s = 3.0
+"""
+
+
+def test_a_camera_frozen_on_an_empty_room_does_not_pass_for_one_that_sees_it(tmp_path) -> None:
+    """The camera freezes while it sees nobody (it says it is on and reports nothing, as
+    one looking at an empty room does) and the ring goes offline; a child walks in front
+    of the robot and the operator drives at them. The camera's frames stopped (its
+    ``frametime``, repeated old): nothing senses the room, and nothing moves the robot
+    (it once drove at them at the slow speed, the view taken for empty)."""
+    session = written(tmp_path, FROZEN_CAMERA, {"still.txt": STILL})
+    assert session.result().summary.contacts == 0
+    assert session.world.robot_pose()[0] == pytest.approx(3.0, abs=0.01)  # it never drove

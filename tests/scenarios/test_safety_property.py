@@ -50,7 +50,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
 from oimi.pipeline.sink import MemorySink
@@ -295,6 +295,14 @@ def examples(count: int) -> settings:
 
 
 @examples(80)
+@example(  # found by the search: an oblique reverse braked its closing part too slowly
+    pads=[(2, 0, 0, 0, ()), (36, 0, 0, 0, ()), (14, 0, -1.0, 0, ("LB",)), (2, 0, 0, 0, ())],
+    moves=[],
+    humans=[((8.0, 6.0), [(4.0, 5.0)], 1.0)],
+    heading=2.0,
+    all_round=False,
+    tamper=None,
+)
 @given(
     pads=st.lists(pad_state, max_size=8),
     moves=st.lists(move_block, max_size=5),

@@ -45,22 +45,30 @@ def live(world_map: WorldMap, now_ms: int) -> dict[tuple[str, str], int]:
     return heard | {("Sonar", sonar.id): now_ms for sonar in world_map.sonars}
 
 
-def supervise(  # every sensor heard from, and every sonar scanned, at now_ms unless told
+def supervise(  # every sensor heard from, scanned and framing at now_ms unless told
     velocity: Velocity,
     world_map: WorldMap,
     *,
     now_ms: int = 0,
     heard: dict[tuple[str, str], int] | None = None,
     scanned: dict[str, int] | None = None,
+    framed: dict[str, int] | None = None,
     source: MotionSource = MotionSource.SCRIPT,
     supervisor: SafetySupervisor | None = None,
 ):
+    """The supervisor's verdict; ``scanned`` and ``framed``: each sonar's and camera's
+    latest heartbeat by id (``MapProducer.beats``)."""
     supervisor = supervisor or SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    if scanned is None:
+        scanned = {s.id: now_ms for s in world_map.sonars}
+    if framed is None:
+        framed = {c.id: now_ms for c in world_map.cameras}
+    beats = {("Sonar", ident): at for ident, at in scanned.items()}
     return supervisor.supervise(
         velocity,
         world_map,
         heard=live(world_map, now_ms) if heard is None else heard,
-        scanned={s.id: now_ms for s in world_map.sonars} if scanned is None else scanned,
+        beats=beats | {("Camera", ident): at for ident, at in framed.items()},
         tick=now_ms // TICK_MS,
         now_ms=now_ms,
         source=source,

@@ -45,8 +45,12 @@ def test_far_from_everyone_full_speed_passes_untouched() -> None:
 
 
 def test_in_the_slow_zone_the_closing_speed_is_capped_and_the_sideways_part_kept() -> None:
+    """0.45 m from the child, 0.3 m/s across: braking that takes 0.3 s or more, while the
+    child may walk 0.3 m on, so the closing part keeps 0.042 m/s (braking room, below)."""
     verdict, event = supervise(Velocity(0.5, 0.3, 0.2), room(seen(centre_at(0.45))))
-    assert verdict.velocity.v_x == pytest.approx(0.2)
+    lead = 0.02 + 1.0 + 0.3 / 2
+    closing = -lead + math.sqrt(lead**2 + 2 * (0.45 - 0.1) - 2 * 1.0 * 0.3)
+    assert verdict.velocity.v_x == pytest.approx(closing, abs=1e-12)
     assert verdict.velocity.v_y == 0.3
     assert verdict.velocity.v_theta == 0.2
     assert verdict.zone is SafetyZone.SLOW
@@ -54,7 +58,31 @@ def test_in_the_slow_zone_the_closing_speed_is_capped_and_the_sideways_part_kept
     assert event.human == "child"
     assert event.surface_distance_m == pytest.approx(0.45)
     assert event.requested == (0.5, 0.3, 0.2)
-    assert event.allowed == pytest.approx((0.2, 0.3, 0.2))
+    assert event.allowed == pytest.approx((closing, 0.3, 0.2))
+
+
+@pytest.mark.parametrize("across", [0.05, 0.2, 0.45])
+@pytest.mark.parametrize("surface", [0.15, 0.3, 0.6])
+def test_an_oblique_drive_stops_closing_before_the_stop_zone_braking_its_whole_speed(
+    across: float, surface: float
+) -> None:
+    """The base brakes its whole velocity at ``a``: the closing part of an oblique drive
+    falls at only its share of ``a`` (it once closed 0.015 m/s inside the stop zone, found
+    by the safety property). A tick at the allowed velocity, then braking it to a stand,
+    step by step, while the child walks in at 1 m/s: the gap is not used up while the robot
+    still closes (with nothing closing, it never does)."""
+    verdict, _ = supervise(Velocity(0.5, across, 0.0), room(seen(centre_at(surface))))
+    closing, sideways = verdict.velocity.v_x, verdict.velocity.v_y
+    assert sideways == across and 0.0 <= closing < 0.5
+    assert (closing > 0.0) is (1.0 * across < surface - 0.1)  # the walk while braking
+    if not closing:
+        return
+    speed, dt = math.hypot(closing, sideways), 1e-4
+    used, t = closing * TICK_MS / 1000, 0.0
+    while t * 1.0 < speed:  # braking at 1 m/s²: the closing part in proportion
+        used += (closing * (1 - t / speed) + 1.0) * dt
+        t += dt
+    assert used <= surface - 0.1 + 1e-3
 
 
 def test_near_the_stop_zone_the_closing_speed_leaves_braking_room() -> None:

@@ -61,6 +61,18 @@ def camera(seq: int, *, online: bool = True) -> MapUpdate:
     )
 
 
+def frame(seq: int, time_ms: int) -> MapUpdate:
+    """The front camera's heartbeat: a frame taken at ``time_ms`` (the supervisor takes a
+    camera whose frames stop for offline)."""
+    return MapUpdate(
+        objectid="Camera/front",
+        attributename="frametime",
+        policy=Policy.R,
+        jsonmsg=str(time_ms),
+        seq=seq,
+    )
+
+
 def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
     return Pipeline(
         config or PipelineConfig(),

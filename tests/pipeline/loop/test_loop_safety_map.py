@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
-from loop_pipeline import camera, pipeline, pose
+from loop_pipeline import camera, frame, pipeline, pose
 from oimi.pipeline.events import JoystickInput, Level, Topic
 from oimi.pipeline.loop import Pipeline
 from oimi.pipeline.messages import Camera, WorldMap
@@ -38,13 +38,16 @@ def see_again(world: WorldMap, now_ms: int) -> None:
 
 def drive(p: Pipeline, tamper: Tamper | None, rho: float, seeing: bool) -> list[tuple]:
     """The pad pushes the robot at a child ``rho`` m ahead for 1.2 s (a reading at the start
-    only: it goes stale), the camera reported on or off (``seeing``: off, nothing senses the
-    room); ``tamper`` changes the shared map after every tick, as a rule's body at the end of
-    the chain would. The body's commands, tick by tick."""
+    only: it goes stale), the camera reported on or off (``seeing``: off, nothing senses
+    the room; on, it frames every 100 ms); ``tamper`` changes the shared map after every
+    tick, as a rule's body at the end of the chain would. The body's commands, tick by
+    tick."""
     outputs = []
     for tick in range(60):
         pad = JoystickInput(tick=tick, time_ms=tick * 20, left_y=1.0, buttons=("LB",))
         updates = [camera(1, online=seeing), pose(2, rho, 0)] if tick == 0 else []
+        if seeing and tick % 5 == 0:
+            updates.append(frame(3 + tick, tick * 20))
         out = p.tick(tick=tick, updates=updates, joystick=pad)
         outputs.append((out.v_x, out.v_y, out.brake))
         if tamper is not None:
@@ -70,7 +73,7 @@ def test_a_perceived_map_the_supervisor_cannot_read_stops_the_robot_and_is_said_
     (no rule reaches that map; a fault in oimi could) stops the robot until it reads again."""
     sink = MemorySink()
     p = pipeline(sink)
-    p.tick(tick=0, updates=[camera(1), pose(2, 3.0, 0)])
+    p.tick(tick=0, updates=[camera(1), frame(2, 0), pose(3, 3.0, 0)])
     push = JoystickInput(tick=1, time_ms=20, left_y=1.0, buttons=("LB",))
     assert p.tick(tick=1, joystick=push).v_x > 0, "the pad drives it"
     p.producer.perceived.humans[0].positionchangetime = "later"  # type: ignore[assignment]

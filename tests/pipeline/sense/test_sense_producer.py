@@ -410,13 +410,13 @@ def test_a_rings_scan_time_is_noted_for_the_supervisor_and_leaves_both_maps_alon
     assert producer.changes_pending
     producer.submit(upd("Sonar/other", "scantime", "90"))  # no such sonar: not noted
     producer.consume(100)
-    assert producer.scanned == {"ring": 80}
+    assert producer.beats == {("Sonar", "ring"): 80}
     shared, perceived = msgspec.to_builtins(world), msgspec.to_builtins(producer.perceived)
     producer.submit(upd("Sonar/ring", "scantime", "150"))
     producer.submit(upd("Sonar/ring", "scantime", "200"))  # R: the latest of a tick
     assert producer.pending and not producer.changes_pending  # the loop need run no rule
     assert producer.consume(200) == []
-    assert producer.scanned == {"ring": 200}
+    assert producer.beats == {("Sonar", "ring"): 200}
     assert msgspec.to_builtins(world) == shared
     assert msgspec.to_builtins(producer.perceived) == perceived
     assert [s.id for s in world.sonars] == ["ring"]

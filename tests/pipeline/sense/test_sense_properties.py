@@ -53,6 +53,7 @@ INT_ATTRS = {
     "fps",
     "scanfrequency",
     "scantime",
+    "frametime",
     "batterytimeleft",
     "elapsedtime",
     "startingtime",

@@ -44,6 +44,7 @@ VALID = [
     ("Camera/front", "width", "640", 640),
     ("Camera/front", "height", "480", 480),
     ("Camera/front", "fps", "30", 30),
+    ("Camera/front", "frametime", "2400", 2400),
     ("Sonar/s1", "isonline", "s_true", True),
     ("Sonar/s1", "scanfrequency", "10", 10),
     ("Sonar/s1", "scantime", "2400", 2400),
