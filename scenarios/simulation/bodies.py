@@ -244,9 +244,6 @@ def rigid_state(ident: str, kind: str, motion: Motion, radius_m: float) -> BodyS
 
 _SCALE: Final = float(10**STATE_DECIMALS)
 """Speeds are cut towards zero as ``int(speed * _SCALE) / _SCALE``."""
-_EXACT: Final = 1e11
-"""Below this, a computed ``value * 10**decimals`` is within 1e-4 of the exact product
-(its error is at most half an ulp, under 2**-53 of it), which ``rounded`` needs."""
 _SCALES: Final = {decimals: float(10**decimals) for decimals in range(16)}
 
 
@@ -255,16 +252,19 @@ def rounded(value: float, decimals: int) -> float:
     under half its time.
 
     ``round`` finds the integer ``k`` nearest the exact ``value * 10**decimals`` (ties to
-    even) and returns the float nearest ``k / 10**decimals``. When the computed product
-    is more than 1e-4 from a half, ``round(product)`` is that ``k``, and dividing it by
-    the (exact) scale is correctly rounded: the same float. Near a half, at zero (its
-    sign), for a huge or non-finite value, it asks ``round`` itself.
+    even) and returns the float nearest ``k / 10**decimals``. Below 1e11, the computed
+    product is within 1e-4 of the exact one (its error is at most half an ulp, under
+    2**-53 of it): when it is more than 1e-4 from a half, the integer nearest it is that
+    ``k``, and dividing it by the (exact) scale is correctly rounded: the same float. That
+    integer is found in floats, with no int made: below 2**51, adding and taking away
+    1.5 * 2**52 rounds a float to the nearest integer (the sum's spacing is 1), exactly.
+    Near a half, at zero (its sign), for a huge or non-finite value, it asks ``round``.
     """
     scale = _SCALES[decimals]
     scaled = value * scale
-    if -_EXACT < scaled < _EXACT:
-        nearest = round(scaled)
-        if nearest and abs(scaled - nearest) < 0.4999:
+    if -1e11 < scaled < 1e11:
+        nearest = (scaled + 6755399441055744.0) - 6755399441055744.0  # 1.5 * 2**52
+        if nearest and -0.4999 < scaled - nearest < 0.4999:
             return nearest / scale
     return round(value, decimals)
 
