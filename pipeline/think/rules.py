@@ -143,8 +143,8 @@ class Rule:
             written = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
             before = parts.before(written)
             effect = self.act(world_map, found, ctx)
-            parts.forget()
-            if effect is not Effect.UNCHANGED:
+            if effect is not Effect.UNCHANGED:  # (a body that left the map as it was leaves
+                parts.forget()  # its parts' encodings good for the rules after it)
                 changes = map_changes(before, parts.after(written, before))
         decision = RuleDecision(
             rule=self.name,
