@@ -164,10 +164,14 @@ class MapDeltas:
             elif old != row:
                 rows.append(msgspec.Raw(_encode(_take(old, _patch(old, row)))))
             fresh[row.id] = old
+        self._ids[table] = fresh
+        if len(fresh) == len(kept) == len(live) and list(fresh) == list(kept):
+            # the same rows in the same order (the usual change: some of them changed)
+            self._rows[table] = list(fresh.values())
+            return tuple(rows), [], True
         ids = [row.id for row in live]
         gone = [i for i in kept if i not in fresh]
         expected = [i for i in kept if i in fresh] + [i for i in fresh if i not in kept]
-        self._ids[table] = fresh
         unique = len(fresh) == len(ids)
         self._rows[table] = [fresh[i] for i in ids] if unique else [_copy(r) for r in live]
         return tuple(rows), gone, unique and expected == ids

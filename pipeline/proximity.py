@@ -70,7 +70,11 @@ def zone_of(distance_m: float) -> str:
     """The :data:`ZONES_M` name of a surface distance (NaN counts as ``public``)."""
     if distance_m <= 0.0:
         return "contact"
-    return ZONE_NAMES[1 + bisect.bisect_right(_UPPER_BOUNDS_M, distance_m)]
+    return ZONE_NAMES[1 + _bisect_right(_UPPER_BOUNDS_M, distance_m)]
+
+
+_bisect_right: Final = bisect.bisect_right
+"""Looked up once (``zone_of`` runs for every person at every tick)."""
 
 
 def approach_speeds(robot: BodyState, human: BodyState) -> tuple[float, float]:
@@ -154,12 +158,13 @@ class ProximityTracker:
         robot, now = state.robot, state.time_ms
         lasted = self.tick_ms if self._previous is None else now - self._previous.time_ms
         kinds, closest_m, zone_ms = self.kinds, self.closest_m, self.zone_ms
-        centres_m, x, y, hypot, isnan = (
+        centres_m, x, y, hypot, isnan, inf = (
             self.closest_centres_m,
             robot.x_m,
             robot.y_m,
             math.hypot,
             math.isnan,
+            math.inf,
         )
         contacts, open_ = state.contacts, self._open
         for human in state.humans:
@@ -173,7 +178,7 @@ class ProximityTracker:
             if not centres >= (closest := centres_m[who]) and not isnan(closest):
                 centres_m[who] = centres
             distance = surface_gap(centres, robot, human)
-            if distance < closest_m.get(who, math.inf):
+            if distance < closest_m.get(who, inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
             zones[zone_of(distance)] += lasted
             if distance <= 0.0 or who in contacts:

@@ -271,5 +271,12 @@ def rounded(value: float, decimals: int) -> float:
 
 def wrap_angle(angle_rad: float) -> float:
     """The angle in (-pi, pi]."""
-    wrapped = math.remainder(angle_rad, math.tau)
-    return math.pi if wrapped == -math.pi else wrapped
+    wrapped = _remainder(angle_rad, _TAU)
+    return _PI if wrapped == _MINUS_PI else wrapped
+
+
+_remainder: Final = math.remainder
+_TAU: Final = math.tau
+_PI: Final = math.pi
+_MINUS_PI: Final = -math.pi
+"""``wrap_angle``'s function and constants, looked up once (it runs for every reading)."""

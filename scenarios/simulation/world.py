@@ -298,18 +298,19 @@ class World:
         touching = []
         ended = []
         left = []
+        sqrt = math.sqrt
         for human in self.humans:
-            if human.present and human.driver.left:
+            ident, present = human.ident, human.present
+            if present and human.driver.left:
                 self.space.remove(human.body, human.shape)
-                human.present = False
+                human.present = present = False
                 self._reader.moved_bodies()
-                left.append(human.spec.id)
-            ident = human.spec.id
+                left.append(ident)
             # pymunk's (a - b).length, written out on the cached floats
-            motion = human.motion
-            dx, dy = motion.x_m - robot_x, motion.y_m - robot_y
-            gap = math.sqrt(dx**2 + dy**2) - radius - human.spec.radius_m
-            if human.present and gap <= CONTACT_TOLERANCE_M:
+            x, y = human.xy
+            dx, dy = x - robot_x, y - robot_y
+            gap = sqrt(dx**2 + dy**2) - radius - human.radius_m
+            if present and gap <= CONTACT_TOLERANCE_M:
                 touching.append(ident)
                 if ident not in starts:
                     starts[ident] = time_ms
