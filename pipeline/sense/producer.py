@@ -185,31 +185,32 @@ class MapProducer:
         applied = False
         noted: list[DecodedUpdate] = []
         for decoded in pending:
-            if decoded.spec.storage is Storage.NOTED:  # a heartbeat: noted, not the map's
+            spec, target = decoded.spec, decoded.target
+            if spec.storage is Storage.NOTED:  # a heartbeat: noted, not the map's
                 noted.append(decoded)
                 continue
-            owner = index.find(decoded.target)
+            owner = index.find(target)
             if owner is None:
-                full = index.count(decoded.target.klass) >= self.max_entities
+                full = index.count(target.klass) >= self.max_entities
                 if full and heard is not None:  # the perceived map: room for what is sensed
-                    full = not index.evict(decoded.target.klass, heard)
+                    full = not index.evict(target.klass, heard)
                 if full:
                     rejections.append(
                         Rejection(
                             update=decoded.update,
                             reason=(
-                                f"{decoded.target}.{decoded.spec.name}: cannot allocate a new"
-                                f" {decoded.target.klass}: the map already holds"
+                                f"{target}.{spec.name}: cannot allocate a new"
+                                f" {target.klass}: the map already holds"
                                 f" {self.max_entities} of them"
                             ),
                         )
                     )
                     continue
-                owner = index.allocate(decoded.target, now_ms)
+                owner = index.allocate(target, now_ms)
             self._apply(world, owner, decoded)
             applied = True
-            if heard is not None and decoded.spec.name in _HEARD:
-                heard[decoded.target.klass, decoded.target.id] = now_ms  # a str enum
+            if heard is not None and spec.name in _HEARD:
+                heard[target.klass, target.id] = now_ms  # a str enum
         if applied:
             world.lastupdatetime = now_ms
         if heard is not None:  # the perceived map: its sensors' heartbeats, in any order
@@ -229,8 +230,9 @@ class MapProducer:
             setattr(owner, spec.name, value)
         else:
             # R and A alike are appended: R only dropped the pending updates (``submit``).
-            register = [*getattr(owner, spec.name), value]
-            setattr(owner, spec.name, register[-self.register_capacity :])
+            field = spec.name
+            register = [*getattr(owner, field), value]
+            setattr(owner, field, register[-self.register_capacity :])
             for name in spec.mirrors:
                 setattr(owner, name, getattr(value, name))
         if isinstance(owner, RobotStatus):

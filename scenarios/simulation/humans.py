@@ -91,6 +91,10 @@ BUILTIN_BEHAVIOURS: Final = (
 )
 """Segment kinds of the schema; an extension's behaviour may not take one of these names."""
 
+_hypot: Final = math.hypot
+_atan2: Final = math.atan2
+"""Looked up once: a walking human's velocity and heading use them at every tick."""
+
 SHOWN: Final = 60
 """The most characters of a bad value a behaviour returned that its error quotes."""
 _ADDRESS: Final = re.compile(r" at 0x[0-9a-fA-F]+")
@@ -214,7 +218,7 @@ class HumanDriver:
         if (vx or vy) and not self._leaving:  # standing still stays inside
             vx, vy = self._inside(position, vx, vy, dt_s)
         if vx or vy:
-            self.heading_rad = math.atan2(vy, vx)
+            self.heading_rad = _atan2(vy, vx)
         return (vx, vy)
 
     def _speed_of(self, segment: BehaviourSegment) -> float:
@@ -299,7 +303,7 @@ class HumanDriver:
     def _glance(self, position: Point, robot: Point, time_ms: int) -> None:
         """A standing human's attention, when a glance is due: a look at the robot or away."""
         self._glance_ms = time_ms + round(self.rng.uniform(*GLANCE_S) * 1000)
-        towards = math.atan2(robot[1] - position[1], robot[0] - position[0])
+        towards = _atan2(robot[1] - position[1], robot[0] - position[0])
         away = 0.0 if self.rng.random() < 0.5 else self.rng.uniform(-math.pi / 2, math.pi / 2)
         self.heading_rad = math.remainder(towards + away, math.tau)
 
@@ -346,7 +350,7 @@ def _towards(
 ) -> tuple[float, float, bool]:
     """Velocity towards ``target`` at ``speed``, landing on it exactly; and whether it lands."""
     dx, dy = target[0] - position[0], target[1] - position[1]
-    distance = math.hypot(dx, dy)
+    distance = _hypot(dx, dy)
     if distance <= speed * dt_s:
         return (dx / dt_s, dy / dt_s, True)
     return (dx / distance * speed, dy / distance * speed, False)
@@ -357,17 +361,17 @@ def _keep_distance(
 ) -> tuple[float, float, bool]:
     """Velocity towards the robot until ``distance_m`` from it (centre to centre); and if there."""
     dx, dy = robot[0] - position[0], robot[1] - position[1]
-    gap = math.hypot(dx, dy) - distance_m
+    gap = _hypot(dx, dy) - distance_m
     if gap <= 1e-9:
         return (0.0, 0.0, True)
     step = min(speed, gap / dt_s)
-    norm = math.hypot(dx, dy)
+    norm = _hypot(dx, dy)
     return (dx / norm * step, dy / norm * step, step < speed)
 
 
 def capped(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
     """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
-    speed = math.hypot(vx, vy)
+    speed = _hypot(vx, vy)
     if speed <= top_mps:
         return (vx, vy)
     return (vx * top_mps / speed, vy * top_mps / speed)
