@@ -6,14 +6,17 @@ the base is taken to follow the velocities let through at ``max_accel_mps2`` and
 the simulated base does. That model does not see a base blocked by furniture or pushed by
 a person; the robot's measured speed (``RobotStatus speed``, table 4.1: its mean velocity
 for ``duration`` ms from ``startingtime``, body frame) does. For each report, how far the
-distance it says the base went differs from the distance reckoned over the same time,
-beyond the measurement's error, is counted as *slip*. Once reports come, a time none covers
-yet (since the last one's end, or between two) is unchecked: the path reckoned over it counts
-whole, and so does the way a person could have pushed the base meanwhile (``push_mps``, the
-fastest a person moves, for that long: a push between two reports is seen only by the
-next). A robot that never sends a report has nothing counted. A reading's position is
-uncertain by what was counted since it was taken (:meth:`DeadReckoning.drift`), which the
-supervisor adds to its margin. No clock, no IO.
+distance it says the base went differs from the distance reckoned over the same time, plus
+the measurement's own error (``error``, a fraction of the distance measured: a base at a
+stand measures none), is counted as *slip* (an allowance taken off it once let a child
+lean the robot 1.3 m at 4 cm/s with nothing counted). Once reports come, a time none
+covers (before the first, between two, or since the last one's end) is unchecked: the path
+reckoned over it counts whole, and so does the way a person could have pushed the base
+meanwhile (``push_mps``, the fastest a person moves, for that long: a push between two
+reports is seen only by the next). A report that starts before the states kept cannot be
+compared: the reckoning is lost. A robot that never sends a report has nothing counted.
+A reading's position is uncertain by what was counted since it was taken
+(:meth:`DeadReckoning.drift`), which the supervisor adds to its margin. No clock, no IO.
 """
 
 from __future__ import annotations
@@ -61,17 +64,14 @@ class DeadReckoning:
         *,
         tick_ms: int,
         kept_ms: int,
-        error_mps: float,
-        radius_m: float,
+        error: float,
         push_mps: float,
     ) -> None:
         self._limits = limits
         self._push_mps = push_mps
         """The fastest a person may push the base, m/s (over a time no report covers)."""
-        self._error_mps = error_mps
-        """A measured speed's error: a difference up to it is no slip, m/s."""
-        self._error_radps = error_mps / radius_m if radius_m > 0 else math.inf
-        """A measured turn rate's error (the speed's at the robot's rim), rad/s."""
+        self._error = error
+        """A measured distance's or turn's error, as a fraction of it."""
         self._tick_ms = tick_ms
         self._dt_s = tick_ms / 1000
         self.pose = (0.0, 0.0, 0.0)
@@ -88,8 +88,9 @@ class DeadReckoning:
         """Up to when each recent report was counted, ms, and the slip counted up to then."""
         self._covered_ms: float = -math.inf
         """Up to when the reports counted so far cover, ms (-inf: none yet)."""
-        self._covered_path_m = -math.inf
-        """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
+        self._covered_path_m = 0.0
+        """The reckoned path at ``_covered_ms`` (what is driven since is unchecked; before
+        the first report, at the start)."""
         self._now_ms = 0
         """The current tick's time, ms."""
 
@@ -144,27 +145,43 @@ class DeadReckoning:
 
     def _count(self, speed: SpeedStatus, now_ms: int) -> None:
         """Count the slip a speed report shows: the distance its mean velocity over its
-        ``duration`` makes, against the distance reckoned over that time. A report covered
-        already, or ending after the current tick (a clock ahead), changes nothing."""
+        ``duration`` makes, against the distance reckoned over that time, plus its error;
+        and the time before it that no report covers. A report covered already, or ending
+        after the current tick (a clock ahead), changes nothing; one that starts before the
+        states kept counts ``LOST_M``."""
         start_ms, end_ms = speed.startingtime, _end_ms(speed)
         covered = self._covered_ms
         if end_ms <= covered or not start_ms < end_ms <= now_ms:
             return  # (one of no duration covers nothing)
+        history = self._history
+        if history and start_ms < history[0][0]:  # what the base was told then is gone
+            self._covered_ms, self._covered_path_m = end_ms, self._state_at(end_ms)[2]
+            self._add(Slip(LOST_M, LOST_M), end_ms)
+            return
         forward, left, turn, start_path_m, end_path_m = self._driven(start_ms, end_ms)
         gap_m = 0.0
-        if -math.inf < covered < start_ms:  # a time no report covers: its path, unchecked
+        if covered < start_ms:  # a time no report covers: its path, and a push meanwhile
+            since_ms = covered if covered > 0 else 0
             gap_m = start_path_m - self._covered_path_m
+            gap_m += _counted(self._push_mps * (start_ms - since_ms) / 1000)
         self._covered_ms, self._covered_path_m = end_ms, end_path_m
         lasted_s = speed.duration / 1000
-        gap = math.hypot(speed.xspeed * lasted_s - forward, speed.yspeed * lasted_s - left)
-        turn = abs(speed.thetaspeed * lasted_s - turn)
-        gap -= self._error_mps * lasted_s
-        turn -= self._error_radps * lasted_s
-        if gap <= 0.0 and turn <= 0.0 and not gap_m:
-            return  # within the measurement's error: the reckoning holds
+        went_x, went_y, turned = (
+            speed.xspeed * lasted_s,
+            speed.yspeed * lasted_s,
+            speed.thetaspeed * lasted_s,
+        )
+        error = self._error
+        gap = math.hypot(went_x - forward, went_y - left) + error * math.hypot(went_x, went_y)
+        turn = abs(turned - turn) + error * abs(turned)
+        if gap_m or not (gap <= 0.0 and turn <= 0.0):  # (as reckoned, at a stand: nothing)
+            self._add(Slip(_counted(gap) + gap_m, _counted(turn)), end_ms)
+
+    def _add(self, more: Slip, until_ms: int) -> None:
+        """Count ``more`` slip, up to ``until_ms``."""
         slip = self.slip
-        self.slip = Slip(slip.distance_m + _counted(gap) + gap_m, slip.heading_rad + _counted(turn))
-        self._slips.append((end_ms, self.slip))
+        self.slip = Slip(slip.distance_m + more.distance_m, slip.heading_rad + more.heading_rad)
+        self._slips.append((until_ms, self.slip))
 
     def advance(self, velocity: Velocity) -> None:
         """One tick of the base towards ``velocity`` (body frame, turned into the odometry

@@ -117,9 +117,8 @@ class SafetySupervisor:
         self._reckoning = DeadReckoning(
             limits,
             tick_ms=tick_ms,
-            kept_ms=max(config.max_data_age_ms, config.max_status_age_ms),  # type: ignore[type-var]
-            error_mps=config.speed_error_mps,
-            radius_m=config.robot_radius_m,  # type: ignore[arg-type]  # filled
+            kept_ms=2 * max(config.max_data_age_ms, config.max_status_age_ms),  # type: ignore[type-var]
+            error=config.odometry_error,
             push_mps=config.human_speed_mps,  # type: ignore[arg-type]  # filled
         )
         """The robot's pose in its own start frame, and how far it may have slipped."""

@@ -73,12 +73,12 @@ class SafetyConfig(Message):
     linear motion stays inside this cone: it drives only where a working sensor looks;
     None: the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not
     set it above its camera's; 2 pi or more: it sees all around)."""
-    speed_error_mps: float = 0.05
-    """Largest error of the robot's measured speed (``RobotStatus speed``: its odometry's
-    mean velocity over a report's interval), m/s. A distance over the interval further than
-    this (times the interval) from the dead reckoning's shows the base slipped (blocked by
-    furniture, pushed): the excess widens every older reading's margin while a sonar is
-    down; a turn further than this over ``robot_radius_m`` widens it by the heading it may
+    odometry_error: float = 0.05
+    """Largest error of the robot's measured motion (``RobotStatus speed``: its odometry's
+    mean velocity over a report's interval), as a fraction of the distance (or turn) it
+    measures. How far the distance over the interval differs from the dead reckoning's, plus
+    this much of it, is what the base may have slipped (blocked by furniture, pushed): it
+    widens every older reading's margin while a sonar is down; a turn, by the heading it may
     have turned."""
     max_scan_age_ms: int | None = None
     """A sonar whose latest scan (its ``scantime``, the ring's heartbeat) was taken longer

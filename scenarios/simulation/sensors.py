@@ -14,8 +14,8 @@ on first sight; the ring's ``scantime`` and the camera's ``frametime`` with ever
 frame (their heartbeats: a frozen sensor repeats an old one). Sensor status comes at the
 start and on faults; touches from touch events and from contacts; the robot's speed (its
 mean velocity since the last report, from the odometer: how far the base went, blocked or
-pushed too), battery and
-elapsed time every ``status_period_s``.
+pushed too), battery and elapsed time every ``status_period_s``, and its speed every
+``RING_DOWN_SPEED_MS`` while the ring is down.
 
 Encoding decisions: ``poses`` use policy ``A`` (the map keeps the history),
 everything else ``R``; scalar contents are bare text (``s_true``, ``640``,
@@ -46,6 +46,10 @@ DECIMALS: Final = 4
 TRUE: Final = "s_true"
 FALSE: Final = "s_false"
 MAX_CATCH_UP: Final = 1000
+RING_DOWN_SPEED_MS: Final = 100
+"""How often the robot reports its speed while its ring is down (offline, frozen or
+silent), ms: the safety supervisor then counts a push over the time no report covers, and
+a report a second would leave it unsure where the robot is by a walk's second."""
 """Most periods a schedule steps over in one tick (a 1 ms period in a 1 s tick)."""
 
 
@@ -181,6 +185,11 @@ class Sensors:
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
             updates.extend(self._sensor_status())
+        elif (
+            self.sonar.mode is not FaultMode.ONLINE
+            and time_ms - self._odometer[0] >= RING_DOWN_SPEED_MS
+        ):
+            updates.append(self._speed(world, time_ms))
         if not updates:
             return []
         first = self._seq + 1
@@ -307,6 +316,15 @@ class Sensors:
         return updates
 
     def _robot_status(self, world: World, time_ms: int) -> list[_Update]:
+        battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
+        return [
+            self._speed(world, time_ms),
+            _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
+            _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
+        ]
+
+    def _speed(self, world: World, time_ms: int) -> _Update:
+        """The robot's mean velocity since its last speed report (the odometer's reading)."""
         since_ms, (forward, left, turn) = self._odometer
         odometer = world.odometer
         lasted_s = (time_ms - since_ms) / 1000 or math.inf  # the first: nothing to average
@@ -318,12 +336,7 @@ class Sensors:
             "startingtime": since_ms,
         }
         self._odometer = (time_ms, odometer)
-        battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
-        return [
-            _Update("RobotStatus", "speed", Policy.R, _json(speed)),
-            _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
-            _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
-        ]
+        return _Update("RobotStatus", "speed", Policy.R, _json(speed))
 
     def _sensor_status(self) -> list[_Update]:
         """Each sensor's ``isonline`` again, with the robot's status: a listener that missed

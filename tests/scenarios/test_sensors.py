@@ -278,6 +278,25 @@ def test_robot_status_comes_every_second():
     assert [u.jsonmsg for u in of(updates, "RobotStatus", "elapsedtime")] == ["0", "1000", "2000"]
 
 
+def test_with_the_ring_down_the_speed_comes_every_100_ms():
+    """The ring offline (or frozen, or silent): the speed every 100 ms, each interval
+    starting where the last ended (the supervisor counts a push over the time no report
+    covers); the battery and elapsed time still every second; back online, every second."""
+    world, sensors = setup()
+    ticks(world, sensors, 5)
+    sensors.fault(FaultEvent(at_s=0.1, sensor=SensorKind.SONAR, mode=FaultMode.OFFLINE))
+    down = ticks(world, sensors, 50, 5)  # 0.1 s to 1.1 s
+    speeds = [pose(u) for u in of(down, "RobotStatus", "speed")]
+    starts = [s["startingtime"] for s in speeds]
+    assert starts == [0, *range(100, 1000, 100)]
+    ends = [s["startingtime"] + s["duration"] for s in speeds]
+    assert ends[:-1] == starts[1:]
+    assert len(of(down, "RobotStatus", "batterytimeleft")) == 1
+    sensors.fault(FaultEvent(at_s=1.1, sensor=SensorKind.SONAR, mode=FaultMode.ONLINE))
+    back = ticks(world, sensors, 100, 55)  # 1.1 s to 3.1 s
+    assert [pose(u)["startingtime"] for u in of(back, "RobotStatus", "speed")] == [1000, 2000]
+
+
 def test_seq_numbers_increase_from_one():
     world, sensors = setup(sensors="noise_rho_m = 0.01\ndropout_probability = 0.3")
     seqs = [u.seq for u in ticks(world, sensors, 100)]

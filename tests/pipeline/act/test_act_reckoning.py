@@ -30,9 +30,7 @@ def report(end_ms: int, forward: float = 0.0, turn: float = 0.0, lasted_ms: int 
 
 def reckoning(push_mps: float = 0.0) -> DeadReckoning:
     """A reckoning (by default of a base no one can push: the push bound apart)."""
-    return DeadReckoning(
-        LIMITS, tick_ms=TICK_MS, kept_ms=2000, error_mps=ERROR, radius_m=0.3, push_mps=push_mps
-    )
+    return DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=2000, error=ERROR, push_mps=push_mps)
 
 
 def driven(velocities, reports: dict[int, SpeedStatus], push_mps: float = 0.0) -> DeadReckoning:
@@ -65,30 +63,54 @@ def reckoned_means(velocities) -> list[float]:
     return [0.0] + [b - a for a, b in itertools.pairwise(went)]
 
 
-def test_a_measured_speed_the_reckoning_explains_is_no_slip() -> None:
-    """Driving forward at 0.2 m/s for 8 s, told the mean speeds the reckoning made, or the
-    same within the error: nothing slipped, nothing is unchecked once the last report
-    covers the drive."""
+def test_a_measured_speed_the_reckoning_explains_slips_by_its_error_alone() -> None:
+    """Driving forward at 0.2 m/s for 8 s, told the mean speeds the reckoning made: it may
+    have slipped by the measurement's error (5 % of what was measured), no more; told 0.02
+    m/s more or less each second, by that too (an allowance once hid slow pushes); nothing
+    is unchecked once the last report covers the drive but the braking after it."""
     drive = [FORWARD] * (8 * TICKS_PER_S)
     made = reckoned_means(drive)
     assert made[1] < 0.2 == pytest.approx(made[2])  # the first second ramps up
-    for error in (0.0, 0.9 * ERROR, -0.9 * ERROR):
-        means = every_second(8, lambda s, e=error: made[s] + e if s else 0.0)
+    for off in (0.0, 0.02, -0.02):
+        means = every_second(8, lambda s, e=off: made[s] + e if s else 0.0)
         reckoned = driven([*drive, Velocity()], means)
-        assert reckoned.slip == Slip()
-        rolled = reckoned.drift(reckoned.placed(0)).distance_m  # braking after the last
+        measured = sum(made[1:9]) + 8 * off
+        assert reckoned.slip.distance_m == pytest.approx(8 * abs(off) + ERROR * measured)
+        assert reckoned.slip.heading_rad == 0.0
+        later = reckoned.placed(8000)
+        rolled = reckoned.drift(later).distance_m  # braking after the last
         assert 0.0 < rolled < 0.2**2 / 2 / LIMITS.max_accel_mps2 + 1e-9
 
 
 def test_a_blocked_base_slips_by_the_distance_it_did_not_go() -> None:
     """Pushed into a table at 0.2 m/s for 8 s, the base stands (told 0): the reckoning took
-    it 1.6 m on, and each report counts that second's reckoned distance less the error."""
+    it 1.6 m on, and each report counts that second's reckoned distance."""
     reckoned = driven([FORWARD] * (8 * TICKS_PER_S + 1), every_second(8))
     assert reckoned.pose[0] == pytest.approx(1.58, abs=0.01)
-    assert reckoned.slip.distance_m == pytest.approx(1.58 - 8 * ERROR, abs=0.01)
+    assert reckoned.slip.distance_m == pytest.approx(1.58, abs=0.01)
     assert reckoned.slip.heading_rad == 0.0
     since_3_5 = reckoned.drift(reckoned.placed(3500))
-    assert since_3_5.distance_m == pytest.approx(5 * (0.2 - ERROR), abs=0.01)  # seconds 4-8
+    assert since_3_5.distance_m == pytest.approx(5 * 0.2, abs=0.01)  # seconds 4-8
+
+
+def test_a_slow_push_counts_whole() -> None:
+    """A child leaning on the standing robot, moving it at 0.04 m/s for 30 s (told each
+    second): all of it, and the measurement's error on it (below the error, it once
+    counted nothing: 1.3 m of lean, and the robot drove into the child it leant it
+    towards; found by an adversarial review)."""
+    leant = driven([Velocity()] * (30 * TICKS_PER_S + 1), every_second(30, lambda s: 0.04))
+    assert leant.slip.distance_m == pytest.approx(30 * 0.04 * (1 + ERROR))
+
+
+def test_a_report_older_than_the_states_kept_loses_the_reckoning() -> None:
+    """The reckoning keeps 2 s of states here: a report of the 3 s before cannot be told
+    from what was driven, so every earlier reading is lost (it once compared it with the
+    last 2 s alone: a blocked drive in the first second went uncounted)."""
+    reckoned = driven([FORWARD] * (3 * TICKS_PER_S), {})
+    reckoned.mark(3000)
+    reckoned.measured([report(3000, 0.0, lasted_ms=3000)], 3000)
+    assert reckoned.slip.distance_m == LOST_M
+    assert reckoned.drift(reckoned.placed(3000)).distance_m == 0.0
 
 
 def test_a_push_between_two_reports_is_counted_by_the_next() -> None:
@@ -96,7 +118,7 @@ def test_a_push_between_two_reports_is_counted_by_the_next() -> None:
     instant is 0, the distance over its second is not (a sampled speed missed it all)."""
     taps = [FORWARD if tick % TICKS_PER_S < 30 else Velocity() for tick in range(8 * TICKS_PER_S)]
     reckoned = driven([*taps, Velocity()], every_second(8))
-    assert reckoned.slip.distance_m > 8 * (0.1 - ERROR)
+    assert reckoned.slip.distance_m > 8 * 0.1
 
 
 def test_what_no_report_covers_yet_counts_whole() -> None:
@@ -115,8 +137,9 @@ def test_what_no_report_covers_yet_counts_whole() -> None:
     told = [FORWARD] * (3 * TICKS_PER_S + 25)
     made = reckoned_means(told[: 3 * TICKS_PER_S])
     reported = driven(told, every_second(3, lambda s: made[s]))
-    assert reported.slip == Slip()
-    assert reported.drift(reported.placed(0)).distance_m == pytest.approx(0.1, abs=0.005)
+    assert reported.slip.distance_m == pytest.approx(ERROR * sum(made[1:4]))
+    since = reported.placed(3000)
+    assert reported.drift(since).distance_m == pytest.approx(0.1, abs=0.005)
 
 
 def test_a_push_no_report_covers_yet_counts_at_a_persons_speed() -> None:
@@ -136,19 +159,24 @@ def test_a_push_no_report_covers_yet_counts_at_a_persons_speed() -> None:
 
 
 def test_the_path_between_two_reports_counts_whole() -> None:
-    """Reports of the second half of each second only, telling what the reckoning made:
-    each uncovered half second's path (0.1 m) counts, as the gaps once were lost for good."""
+    """Reports of the second half of each second only, telling 0.2 m/s (what the reckoning
+    made but in the first half second's ramp): each uncovered half second's path counts
+    (0.08 m for the first, 0.1 for the others), as the gaps once were lost for good, and so
+    does a push over it (1 m/s for each half second)."""
     drive = [FORWARD] * (4 * TICKS_PER_S + 1)
     halves = {s * TICKS_PER_S: report(s * 1000, 0.2, lasted_ms=500) for s in range(1, 5)}
+    told = 4 * ERROR * 0.1  # the reports' error
     reckoned = driven(drive, halves)
-    assert reckoned.slip.distance_m == pytest.approx(3 * 0.1, abs=0.01)
+    assert reckoned.slip.distance_m == pytest.approx(0.08 + 3 * 0.1 + told, abs=0.005)
+    pushed = driven(drive, halves, push_mps=1.0)
+    assert pushed.slip.distance_m == pytest.approx(reckoned.slip.distance_m + 4 * 0.5)
 
 
 def test_a_blocked_turn_slips_by_the_heading_it_did_not_make() -> None:
-    """Spinning at 1 rad/s told 0: the rim's error (0.05 m/s at 0.3 m) is no slip."""
+    """Spinning at 1 rad/s told 0: the whole turn reckoned slipped."""
     reckoned = driven([Velocity(0.0, 0.0, 1.0)] * (3 * TICKS_PER_S + 1), every_second(3))
     turned = reckoned.placed(3000).pose[2]
-    assert reckoned.slip.heading_rad == pytest.approx(turned - 3 * ERROR / 0.3)
+    assert reckoned.slip.heading_rad == pytest.approx(turned)
     assert reckoned.slip.distance_m == 0.0
 
 
@@ -169,7 +197,8 @@ def test_driving_on_after_a_blocked_turn_drifts_by_the_path_times_the_heading_sl
     since = reckoned.drift(reckoned.placed(0))
     path = reckoned.path_m
     assert since.heading_rad == heading
-    assert since.distance_m == pytest.approx(path * heading, rel=0.05)
+    told = ERROR * sum(forward[1:])  # the reports' error
+    assert since.distance_m == pytest.approx(path * heading + told, rel=0.02)
 
 
 def test_a_report_covered_already_or_ahead_of_the_clock_counts_nothing() -> None:
@@ -182,10 +211,10 @@ def test_a_report_covered_already_or_ahead_of_the_clock_counts_nothing() -> None
     ahead = SpeedStatus(xspeed=9.0, yspeed=0.0, thetaspeed=0.0, duration=5000, startingtime=1000)
     for speeds in ([report(1000, 1.0)], [report(1000, 1.0)], [report(400, 1.0)], [ahead]):
         reckoned.measured(speeds, 1000)
-    assert reckoned.slip.distance_m == pytest.approx(1.0 - ERROR)
+    assert reckoned.slip.distance_m == pytest.approx(1.0 + ERROR)
     reckoned.mark(2000)
     reckoned.measured([report(2000, 1.0)], 2000)
-    assert reckoned.slip.distance_m == pytest.approx(2 * (1.0 - ERROR))
+    assert reckoned.slip.distance_m == pytest.approx(2 * (1.0 + ERROR))
 
 
 @pytest.mark.parametrize("forward", [math.nan, 1e308, -1e308])
