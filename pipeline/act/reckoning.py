@@ -93,6 +93,9 @@ class DeadReckoning:
         the first report, at the start)."""
         self._now_ms = 0
         """The current tick's time, ms."""
+        self._reporting = False
+        """Whether a speed report came (one of no duration too: a robot's first, at its
+        start, says reports will come, and what none covers since the start counts)."""
 
     def mark(self, now_ms: int) -> None:
         """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
@@ -120,8 +123,8 @@ class DeadReckoning:
         nothing tells a blocked or pushed base."""
         slip = self.slip
         unchecked = 0.0
-        if self._covered_ms > -math.inf:  # reports come: what they do not cover yet counts
-            unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms)
+        if self._reporting:  # reports come: what they do not cover yet counts
+            unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms, 0)
             pushed = self._push_mps * unchecked_ms / 1000 if unchecked_ms > 0 else 0.0
             unchecked = self.path_m - max(since.path_m, self._covered_path_m) + _counted(pushed)
         heading = slip.heading_rad - since.slip.heading_rad
@@ -149,6 +152,7 @@ class DeadReckoning:
         and the time before it that no report covers. A report covered already, or ending
         after the current tick (a clock ahead), changes nothing; one that starts before the
         states kept counts ``LOST_M``."""
+        self._reporting = True
         start_ms, end_ms = speed.startingtime, _end_ms(speed)
         covered = self._covered_ms
         if end_ms <= covered or not start_ms < end_ms <= now_ms:

@@ -49,7 +49,7 @@ def closing_cap(c: Constraint, across: float) -> float:
     if across == 0.0:
         return c.cap_mps
     rest = c.room - 2 * c.walk * across
-    if rest <= 0.0:  # the walk while braking from across alone fills the gap: no closing
+    if not rest > 0.0:  # the walk while braking from across fills the gap (or NaN): none
         return 0.0
     lead = c.lead + across / 2
     return min(c.cap_mps, -lead + math.sqrt(lead * lead + rest))

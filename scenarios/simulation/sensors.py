@@ -46,11 +46,11 @@ DECIMALS: Final = 4
 TRUE: Final = "s_true"
 FALSE: Final = "s_false"
 MAX_CATCH_UP: Final = 1000
+"""Most periods a schedule steps over in one tick (a 1 ms period in a 1 s tick)."""
 RING_DOWN_SPEED_MS: Final = 100
 """How often the robot reports its speed while its ring is down (offline, frozen or
 silent), ms: the safety supervisor then counts a push over the time no report covers, and
 a report a second would leave it unsure where the robot is by a walk's second."""
-"""Most periods a schedule steps over in one tick (a 1 ms period in a 1 s tick)."""
 
 
 class _Update(msgspec.Struct, frozen=True):

@@ -125,7 +125,8 @@ def test_what_no_report_covers_yet_counts_whole() -> None:
     """Reports that stopped after the first second: a reading's drift is the whole path
     reckoned since it; with a report each second, only the path since the last (0.5 s of
     driving); with none ever (a robot that sends none), nothing. A report of no duration
-    covers nothing (a stream of them once cancelled everything)."""
+    covers nothing (a stream of them once cancelled everything): it says reports come, and
+    the whole path since the start counts."""
     drive = [FORWARD] * (4 * TICKS_PER_S)
     first = reckoned_means(drive[:TICKS_PER_S])[1]
     stopped = driven(drive, {TICKS_PER_S: report(1000, first)})
@@ -133,7 +134,8 @@ def test_what_no_report_covers_yet_counts_whole() -> None:
     assert driven(drive, {}).drift(stopped.placed(0)) == Slip()
     zero = {tick: report(tick * TICK_MS, 0.0, lasted_ms=0) for tick in range(len(drive))}
     nothing = driven(drive, zero)
-    assert nothing.slip == Slip() and nothing.drift(nothing.placed(0)) == Slip()
+    assert nothing.slip == Slip()
+    assert nothing.drift(nothing.placed(0)).distance_m == pytest.approx(nothing.path_m)
     told = [FORWARD] * (3 * TICKS_PER_S + 25)
     made = reckoned_means(told[: 3 * TICKS_PER_S])
     reported = driven(told, every_second(3, lambda s: made[s]))
@@ -146,14 +148,18 @@ def test_a_push_no_report_covers_yet_counts_at_a_persons_speed() -> None:
     """Standing still, a report each second telling 0: a reading's drift is what a person
     (1 m/s) could have pushed the base since the last report's end, or since the reading
     if later (a push between two reports is seen only by the next: an adversarial review
-    had a child push the robot towards another unseen between two reports); none before
-    a report came (nothing tells a robot that sends none)."""
+    had a child push the robot towards another unseen between two reports); since the
+    start once the robot's first report (of no duration, at its start) came, as the review
+    after found the first second blind; none before any report came (nothing tells a robot
+    that sends none)."""
     still = [Velocity()] * (3 * TICKS_PER_S + TICKS_PER_S // 2)  # up to 3.5 s
     reported = driven(still, every_second(3), push_mps=1.0)
     assert reported.slip == Slip()
     assert reported.drift(reported.placed(0)).distance_m == pytest.approx(0.48, abs=1e-9)
     assert reported.drift(reported.placed(3200)).distance_m == pytest.approx(0.28, abs=1e-9)
     assert driven(still, {}, push_mps=1.0).drift(reported.placed(0)) == Slip()
+    started = driven(still[: TICKS_PER_S - 1], every_second(0), push_mps=1.0)  # 0 to 0.96 s
+    assert started.drift(started.placed(0)).distance_m == pytest.approx(0.96, abs=1e-9)
     lost = driven(still, every_second(3), push_mps=1e308)
     assert lost.drift(lost.placed(0)).distance_m == LOST_M  # finite
 
