@@ -87,15 +87,13 @@ class DeadReckoning:
         self._slips: deque[tuple[int, Slip]] = deque(maxlen=64)
         """Up to when each recent report was counted, ms, and the slip counted up to then."""
         self._covered_ms: float = -math.inf
-        """Up to when the reports counted so far cover, ms (-inf: none yet)."""
+        """Up to when the reports counted so far cover, ms: -inf before any came, then the
+        start at least (a report of no duration, a robot's first, says reports come: what
+        none covers since the start counts)."""
         self._covered_path_m = 0.0
-        """The reckoned path at ``_covered_ms`` (what is driven since is unchecked; before
-        the first report, at the start)."""
+        """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
         self._now_ms = 0
         """The current tick's time, ms."""
-        self._reporting = False
-        """Whether a speed report came (one of no duration too: a robot's first, at its
-        start, says reports will come, and what none covers since the start counts)."""
 
     def mark(self, now_ms: int) -> None:
         """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
@@ -123,8 +121,8 @@ class DeadReckoning:
         nothing tells a blocked or pushed base."""
         slip = self.slip
         unchecked = 0.0
-        if self._reporting:  # reports come: what they do not cover yet counts
-            unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms, 0)
+        if self._covered_ms > -math.inf:  # reports come: what they do not cover yet counts
+            unchecked_ms = self._now_ms - max(since.at_ms, self._covered_ms)
             pushed = self._push_mps * unchecked_ms / 1000 if unchecked_ms > 0 else 0.0
             unchecked = self.path_m - max(since.path_m, self._covered_path_m) + _counted(pushed)
         heading = slip.heading_rad - since.slip.heading_rad
@@ -152,9 +150,8 @@ class DeadReckoning:
         and the time before it that no report covers. A report covered already, or ending
         after the current tick (a clock ahead), changes nothing; one that starts before the
         states kept counts ``LOST_M``."""
-        self._reporting = True
         start_ms, end_ms = speed.startingtime, _end_ms(speed)
-        covered = self._covered_ms
+        covered = self._covered_ms = max(self._covered_ms, 0)
         if end_ms <= covered or not start_ms < end_ms <= now_ms:
             return  # (one of no duration covers nothing)
         history = self._history
@@ -165,9 +162,8 @@ class DeadReckoning:
         forward, left, turn, start_path_m, end_path_m = self._driven(start_ms, end_ms)
         gap_m = 0.0
         if covered < start_ms:  # a time no report covers: its path, and a push meanwhile
-            since_ms = covered if covered > 0 else 0
             gap_m = start_path_m - self._covered_path_m
-            gap_m += _counted(self._push_mps * (start_ms - since_ms) / 1000)
+            gap_m += _counted(self._push_mps * (start_ms - covered) / 1000)
         self._covered_ms, self._covered_path_m = end_ms, end_path_m
         lasted_s = speed.duration / 1000
         went_x, went_y, turned = (

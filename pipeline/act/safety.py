@@ -50,7 +50,13 @@ from typing import Final, NamedTuple
 from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
-from oimi.pipeline.act.separation import Constraint, allowed_by, satisfied, within_view
+from oimi.pipeline.act.separation import (
+    Constraint,
+    allowed_by,
+    braking_cap,
+    satisfied,
+    within_view,
+)
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
 from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
 
@@ -358,16 +364,14 @@ class SafetySupervisor:
         if key in self._held:
             sin_cone = 1.0 if margin >= distance else margin / distance
             return Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
-        gap = surface - config.stop_distance_m
-        a = self._limits.max_accel_mps2
-        # c * dt + c**2 / (2 a) + walk * c / a <= gap: a tick at c, braking at a, and the
-        # human walking on meanwhile (the cap then falls no faster than the base brakes)
-        lead = a * self._dt_s + config.human_speed_mps  # type: ignore[operator]  # filled
-        room = 2 * a * max(gap, 0.0)
-        cap = -lead + math.sqrt(lead**2 + room)
+        a, walk = self._limits.max_accel_mps2, config.human_speed_mps
+        # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
+        # no faster than the base brakes): separation.braking_cap
+        lead = a * self._dt_s + walk  # type: ignore[operator]  # filled
+        room = 2 * a * max(surface - config.stop_distance_m, 0.0)
+        cap = braking_cap(lead, room, walk)  # type: ignore[arg-type]  # filled
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        walk = config.human_speed_mps
         return Constraint(
             key,
             surface,

@@ -39,20 +39,28 @@ _ANGLE_TOLERANCE: Final = 1e-9
 """A velocity projected onto the view's edge points along it, give or take rounding."""
 
 
-def closing_cap(c: Constraint, across: float) -> float:
-    """The largest velocity component along u with ``across`` m/s across it (outside the
-    stop zone). The base brakes its whole velocity at ``a``: ``s / a`` for a speed ``s``,
-    not ``c / a``, so a closing component ``c`` closes ``c * s / (2 a)`` meanwhile while
-    the human walks ``walk * s / a``. Bounding ``s`` by ``c + across``: ``c * dt + (c + 2
-    walk) (c + across) / (2 a) <= gap`` (an oblique approach once closed 0.015 m/s inside
-    the stop zone: the closing part braked only at its share of ``a``)."""
-    if across == 0.0:
-        return c.cap_mps
-    rest = c.room - 2 * c.walk * across
+def braking_cap(lead: float, room: float, walk: float, across: float = 0.0) -> float:
+    """The largest closing speed ``c`` that still brakes before the stop zone, with
+    ``across`` m/s across (``lead``, ``room``, ``walk``: :class:`Constraint`'s). The base
+    brakes its whole velocity at ``a``: ``s / a`` for a speed ``s``, not ``c / a``, so a
+    closing component ``c`` closes ``c * s / (2 a)`` meanwhile while the human walks ``walk
+    * s / a``. Bounding ``s`` by ``c + across``: ``c * dt + (c + 2 walk) (c + across) / (2
+    a) <= gap`` (an oblique approach once closed 0.015 m/s inside the stop zone: the
+    closing part braked only at its share of ``a``)."""
+    rest = room - 2 * walk * across
     if not rest > 0.0:  # the walk while braking from across fills the gap (or NaN): none
         return 0.0
-    lead = c.lead + across / 2
-    return min(c.cap_mps, -lead + math.sqrt(lead * lead + rest))
+    lead += across / 2
+    return -lead + math.sqrt(lead * lead + rest)
+
+
+def closing_cap(c: Constraint, across: float) -> float:
+    """The largest velocity component along u with ``across`` m/s across it (outside the
+    stop zone): :func:`braking_cap`, and ``cap_mps`` (its value with nothing across, and
+    the slow zone's cap)."""
+    if across == 0.0:
+        return c.cap_mps
+    return min(c.cap_mps, braking_cap(c.lead, c.room, c.walk, across))
 
 
 def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:

@@ -215,8 +215,8 @@ class MapProducer:
             world.lastupdatetime = now_ms
         if heard is not None:  # the perceived map: its sensors' heartbeats, in any order
             for decoded in noted:
-                if index.find(decoded.target) is not None:
-                    target = decoded.target
+                target = decoded.target
+                if index.find(target) is not None:
                     self.beats[target.klass, target.id] = decoded.value  # type: ignore[assignment]
         return rejections
 

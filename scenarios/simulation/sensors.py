@@ -90,9 +90,12 @@ class Schedule:
 class _Sensor(Schedule):
     """Mode, schedule, tracks and last reading of one sensor."""
 
-    def __init__(self, ident: str, period_ms: float):
+    def __init__(self, objectid: str, heartbeat: str, period_ms: float):
         super().__init__(period_ms)
-        self.ident = ident
+        self.objectid = objectid
+        """``Camera/<id>`` or ``Sonar/<id>``."""
+        self.heartbeat = heartbeat
+        """The attribute that says when a reading was taken (``frametime``, ``scantime``)."""
         self.mode = FaultMode.ONLINE
         self.tracks: dict[str, int] = {}
         """objectid -> appearance time (ms), in order of appearance."""
@@ -106,8 +109,10 @@ class Sensors:
         self.config = config
         self.scenario = scenario
         self.rng = rng
-        self.camera = _Sensor(config.camera_id, _period_ms(config.rate_hz))
-        self.sonar = _Sensor(config.sonar_id, _period_ms(config.sonar_scan_hz))
+        self.camera = _Sensor(f"Camera/{config.camera_id}", "frametime", _period_ms(config.rate_hz))
+        self.sonar = _Sensor(
+            f"Sonar/{config.sonar_id}", "scantime", _period_ms(config.sonar_scan_hz)
+        )
         self._status = Schedule(config.status_period_s * 1000)
         self._odometer: tuple[int, tuple[float, float, float]] = (0, (0.0, 0.0, 0.0))
         """When the robot's speed was last reported, ms, and the odometer then."""
@@ -207,7 +212,7 @@ class Sensors:
 
     def _startup(self, time_ms: int) -> list[_Update]:
         config = self.config
-        camera, sonar = f"Camera/{config.camera_id}", f"Sonar/{config.sonar_id}"
+        camera, sonar = self.camera.objectid, self.sonar.objectid
         return [
             _Update(camera, "isonline", Policy.R, TRUE),
             _Update(camera, "width", Policy.R, str(config.camera_width_px)),
@@ -265,15 +270,10 @@ class Sensors:
         for objectid in list(tracks):
             if objectid not in in_view:
                 del tracks[objectid]
-        reading.append(self._heartbeat(sensor, time_ms))
+        # its heartbeat: when this scan or frame was taken (a frozen sensor repeats it, old)
+        reading.append(_Update(sensor.objectid, sensor.heartbeat, Policy.R, str(time_ms)))
         sensor.last = reading
         return reading
-
-    def _heartbeat(self, sensor: _Sensor, time_ms: int) -> _Update:
-        """When this scan or frame was taken (a frozen sensor repeats it, old)."""
-        if sensor is self.sonar:
-            return _Update(f"Sonar/{sensor.ident}", "scantime", Policy.R, str(time_ms))
-        return _Update(f"Camera/{sensor.ident}", "frametime", Policy.R, str(time_ms))
 
     def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
         if cls == "Obstacle":
@@ -346,9 +346,8 @@ class Sensors:
 
     def _status_of(self, sensor: _Sensor) -> _Update:
         """A sensor's ``isonline`` as its mode says."""
-        kind = "Camera" if sensor is self.camera else "Sonar"
         online = FALSE if sensor.mode is FaultMode.OFFLINE else TRUE
-        return _Update(f"{kind}/{sensor.ident}", "isonline", Policy.R, online)
+        return _Update(sensor.objectid, "isonline", Policy.R, online)
 
 
 def _period_ms(rate_hz: float) -> float:

@@ -46,31 +46,26 @@ WAIT = one_goal(
 )
 
 
+def _update(objectid: str, attributename: str, jsonmsg: str, seq: int) -> MapUpdate:
+    return MapUpdate(
+        objectid=objectid, attributename=attributename, policy=Policy.R, jsonmsg=jsonmsg, seq=seq
+    )
+
+
 def pose(seq: int, rho: float, t: int) -> MapUpdate:
     body = json.dumps({"positionrho": rho, "positiontheta": 0.0, "positionchangetime": t})
-    return MapUpdate(
-        objectid="Human/child", attributename="poses", policy=Policy.R, jsonmsg=body, seq=seq
-    )
+    return _update("Human/child", "poses", body, seq)
 
 
 def camera(seq: int, *, online: bool = True) -> MapUpdate:
     """The front camera's status (the safety supervisor moves nothing until a sensor is on)."""
-    state = "s_true" if online else "s_false"
-    return MapUpdate(
-        objectid="Camera/front", attributename="isonline", policy=Policy.R, jsonmsg=state, seq=seq
-    )
+    return _update("Camera/front", "isonline", "s_true" if online else "s_false", seq)
 
 
 def frame(seq: int, time_ms: int) -> MapUpdate:
     """The front camera's heartbeat: a frame taken at ``time_ms`` (the supervisor takes a
     camera whose frames stop for offline)."""
-    return MapUpdate(
-        objectid="Camera/front",
-        attributename="frametime",
-        policy=Policy.R,
-        jsonmsg=str(time_ms),
-        seq=seq,
-    )
+    return _update("Camera/front", "frametime", str(time_ms), seq)
 
 
 def pipeline(sink: MemorySink, config: PipelineConfig | None = None) -> Pipeline:
