@@ -214,7 +214,8 @@ class MapDelta(Event, omit_defaults=True):
     empty ``Raw``, left out of the JSON: unchanged; ``scriptinfo`` and ``robotstatus`` as a
     :data:`SECTION_PATCHES` change, the others whole), the rows that appeared (whole) or
     changed (a :data:`ROW_PATCHES` row: the id and only the fields that changed; a register
-    that took readings as :class:`Appended`), in the map's order, and, in ``removed``, the
+    that took readings as :class:`Appended`, without the row's fields that repeat its newest
+    reading: format 9), in the map's order, and, in ``removed``, the
     ``Class/id`` (``Human/ada``) of rows forgotten. A delta's row is a change when the map
     before it has the id. Keyframes come first and then at the first change
     ``PipelineConfig.map_keyframe_ms`` or more after the previous one. Parts are the JSON

@@ -7,9 +7,10 @@ encoded or decoded to find what changed). Only the parts that differ are encoded
 :class:`~pipeline.events.MapDelta`, as ``msgspec.Raw``: the sink writes them as they are);
 a row that was there before is written as its change (its id and the fields that differ;
 a register that took readings as the readings added and how many it dropped, not its
-whole history), and that change is what its kept copy takes (the readings it kept are
-not copied again). :func:`apply_delta` is the one function that rebuilds
-full maps from a keyframe and the deltas after it.
+whole history; format 9 leaves out a field that repeats the newest reading its register
+added, such as a person's ``positionrho`` and the pose just added), and that change is what
+its kept copy takes (the readings it kept are not copied again). :func:`apply_delta` is the
+one function that rebuilds full maps from a keyframe and the deltas after it.
 
 A recorded part is the live part's JSON at its change, so a rebuilt map equals the loop's
 (``==``). A change between values that compare equal is not one (``0.0`` and ``-0.0``; an
@@ -27,6 +28,7 @@ from typing import Any, Final
 import msgspec
 from oimi.pipeline.events import ROW_PATCHES, SECTION_PATCHES, Appended, MapDelta
 from oimi.pipeline.messages import MAP_LISTS, WorldMap
+from oimi.pipeline.sense.updates import UPDATE_TABLE, EntityClass
 
 TABLES: Final = tuple(m.field for m in MAP_LISTS)
 """The map's listed classes' fields (rows with ids: a delta lists the changed rows)."""
@@ -44,6 +46,17 @@ _PATCH_DECODERS: Final = {
     part: msgspec.json.Decoder(patch) for part, patch in (ROW_PATCHES | SECTION_PATCHES).items()
 }
 """Each table's row change's and each Struct section's change's decoder."""
+_REPEATS: Final[dict[type, tuple[tuple[str, tuple[str, ...]], ...]]] = {
+    m.struct: tuple(
+        (spec.name, spec.mirrors)
+        for spec in UPDATE_TABLE[EntityClass(m.name)].values()
+        if spec.mirrors
+    )
+    for m in MAP_LISTS
+}
+"""Each row type's registers whose newest reading repeats fields of the row, with those
+fields (the Map Producer copies an added pose onto an entity's ``positionrho``,
+``positiontheta`` and ``positionchangetime``: the update table's ``mirrors``)."""
 _encode: Final = msgspec.json.Encoder().encode
 _UNSET: Final[Any] = object()
 
@@ -113,7 +126,7 @@ class MapDeltas:
             if kept == live and (type(live) is not dict or list(kept) == list(live)):
                 continue
             if name in SECTION_PATCHES and kept is not _UNSET:
-                sections[name] = _take(kept, _patch(kept, live))
+                sections[name] = _unrepeated(live, _take(kept, _patch(kept, live)))
             else:
                 kept_sections[name] = _copy(live)
                 sections[name] = live
@@ -162,7 +175,7 @@ class MapDeltas:
                 rows.append(msgspec.Raw(_encode(row)))
                 old = _copy(row)
             elif old != row:
-                rows.append(msgspec.Raw(_encode(_take(old, _patch(old, row)))))
+                rows.append(msgspec.Raw(_encode(_unrepeated(row, _take(old, _patch(old, row))))))
             fresh[row.id] = old
         self._ids[table] = fresh
         if len(fresh) == len(kept) == len(live) and list(fresh) == list(kept):
@@ -206,6 +219,24 @@ def _take(kept: Any, patch: dict[str, Any]) -> dict[str, Any]:
     return patch
 
 
+def _unrepeated(new: Any, patch: dict[str, Any]) -> dict[str, Any]:
+    """``patch`` as a delta writes it (format 9): a field equal to the newest reading its
+    register added is left out (read back from the reading), and one that differs from it
+    is written even when unchanged."""
+    for register, names in _REPEATS.get(type(new), ()):
+        appended = patch.get(register)
+        if type(appended) is not Appended or not appended.added:
+            continue
+        newest = appended.added[-1]
+        for name in names:
+            value = getattr(new, name)
+            if value == getattr(newest, name):
+                patch.pop(name, None)
+            else:
+                patch[name] = value
+    return patch
+
+
 def _dropped(before: list[Any], after: list[Any]) -> int | None:
     """How many items ``before`` dropped from its start if ``after`` begins with the rest
     of them (then it added what follows); None if it did not (it is written whole)."""
@@ -218,10 +249,19 @@ def _dropped(before: list[Any], after: list[Any]) -> int | None:
     return None
 
 
-def _applied(row: Any, patch: Any) -> Any:
+def _applied(row: Any, patch: Any, repeats: bool) -> Any:
     """``row`` (left unchanged) with a :data:`~pipeline.events.ROW_PATCHES` change, or a
-    section with a :data:`~pipeline.events.SECTION_PATCHES` one."""
+    section with a :data:`~pipeline.events.SECTION_PATCHES` one; ``repeats``: a field the
+    change leaves out is the newest reading's its register added (format 9)."""
     fields = {}
+    if repeats:
+        for register, names in _REPEATS.get(type(row), ()):
+            appended = getattr(patch, register)
+            if type(appended) is Appended and appended.added:
+                newest = appended.added[-1]
+                fields.update(
+                    (n, getattr(newest, n)) for n in names if getattr(patch, n) is msgspec.UNSET
+                )
     for name in row.__struct_fields__:
         value = getattr(patch, name)
         if value is msgspec.UNSET:
@@ -240,11 +280,13 @@ def _applied(row: Any, patch: Any) -> Any:
     return msgspec.structs.replace(row, **fields)
 
 
-def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
+def apply_delta(world_map: WorldMap | None, delta: MapDelta, *, repeats: bool = True) -> WorldMap:
     """The map after ``delta``: a keyframe's map (a section it lacks has its default), or
     ``world_map`` (the map of the previous ``/map`` message, left unchanged) with the
     delta's sections and rows in place, its new rows appended and its removed rows dropped.
     The result shares its unchanged parts with ``world_map``: treat it as read-only.
+    ``repeats``: a changed row's field that repeats its register's newest reading is left
+    out of the delta (format 9; False for older recordings, which wrote it).
     ValueError for a delta with no map to apply to, or one that removes a row the map
     does not have (``msgspec.DecodeError`` for a part that does not decode)."""
     if delta.keyframe:
@@ -266,12 +308,12 @@ def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
         if not data:
             fields[name] = kept
         elif name in SECTION_PATCHES:
-            fields[name] = _patched(kept, _PATCH_DECODERS[name].decode(data), delta.tick)
+            fields[name] = _patched(kept, _PATCH_DECODERS[name].decode(data), delta.tick, repeats)
         else:
             fields[name] = _DECODERS[name].decode(data)
     for table in TABLES:
         rows: list[Any] = getattr(world_map, table)
-        changed = _changed_rows(table, rows, getattr(delta, table), delta.tick)
+        changed = _changed_rows(table, rows, getattr(delta, table), delta.tick, repeats)
         dropped = gone.get(table, set())
         if changed or dropped:
             rows = [changed.pop(r.id, r) for r in rows if r.id not in dropped]
@@ -281,7 +323,7 @@ def apply_delta(world_map: WorldMap | None, delta: MapDelta) -> WorldMap:
 
 
 def _changed_rows(
-    table: str, rows: list[Any], raws: tuple[msgspec.Raw, ...], tick: int
+    table: str, rows: list[Any], raws: tuple[msgspec.Raw, ...], tick: int, repeats: bool
 ) -> dict[str, Any]:
     """A delta's rows of ``table`` rebuilt, by id: a change applied to the row ``rows`` has
     with its id, else a whole new row."""
@@ -295,13 +337,13 @@ def _changed_rows(
         if row is None:
             changed[patch.id] = _DECODERS[table].decode(raw)
             continue
-        changed[patch.id] = _patched(row, patch, tick)
+        changed[patch.id] = _patched(row, patch, tick, repeats)
     return changed
 
 
-def _patched(part: Any, patch: Any, tick: int) -> Any:
+def _patched(part: Any, patch: Any, tick: int, repeats: bool) -> Any:
     """:func:`_applied`, its error naming the delta's tick."""
     try:
-        return _applied(part, patch)
+        return _applied(part, patch, repeats)
     except ValueError as error:
         raise ValueError(f"the delta of tick {tick} {error}") from None

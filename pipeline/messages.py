@@ -18,10 +18,10 @@ from typing import Final, NamedTuple
 
 import msgspec
 
-FORMAT_VERSION: Final = 8
+FORMAT_VERSION: Final = 9
 """Version of the recorded message layout; bumped on any incompatible change."""
 
-READ_FORMAT_VERSIONS: Final = (2, 3, 4, 5, 6, 7, 8)
+READ_FORMAT_VERSIONS: Final = (2, 3, 4, 5, 6, 7, 8, 9)
 """The versions a recording may have to be read (2 wrote a ``/map`` delta's changed rows
 whole, and 2 to 4 its changed ``scriptinfo`` and ``robotstatus``, which read as changes of
 every field; 2 and 3 kept ``/world/state`` at every tick, 4 samples it:
@@ -30,7 +30,9 @@ ring's heartbeat, without which the supervisor takes a ring for down; 2 to 6 rep
 robot's ``speed`` at an instant, ``startingtime`` when it was measured, where 7 reports its
 mean over ``duration`` from ``startingtime``, the interval the supervisor compares with
 its dead reckoning; 2 to 7 have no camera ``frametime``, the camera's heartbeat, without
-which the supervisor takes a camera for offline); replays need ``FORMAT_VERSION``."""
+which the supervisor takes a camera for offline; 2 to 8 write a ``/map`` delta's changed
+row with the fields that repeat the reading its register just added, which 9 leaves out);
+replays need ``FORMAT_VERSION``."""
 
 GENERATED_SOURCE: Final = "generator:"
 """How ``ScriptInfo.script_vect`` names a generated script: ``generator:NAME``, the name of

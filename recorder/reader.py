@@ -194,10 +194,11 @@ class Recording:
         (``pipeline.mapdeltas.apply_delta``), the one way to read maps back. A delta
         that cannot be applied raises :class:`RecordingError` naming the message."""
         world_map: WorldMap | None = None
+        repeats = self.format_version >= 9
         for message in self.iter_messages((Topic.MAP,)):
             try:
                 delta = _map_decoder.decode(message.payload_bytes)
-                world_map = apply_delta(world_map, delta)
+                world_map = apply_delta(world_map, delta, repeats=repeats)
             except (msgspec.DecodeError, ValueError) as error:
                 raise RecordingError(
                     f"/map message {message.sequence} (tick {message.tick}): {error}",

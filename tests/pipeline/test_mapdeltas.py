@@ -32,6 +32,7 @@ mutation = st.one_of(
     st.tuples(st.just("forget"), TABLES_, IDS),
     st.tuples(st.just("move"), st.sampled_from(["humans", "obstacles", "objects"]), IDS),
     st.tuples(st.just("pose"), st.just("humans"), IDS),
+    st.tuples(st.just("seen"), st.sampled_from(["humans", "humans", "objects"]), IDS),
     st.tuples(st.just("attribute"), st.just("humans"), IDS),
     st.tuples(st.just("swap"), TABLES_, IDS),
     st.tuples(st.just("time"), st.just(""), IDS),
@@ -63,6 +64,12 @@ def mutate(world: WorldMap, step: tuple[str, str, str], n: int) -> None:
         case "pose" if row is not None:
             row.poses.append(Pose(positionrho=n / 5, positiontheta=0.5, positionchangetime=n))
             del row.poses[:-3]  # a circular register of 3
+        case "seen" if row is not None:  # as the producer: a pose, copied onto the row
+            seen = Pose(positionrho=n / 5, positiontheta=-0.5, positionchangetime=n)
+            row.poses.append(seen)
+            del row.poses[:-3]
+            row.positionrho, row.positiontheta = seen.positionrho, seen.positiontheta
+            row.positionchangetime = seen.positionchangetime
         case "attribute" if row is not None:
             row.attributes[ident] = str(n)
         case "swap" if len(rows) > 1:  # rows change order: only a keyframe can say it
@@ -96,6 +103,15 @@ ADD_AB = [("add", "humans", "a"), ("add", "humans", "b"), ("add", "objects", "a"
 @example(steps=[*ADD_AB, ("forget", "objects", "a"), ("pose", "humans", "b")], keyframe_ms=60_000)
 @example(  # a row's dict changed in place twice: the kept copy must not be the live dict
     steps=[*ADD_AB, ("attribute", "humans", "a"), PUBLISH, ("attribute", "humans", "a")],
+    keyframe_ms=60_000,
+)
+@example(  # a pose copied onto the row, then poses that are not (format 9 leaves out repeats)
+    steps=[
+        *ADD_AB,
+        *[("seen", "humans", "a"), PUBLISH] * 2,
+        *[("pose", "humans", "a"), PUBLISH] * 2,
+        *[("move", "humans", "a"), ("seen", "humans", "a"), ("move", "humans", "a"), PUBLISH],
+    ],
     keyframe_ms=60_000,
 )
 @given(
@@ -235,11 +251,45 @@ def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_
     world.humans[0].positionrho = 16.0
     delta = deltas.after(world, tick=1, time_ms=20)
     assert delta is not None and not delta.keyframe
-    assert bytes(delta.humans[0]) == (
-        b'{"id":"a","positionrho":16.0,"poses":{"dropped":1,"added":'
-        b'[{"positionrho":16,"positiontheta":0.0,"positionchangetime":16}]}}'
+    assert bytes(delta.humans[0]) == (  # positionrho and positiontheta: the pose's
+        b'{"id":"a","poses":{"dropped":1,"added":'
+        b'[{"positionrho":16,"positiontheta":0.0,"positionchangetime":16}]},'
+        b'"positionchangetime":0}'
     )
     assert apply_delta(apply_delta(None, first), delta) == world
+
+
+def test_a_row_leaves_out_the_fields_its_newest_reading_repeats_and_old_formats_wrote_them() -> (
+    None
+):
+    world = WorldMap(humans=[Human(id="a", creationtime=0)])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    seen = Pose(positionrho=1.5, positiontheta=0.25, positionchangetime=20)
+    human = world.humans[0]
+    human.poses.append(seen)
+    human.positionrho, human.positiontheta, human.positionchangetime = 1.5, 0.25, 20
+    human.attributes["mood"] = "happy"
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert first is not None and delta is not None
+    assert bytes(delta.humans[0]) == (
+        b'{"id":"a","positionrho":1.5,"positiontheta":0.25,"positionchangetime":20,'
+        b'"poses":[{"positionrho":1.5,"positiontheta":0.25,"positionchangetime":20}],'
+        b'"attributes":{"mood":"happy"}}'
+    ), "a register that was empty is written whole: nothing left out"
+    human.poses.append(Pose(positionrho=1.75, positiontheta=0.25, positionchangetime=40))
+    human.positionrho, human.positionchangetime = 1.75, 40
+    later = deltas.after(world, tick=2, time_ms=40)
+    assert later is not None
+    assert bytes(later.humans[0]) == (
+        b'{"id":"a","poses":{"added":'
+        b'[{"positionrho":1.75,"positiontheta":0.25,"positionchangetime":40}]}}'
+    )
+    before = apply_delta(apply_delta(None, first), delta)
+    assert apply_delta(before, later) == world
+    assert apply_delta(before, later, repeats=False).humans[0].positionrho == 1.5, (
+        "format 8 and older wrote every changed field: one left out is unchanged"
+    )
 
 
 def test_a_changed_robot_status_is_written_as_its_change_not_whole() -> None:

@@ -143,7 +143,8 @@ def test_a_changed_map_delta_is_reported_at_its_tick_and_field(
         (index, message.tick)
         for index, message in enumerate(open_recording(recording).iter_messages([Topic.MAP]))
         if b'"keyframe"' not in message.payload_bytes
-        and "positionrho" in msgspec.json.decode(message.payload_bytes).get("humans", [{}])[0]
+        and "added"
+        in msgspec.json.decode(message.payload_bytes).get("humans", [{}])[0].get("poses", {})
     ]
     index, tick = deltas[len(deltas) // 2]
 
@@ -151,14 +152,15 @@ def test_a_changed_map_delta_is_reported_at_its_tick_and_field(
         if topic != "/map" or at != index:
             return data
         event = msgspec.json.decode(data)
-        event["humans"][0]["positionrho"] += 1.0
+        event["humans"][0]["poses"]["added"][-1]["positionrho"] += 1.0
         return msgspec.json.encode(event)
 
     tampered = tmp_path / "map.mcap"
     rewrite(recording, tampered, message=edit)
     d = redrive(tampered).divergence
     assert d is not None
-    assert (d.kind, d.topic, d.tick, d.path) == ("changed", "/map", tick, "$.humans[0].positionrho")
+    where = "$.humans[0].poses.added[0].positionrho"
+    assert (d.kind, d.topic, d.tick, d.path) == ("changed", "/map", tick, where)
     rebuilt = open_recording(tampered).map_at(tick)
     original = open_recording(recording).map_at(tick)
     assert rebuilt is not None and original is not None and rebuilt != original
