@@ -40,7 +40,7 @@ from oimi.scenarios.extensions import (
     load_extensions,
 )
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.safety import coverage_gaps, unsafe_assumptions
+from oimi.scenarios.safety import coverage_gaps, unknown_people, unsafe_assumptions
 from oimi.scenarios.schema import (
     BehaviourEvent,
     BehaviourSegment,
@@ -340,6 +340,23 @@ def parse_scenario(
             _located(Invalid(where, what), name, locator) for where, what in coverage_gaps(scenario)
         ),
     )
+
+
+def check_real_people(loaded: LoadedScenario) -> None:
+    """Refuse (``ScenarioError``, placed in the file) a scenario that assumes less of people
+    than the safety supervisor does, for a session with a real robot and real people
+    (``scenarios.safety.unknown_people``)."""
+    locator = TomlLocator(loaded.raw.decode("utf-8"))
+    errors = sorted(
+        (
+            _located(Invalid(where, what), str(loaded.source), locator)
+            for where, what in unknown_people(loaded.scenario)
+        ),
+        key=lambda error: (error.line, error.column),
+    )
+    if errors:
+        errors[0].also = tuple(errors[1:])
+        raise errors[0]
 
 
 def _located(problem: Invalid, source: str, locator: TomlLocator) -> ScenarioError:

@@ -187,6 +187,26 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
             )
 
 
+PEOPLE: Final = {"human_radius_m": "m", "human_speed_mps": "m/s"}
+"""The assumptions about people, with their units."""
+
+
+def unknown_people(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
+    """Each assumption about people the scenario sets below the supervisor's own
+    (:data:`~pipeline.act.safety_config.ASSUMED`), as (path, message): refusals for a real
+    robot (``oimi bridge``), whose people the scenario's humans do not describe."""
+    safety = scenario.robot.safety
+    for name, unit in PEOPLE.items():
+        value = getattr(safety, name)
+        if value is not None and value < ASSUMED[name]:
+            yield (
+                ("robot", "safety", name),
+                f"{value!r} is below the supervisor's own {ASSUMED[name]!r} {unit}: a real"
+                " robot's people are not the scenario's, and a child may be larger or faster"
+                " (left out, it is the larger of that and the scenario's humans')",
+            )
+
+
 def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     """Where the sensors see a person too late for the supervisor to keep them out of the
     stop zone, as (path, message): warnings, not refusals (a scenario may study a faulty

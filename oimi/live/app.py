@@ -61,12 +61,14 @@ def serve(
     open_session: Callable[[LoadedScenario], contextlib.AbstractContextManager[LiveSession]],
     suffix: str = "",
     on_server: Callable[[LiveSession, LiveServer], None] | None = None,
+    admit: Callable[[LoadedScenario], None] | None = None,
 ) -> Served:
     """Check the arguments (``oimi serve``'s) and outputs, bind the ports, then run and
     record a live session; bad input raises a ``LocatedError`` naming ``command``.
 
     ``open_session`` makes the session (``oimi serve``'s, or the ROS 2 bridge's);
-    ``suffix`` goes after the scenario's name in the default recording name.
+    ``suffix`` goes after the scenario's name in the default recording name; ``admit``
+    may refuse the loaded scenario (raising) before anything is opened.
     """
     if args.duration_s is not None and not args.duration_s > 0:  # NaN too
         raise LocatedError("--duration-s must be positive", source=command)
@@ -75,6 +77,8 @@ def serve(
     loaded = load_scenario(
         args.scenario, allow_outside=args.allow_outside_paths, extensions=extensions_of(args)
     )
+    if admit is not None:
+        admit(loaded)
     report_warnings(loaded.warnings)
     output = args.output or dated_path(
         Path("out"), f"{args.scenario.stem}{suffix}", ".mcap", now=datetime.datetime.now()

@@ -44,7 +44,7 @@ from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.network import network_from_args
 from oimi.ros2.remote import RemoteBody, outputs_message, remote_sensors
-from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.loader import LoadedScenario, check_real_people
 
 JOY_OWNER: Final = "ros2:/joy"
 """The joystick guard's owner for pad states that arrive over DDS."""
@@ -227,5 +227,10 @@ def serve_bridge(args: argparse.Namespace) -> Served:
         session.attach(server.guard)
 
     return serve(
-        args, command="oimi bridge", open_session=bridged, suffix="-bridge", on_server=attach
+        args,
+        command="oimi bridge",
+        open_session=bridged,
+        suffix="-bridge",
+        on_server=attach,
+        admit=check_real_people,  # the robot's people are real: no less than the supervisor's
     )

@@ -120,3 +120,23 @@ def test_the_simulated_robot_stands_still_when_cmd_vel_falls_silent(drive):
     assert result["moves_again"], result["sim_stderr"]
     assert result["silence_stops"], result["sim_stderr"]
     assert "no cmd_vel for 500 ms: standing still" in result["sim_stderr"]
+
+
+def test_the_bridge_refuses_a_scenario_that_assumes_less_of_people_than_the_supervisor(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before any port, DDS participant or recording is opened (nothing is sent: no
+    namespace needed)."""
+
+    def no_dds(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a DDS participant was opened")
+
+    monkeypatch.setattr("oimi.ros2.bridge.Node", no_dds)
+    scenario = tmp_path / "lab.toml"
+    scenario.write_text('name = "lab"\n[robot.safety]\nhuman_speed_mps = 0.3\n')
+    output = tmp_path / "lab.mcap"
+    command = ["bridge", str(scenario), "-o", str(output), "--no-console", "--no-tcp"]
+    assert main(command) == 2
+    error = capsys.readouterr().err
+    assert f"{scenario}:3:1: robot.safety.human_speed_mps (m/s): 0.3 is below" in error
+    assert not output.exists()

@@ -6,7 +6,7 @@ import msgspec
 import pytest
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import parse_scenario, warnings_with
+from oimi.scenarios.loader import check_real_people, parse_scenario, warnings_with
 from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session
 
@@ -262,3 +262,21 @@ def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:
     (faster,) = warnings_with(loaded, {"robot.max_speed_mps": "0.6"})  # the file's ring
     assert str(faster).startswith("s.toml:3:1: sensors.sonar_range_m (m): the sonar ring reaches")
     assert str(faster).endswith("(with robot.max_speed_mps=0.6)")
+
+
+def test_a_real_robots_scenario_may_not_assume_less_of_people_than_the_supervisor() -> None:
+    """Simulated humans justify a smaller or slower person; a real robot's (``oimi bridge``)
+    people are not the scenario's: a child pushing at more than the 0 m/s set here would
+    go uncounted while the ring is down."""
+    text = b'name = "x"\n[robot.safety]\nhuman_speed_mps = 0.0\nhuman_radius_m = 0.2\n'
+    loaded = parse_scenario(text, source="s.toml")  # a simulation with nobody in it: allowed
+    with pytest.raises(ScenarioError, match=r"below the supervisor's own 1\.0 m/s") as caught:
+        check_real_people(loaded)
+    assert str(caught.value).startswith("s.toml:3:1: robot.safety.human_speed_mps (m/s): 0.0")
+    assert [str(e) for e in caught.value.also] == [
+        "s.toml:4:1: robot.safety.human_radius_m (m): 0.2 is below the supervisor's own"
+        " 0.25 m: a real robot's people are not the scenario's, and a child may be larger or"
+        " faster (left out, it is the larger of that and the scenario's humans')"
+    ]
+    check_real_people(parse_scenario(b'name = "x"\n[robot.safety]\nhuman_speed_mps = 1.5\n'))
+    check_real_people(parse_scenario(b'name = "x"\n'))  # left out: the supervisor's own
