@@ -156,6 +156,18 @@ def test_a_reading_from_the_future_is_stale_not_fresh() -> None:
     assert supervise(Velocity(0.5, 0.0, 0.0), just, now_ms=600)[0].velocity == (0.5, 0.0, 0.0)
 
 
+def test_a_heartbeat_from_the_future_does_not_keep_a_camera_framing() -> None:
+    """A camera whose clock is a second ahead stamps a frame 1 s after now: a frozen one
+    would pass for framing for that second. Taken for no frame (with no ring: nothing
+    senses, no linear motion); within a tick ahead it frames."""
+    child = room(seen(centre_at(1.0), at_ms=600))
+    go = Velocity(0.5, 0.0, 0.0)
+    verdict, _ = supervise(go, child, now_ms=600, framed={"front": 1600})
+    assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.BLIND
+    just, _ = supervise(go, child, now_ms=600, framed={"front": 600 + TICK_MS})
+    assert just.velocity == (0.5, 0.0, 0.0)
+
+
 def test_without_a_camera_online_motion_is_capped_at_the_slow_speed() -> None:
     sensors = {
         "cameras": [Camera(id="front", isonline=False)],
