@@ -113,7 +113,11 @@ class MapProducer:
         (class, id): a sonar's ``scantime``, a camera's ``frametime``, their heartbeats (not
         in the thesis's map, which they leave as it was: a sensor frozen while it saw
         nothing still says it is on, and only a time repeated old tells it from one that
-        sees an empty room)."""
+        sees an empty room). A time is taken no later than when it first came: a sensor
+        whose clock is ahead and that then froze would otherwise repeat a time that looks
+        fresh once the session's clock catches up with it."""
+        self._stamps: dict[tuple[str, str], int] = {}
+        """Each heartbeat's latest time as the sensor sent it (a repeat changes nothing)."""
 
     # ---------------------------------------------------------------- queue
 
@@ -217,8 +221,15 @@ class MapProducer:
             for decoded in noted:
                 target = decoded.target
                 if index.find(target) is not None:
-                    self.beats[target.klass, target.id] = decoded.value  # type: ignore[assignment]
+                    self._beat((target.klass, target.id), decoded.value, now_ms)  # type: ignore[arg-type]
         return rejections
+
+    def _beat(self, key: tuple[str, str], stamp: int, now_ms: int) -> None:
+        """Note a heartbeat's time, no later than ``now_ms`` when it is new (a repeated one
+        keeps the time it had when it first came)."""
+        if self._stamps.get(key) != stamp:
+            self._stamps[key] = stamp
+            self.beats[key] = min(stamp, now_ms)
 
     def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:
         spec, value = decoded.spec, decoded.value

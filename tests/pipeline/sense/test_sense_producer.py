@@ -400,6 +400,23 @@ def test_heard_keeps_only_the_sensors_the_map_has_room_for():
     assert [c.id for c in producer.perceived.cameras] == ["0", "1"]
 
 
+def test_a_heartbeat_is_noted_no_later_than_it_came_and_a_repeat_keeps_that_time():
+    """A ring whose clock is 2 s ahead, then frozen (it repeats its last scan time): had the
+    time been noted as sent, it would look fresh for half a second once the session's clock
+    caught up with it, and the supervisor let the robot reverse into a child behind it."""
+    _, producer = fresh()
+    producer.submit(upd("Sonar/ring", "isonline", "s_true"))
+    producer.consume(0)
+    for now in (100, 200):  # scanning, its clock ahead: each new time counts as it comes
+        producer.submit(upd("Sonar/ring", "scantime", str(now + 2000)))
+        producer.consume(now)
+        assert producer.beats == {("Sonar", "ring"): now}
+    for now in (300, 2200, 2400):  # frozen: its last time again and again
+        producer.submit(upd("Sonar/ring", "scantime", "2200"))
+        producer.consume(now)
+        assert producer.beats == {("Sonar", "ring"): 200}
+
+
 def test_a_rings_scan_time_is_noted_for_the_supervisor_and_leaves_both_maps_alone():
     """The ring's heartbeat is not the thesis's map: neither map changes (no rule runs for
     it), and only a sonar the perceived map holds is noted (a flood of ids grows nothing)."""
