@@ -55,6 +55,10 @@ _State = tuple[int, tuple[float, float, float], float]
 one a tick)."""
 
 
+AHEAD_KEPT: Final = 64
+"""How many reports ahead of the clock are remembered (the map's register holds 16)."""
+
+
 class DeadReckoning:
     """The robot's odometry pose, its base's velocity, and the slip its speed reports show."""
 
@@ -94,6 +98,10 @@ class DeadReckoning:
         """The reckoned path at ``_covered_ms`` (what is driven since is unchecked)."""
         self._now_ms = 0
         """The current tick's time, ms."""
+        self._ahead: dict[tuple[int, int], None] = {}
+        """The (start, end) of the latest reports that came ending after their tick (a clock
+        ahead; more than the map's register holds): never counted, so the time they claim
+        stays unchecked, a push over it too."""
 
     def mark(self, now_ms: int) -> None:
         """Keep the state at the start of the tick at ``now_ms`` (once per tick)."""
@@ -148,11 +156,17 @@ class DeadReckoning:
         """Count the slip a speed report shows: the distance its mean velocity over its
         ``duration`` makes, against the distance reckoned over that time, plus its error;
         and the time before it that no report covers. A report covered already, or ending
-        after the current tick (a clock ahead), changes nothing; one that starts before the
-        states kept counts ``LOST_M``."""
+        after the current tick (a clock ahead) changes nothing, then or when the clock reaches
+        it (it would cover a push since); one that starts before the states kept counts
+        ``LOST_M``."""
         start_ms, end_ms = speed.startingtime, _end_ms(speed)
         covered = self._covered_ms = max(self._covered_ms, 0)
-        if end_ms <= covered or not start_ms < end_ms <= now_ms:
+        if end_ms > now_ms:  # its clock is ahead: what it says cannot be placed, ever
+            self._ahead[start_ms, end_ms] = None
+            if len(self._ahead) > AHEAD_KEPT:
+                del self._ahead[next(iter(self._ahead))]
+            return
+        if end_ms <= covered or start_ms >= end_ms or (start_ms, end_ms) in self._ahead:
             return  # (one of no duration covers nothing)
         history = self._history
         if history and start_ms < history[0][0]:  # what the base was told then is gone

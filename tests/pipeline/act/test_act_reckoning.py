@@ -298,3 +298,23 @@ def test_a_kept_echo_is_not_taken_for_another_child_once_the_base_slipped() -> N
     world_map = msgspec.structs.replace(world_map, humans=[other])
     verdict, _ = supervise(Velocity(0.0, 0.2, 0.0), world_map, now_ms=8000, supervisor=supervisor)
     assert verdict.velocity.v_y < 0.1
+
+
+def test_a_report_ahead_of_the_clock_is_not_counted_when_the_clock_reaches_it() -> None:
+    """A robot's clock 1.5 s ahead: its report, counted once the session's clock reached
+    its stamp, moved the covered time past a push it never measured (the push bound
+    counted nothing for the time it claimed). It is never counted: that time stays
+    unchecked, and a person's push over it counts."""
+    reckoned = reckoning(push_mps=1.0)
+    on_time, ahead = report(1000), report(2500)  # ahead: (1500, 2500], sent at 1000
+    since = None
+    for now in range(0, 2501, TICK_MS):
+        reckoned.mark(now)
+        if now == 1000:
+            reckoned.measured([on_time], now)  # covers up to 1000
+            since = reckoned.placed(now)
+        if now >= 1000:
+            reckoned.measured([on_time, ahead], now)
+        reckoned.advance(Velocity(0.0, 0.0, 0.0))
+    assert since is not None
+    assert reckoned.drift(since).distance_m == pytest.approx(1.5), "1.5 s of a 1 m/s push"
