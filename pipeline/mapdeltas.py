@@ -126,7 +126,7 @@ class MapDeltas:
             if kept == live and (type(live) is not dict or list(kept) == list(live)):
                 continue
             if name in SECTION_PATCHES and kept is not _UNSET:
-                sections[name] = _unrepeated(live, _take(kept, _patch(kept, live)))
+                sections[name] = _take(kept, _patch(kept, live))  # (no section repeats)
             else:
                 kept_sections[name] = _copy(live)
                 sections[name] = live

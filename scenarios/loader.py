@@ -325,8 +325,7 @@ def parse_scenario(
         )
     except Invalid as problem:
         errors = [_located(each, name, locator) for each in (problem, *problem.others)]
-        errors[0].also = tuple(errors[1:])
-        raise errors[0] from None
+        raise _first_of(errors) from None
     except ExtensionError as error:
         line, column = locator.locate(("extensions",))
         raise ScenarioError(error.message, source=name, line=line, column=column) from None
@@ -347,16 +346,18 @@ def check_real_people(loaded: LoadedScenario) -> None:
     than the safety supervisor does, for a session with a real robot and real people
     (``scenarios.safety.unknown_people``)."""
     locator = TomlLocator(loaded.raw.decode("utf-8"))
-    errors = sorted(
-        (
-            _located(Invalid(where, what), str(loaded.source), locator)
-            for where, what in unknown_people(loaded.scenario)
-        ),
-        key=lambda error: (error.line, error.column),
-    )
+    errors = [
+        _located(Invalid(where, what), str(loaded.source), locator)
+        for where, what in unknown_people(loaded.scenario)
+    ]
     if errors:
-        errors[0].also = tuple(errors[1:])
-        raise errors[0]
+        raise _first_of(sorted(errors, key=lambda error: (error.line, error.column)))
+
+
+def _first_of(errors: list[ScenarioError]) -> ScenarioError:
+    """The first of ``errors``, carrying the others (``also``)."""
+    errors[0].also = tuple(errors[1:])
+    return errors[0]
 
 
 def _located(problem: Invalid, source: str, locator: TomlLocator) -> ScenarioError:

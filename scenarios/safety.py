@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
-from oimi.scenarios.schema import Scenario
+from oimi.scenarios.schema import Scenario, unit_of
 
 NOISE_SIGMAS: Final = 3.0
 """How many standard deviations of the sensors' noise the sensing error covers."""
@@ -187,8 +187,8 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
             )
 
 
-PEOPLE: Final = {"human_radius_m": "m", "human_speed_mps": "m/s"}
-"""The assumptions about people, with their units."""
+PEOPLE: Final = ("human_radius_m", "human_speed_mps")
+"""The assumptions about people."""
 
 
 def unknown_people(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
@@ -196,12 +196,12 @@ def unknown_people(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     (:data:`~pipeline.act.safety_config.ASSUMED`), as (path, message): refusals for a real
     robot (``oimi bridge``), whose people the scenario's humans do not describe."""
     safety = scenario.robot.safety
-    for name, unit in PEOPLE.items():
+    for name in PEOPLE:
         value = getattr(safety, name)
         if value is not None and value < ASSUMED[name]:
             yield (
                 ("robot", "safety", name),
-                f"{value!r} is below the supervisor's own {ASSUMED[name]!r} {unit}: a real"
+                f"{value!r} is below the supervisor's own {ASSUMED[name]!r} {unit_of(name)}: a real"
                 " robot's people are not the scenario's, and a child may be larger or faster"
                 " (left out, it is the larger of that and the scenario's humans')",
             )
