@@ -12,7 +12,8 @@ docs/actuator-and-joystick.md tells it whole; in short:
 | ``s < stop_distance_m``            | none: a protective stop of the closing component |
 
 A protective stop holds until ``s`` is halfway back to the slow zone (hysteresis: the
-margin shrinks with each camera frame). Moving away and sideways stays allowed. ``s`` is
+margin shrinks with each camera frame). Moving away and sideways stays allowed while the
+base, braking, stands before the human could walk into the stop zone. ``s`` is
 the centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age
 + one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion
 is dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` and
@@ -22,8 +23,9 @@ the reading, and by a push no report covers yet (``pipeline/act/reckoning.py``: 
 blocked by furniture or pushed).
 Braking room: ``c * dt + (c + 2 walk) * speed / (2 a) <= s - stop``, a tick at ``c``,
 then the base braking its whole velocity at ``a`` while the human walks on (``speed`` taken
-as ``c`` plus what moves across: ``pipeline/act/separation.py``). Inside the stop zone
-``v`` may not point at any point of the uncertainty disc (a cone).
+as ``c`` plus what moves across: ``pipeline/act/separation.py``). Inside the stop zone,
+or moving sideways too near to stand in time, ``v`` may not point at any point the human
+may reach while the base brakes from it (a cone, wider with the speed).
 
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
@@ -361,28 +363,21 @@ class SafetySupervisor:
             self._held[key] = None
         elif key in self._held and surface >= release:
             del self._held[key]
+        a = self._limits.max_accel_mps2
+        walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
+        sin_disc = 1.0 if margin >= distance else margin / distance
+        reach = a * distance
         if key in self._held:
-            sin_cone = 1.0 if margin >= distance else margin / distance
-            return Constraint(key, surface, u_x, u_y, 0.0, sin_cone, SafetyZone.STOP)
-        a, walk = self._limits.max_accel_mps2, config.human_speed_mps
+            return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, SafetyZone.STOP, walk, reach)
         # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
         # no faster than the base brakes): separation.braking_cap
-        lead = a * self._dt_s + walk  # type: ignore[operator]  # filled
+        lead = a * self._dt_s + walk
         room = 2 * a * max(surface - config.stop_distance_m, 0.0)
-        cap = braking_cap(lead, room, walk)  # type: ignore[arg-type]  # filled
+        cap = braking_cap(lead, room, walk)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
         return Constraint(
-            key,
-            surface,
-            u_x,
-            u_y,
-            cap,
-            None,
-            SafetyZone.SLOW,
-            lead,
-            room,
-            walk,  # type: ignore[arg-type]
+            key, surface, u_x, u_y, cap, sin_disc, SafetyZone.SLOW, walk, reach, lead, room
         )
 
     def _explained(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> bool:

@@ -1,8 +1,10 @@
 """Speed and separation: the velocity one human's reading allows (``pipeline/act/safety.py``
-works out the constraints; these meet them). Outside the stop zone the component towards
-the human is capped so that the base, braking its whole velocity, stops closing before the
-stop zone; inside it, the velocity may not point at any point of the uncertainty disc (a
-cone). No clock, no IO.
+works out the constraints; these meet them). The base brakes its whole velocity, along a
+straight line, in ``speed / a``; meanwhile the human may walk ``human_speed_mps`` anywhere.
+So a velocity is allowed when the base stops before the human can reach the stop zone
+(closing on them: at most what still brakes in time), or when it points away from every
+point the human may reach meanwhile (a cone around "away" that widens with the speed).
+Inside the stop zone only the cone is left. No clock, no IO.
 """
 
 from __future__ import annotations
@@ -23,15 +25,18 @@ class Constraint(NamedTuple):
     """Unit vector from the robot to the human, body frame."""
     cap_mps: float
     """Largest velocity component along u (outside the stop zone), moving straight at them."""
-    sin_cone: float | None
-    """Inside the stop zone: v must satisfy v.u <= -sin_cone * |v|."""
+    sin_disc: float
+    """The uncertainty disc's radius over its centre's distance (1.0: the robot is in it)."""
     zone: SafetyZone
+    """``STOP``: inside the stop zone (only the cone is left); else ``SLOW``."""
+    walk: float
+    """``human_speed_mps``."""
+    reach: float
+    """``a * d``: the base's braking rate times the disc centre's distance."""
     lead: float = 0.0
     """``a * dt + walk`` (outside the stop zone: the braking bound's terms)."""
     room: float = 0.0
     """``2 * a * (s - stop)`` (none inside the stop zone)."""
-    walk: float = 0.0
-    """``human_speed_mps``."""
 
 
 _TOLERANCE: Final = 1e-12
@@ -63,30 +68,83 @@ def closing_cap(c: Constraint, across: float) -> float:
     return min(c.cap_mps, braking_cap(c.lead, c.room, c.walk, across))
 
 
+def stops_in_time(c: Constraint, speed: float) -> bool:
+    """Whether the base, braking from ``speed``, stands before the human can walk into
+    the stop zone (outside it, not closing on them): ``walk * speed / a <= s - stop``."""
+    return 2 * c.walk * speed <= c.room + _TOLERANCE
+
+
+def cone_sine(c: Constraint, speed: float) -> float:
+    """The sine of the cone around "away" for a velocity of ``speed``. The base brakes from
+    it in ``t = speed / a``, moving ``speed * t / 2`` away while the human may walk ``walk *
+    t`` towards where it goes: the disc grows by the difference (at most ``walk**2 / 2a``:
+    beyond ``walk`` the base outruns them). With the disc as it stood, a child who walked
+    round the braking robot had it close on them at 0.0013 m/s inside the stop zone."""
+    if c.sin_disc >= 1.0:  # the robot is inside the disc (its distance may be none)
+        return c.sin_disc
+    s = min(speed, c.walk)
+    return c.sin_disc + (c.walk * s - s * s / 2) / c.reach
+
+
+def cone_speed(c: Constraint) -> float:
+    """The speed whose cone is halfway from a stand's to a closed one (sine 1), or 0.0 when
+    the robot stands inside the disc: a velocity too fast for any cone is cut to it."""
+    if c.sin_disc >= 1.0:
+        return 0.0
+    grown = (1.0 - c.sin_disc) / 2 * c.reach  # walk * s - s**2 / 2 at that speed
+    rest = c.walk * c.walk - 2 * grown
+    return c.walk - math.sqrt(rest) if rest > 0.0 else c.walk
+
+
 def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
-    """The nearest velocity to (v_x, v_y) that meets the constraint (outside the stop zone:
-    with what it has across u kept)."""
+    """The nearest velocity to (v_x, v_y) that meets the constraint (closing on them: with
+    what it has across u kept; else slowed to stop in time or bent into the cone, whichever
+    is nearer)."""
     along = v_x * c.u_x + v_y * c.u_y
-    if c.sin_cone is None:
-        if along <= 0.0:
-            return v_x, v_y
+    if c.zone is SafetyZone.STOP:
+        return _into_cone(c, v_x, v_y, along)
+    if along > 0.0:
         cap = closing_cap(c, math.hypot(v_x - along * c.u_x, v_y - along * c.u_y))
         if along <= cap:
             return v_x, v_y
         cut = along - cap
-        return v_x - cut * c.u_x, v_y - cut * c.u_y
-    if c.sin_cone >= 1.0:  # the robot is inside the human's uncertainty disc
-        return 0.0, 0.0
+        v_x, v_y = v_x - cut * c.u_x, v_y - cut * c.u_y
+        if cap > 0.0:  # closing still: it stops in time
+            return v_x, v_y
+        along = 0.0  # across alone: it must stop in time or point away
+    speed = math.hypot(v_x, v_y)
+    if stops_in_time(c, speed):
+        return v_x, v_y
+    b_x, b_y = bent = _into_cone(c, v_x, v_y, along)
+    scale = c.room / (2 * c.walk * speed)  # the speed that stops in time
+    s_x, s_y = slowed = v_x * scale, v_y * scale
+    if (b_x - v_x) ** 2 + (b_y - v_y) ** 2 <= (s_x - v_x) ** 2 + (s_y - v_y) ** 2:
+        return bent
+    return slowed
+
+
+def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[float, float]:
+    """The nearest velocity to (v_x, v_y) inside the cone of its speed (projected onto its
+    edge; first slowed to :func:`cone_speed` when too fast for any)."""
+    speed = math.hypot(v_x, v_y)
+    sin_cone = cone_sine(c, speed)
+    if sin_cone >= 1.0:
+        slower = cone_speed(c)
+        if slower <= 0.0:  # the robot is inside the human's uncertainty disc
+            return 0.0, 0.0
+        scale = slower / speed
+        v_x, v_y, along = v_x * scale, v_y * scale, along * scale
+        sin_cone = cone_sine(c, slower)
     p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
     across = math.hypot(p_x, p_y)
-    cos_cone = math.sqrt(1.0 - c.sin_cone**2)
-    if along * cos_cone <= -c.sin_cone * across:
+    cos_cone = math.sqrt(1.0 - sin_cone**2)
+    if along * cos_cone <= -sin_cone * across:
         return v_x, v_y
     # project onto the cone's edge: direction (-sin, cos) in the (along, across) plane
-    reach = -along * c.sin_cone + across * cos_cone
+    reach = -along * sin_cone + across * cos_cone
     if reach <= 0.0 or across == 0.0:
         return 0.0, 0.0
-    new_along, new_across = -reach * c.sin_cone, reach * cos_cone
+    new_along, new_across = -reach * sin_cone, reach * cos_cone
     return (
         new_along * c.u_x + new_across * p_x / across,
         new_along * c.u_y + new_across * p_y / across,
@@ -104,10 +162,13 @@ def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]
 
 
 def satisfied(c: Constraint, v_x: float, v_y: float) -> bool:
+    """Whether (v_x, v_y) meets the constraint (what :func:`allowed_by` returns does)."""
     along = v_x * c.u_x + v_y * c.u_y
-    if c.sin_cone is None:
-        if along <= 0.0:
+    speed = math.hypot(v_x, v_y)
+    if c.zone is not SafetyZone.STOP:
+        if along > 0.0:
+            across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
+            return along <= closing_cap(c, across) + _TOLERANCE
+        if stops_in_time(c, speed):
             return True
-        across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
-        return along <= closing_cap(c, across) + _TOLERANCE
-    return along <= -c.sin_cone * math.hypot(v_x, v_y) + _TOLERANCE
+    return along <= -cone_sine(c, speed) * speed + _TOLERANCE

@@ -295,6 +295,14 @@ def examples(count: int) -> settings:
 
 
 @examples(80)
+@example(  # found by the search: a child walked round the braking robot into its velocity
+    pads=[(2, 0.0, 0.0, 0.0, ()), (2, -0.5, 0.0, -1.0, ("LB",))],
+    moves=[],
+    humans=[((6.631, 7.898), [(4.0, 4.0)], 1.0), ((7.25, 6.0), [(4.0, 4.0)], 1.0)],
+    heading=-0.5,
+    all_round=False,
+    tamper=None,
+)
 @example(  # found by the search: an oblique reverse braked its closing part too slowly
     pads=[(2, 0, 0, 0, ()), (36, 0, 0, 0, ()), (14, 0, -1.0, 0, ("LB",)), (2, 0, 0, 0, ())],
     moves=[],

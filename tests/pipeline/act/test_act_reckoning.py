@@ -286,14 +286,16 @@ def test_the_map_type_is_what_the_supervisor_reads() -> None:
 
 
 def test_a_kept_echo_is_not_taken_for_another_child_once_the_base_slipped() -> None:
-    """The ring down, a child's echo kept 1 m to the left; 8 s against a table (told 0: 1.2
-    m of slip). A second child seen where the reckoning, 1.6 m off, places that echo: it
-    is not that child (placed that far off, it may be anyone), so driving left, towards
-    where the first child truly is, is still held back (it was taken for the second child
-    and dropped: the robot drove into the first; found by an adversarial review)."""
-    supervisor, world_map = _pushed(8, 0.0, echoed=True)
-    x, y, theta = supervisor.reckoned_pose  # where the reckoning has it: 1.4 m on
-    rho, bearing = math.hypot(-x, 1.0 - y), math.atan2(1.0 - y, -x) - theta  # at the echo
+    """The ring down, a child's echo kept 1.5 m to the left; 8 s against a table (told 0:
+    0.6 m of slip, the drive slowed and bent away from the child). A second child seen
+    where the reckoning places that echo: it is not that child (placed that far off, it
+    may be anyone), so driving left, towards where the first child truly is, is still held
+    back (it was taken for the second child and dropped: the robot drove into the first;
+    found by an adversarial review)."""
+    supervisor, world_map = _pushed(8, 0.0, echoed=True, away_m=1.5)
+    x, y, theta = supervisor.reckoned_pose  # where the reckoning has it: 0.6 m on
+    assert math.hypot(x, y) > 0.5
+    rho, bearing = math.hypot(-x, 1.5 - y), math.atan2(1.5 - y, -x) - theta  # at the echo
     other = seen(rho, bearing, at_ms=8000, ident="other")
     world_map = msgspec.structs.replace(world_map, humans=[other])
     verdict, _ = supervise(Velocity(0.0, 0.2, 0.0), world_map, now_ms=8000, supervisor=supervisor)

@@ -70,19 +70,35 @@ def test_an_oblique_drive_stops_closing_before_the_stop_zone_braking_its_whole_s
     falls at only its share of ``a`` (it once closed 0.015 m/s inside the stop zone, found
     by the safety property). A tick at the allowed velocity, then braking it to a stand,
     step by step, while the child walks in at 1 m/s: the gap is not used up while the robot
-    still closes (with nothing closing, it never does)."""
+    still closes. When the walk while braking from ``across`` alone fills the gap, nothing
+    closes, and what is left points away from wherever the child may walk meanwhile."""
     verdict, _ = supervise(Velocity(0.5, across, 0.0), room(seen(centre_at(surface))))
     closing, sideways = verdict.velocity.v_x, verdict.velocity.v_y
-    assert sideways == across and 0.0 <= closing < 0.5
-    assert (closing > 0.0) is (1.0 * across < surface - 0.1)  # the walk while braking
-    if not closing:
+    gap = surface - 0.1
+    if closing <= 0.0:  # the walk while braking from across fills the gap
+        assert 1.0 * across >= gap - 1e-9
+        if math.hypot(closing, sideways) > gap + 1e-9:  # it does not stand in time
+            assert closing < 0.0 and 0.0 < sideways < across
+            assert_points_away(closing, sideways, centre_at(surface))
         return
+    assert sideways == across and closing < 0.5 and 1.0 * across < gap
     speed, dt = math.hypot(closing, sideways), 1e-4
     used, t = closing * TICK_MS / 1000, 0.0
     while t * 1.0 < speed:  # braking at 1 m/s²: the closing part in proportion
         used += (closing * (1 - t / speed) + 1.0) * dt
         t += dt
     assert used <= surface - 0.1 + 1e-3
+
+
+def assert_points_away(v_x: float, v_y: float, centre: float) -> None:
+    """(v_x, v_y) points away from every place a child seen ``centre`` ahead may reach
+    while the base brakes from it at 1 m/s², walking at 1 m/s (the base going
+    ``speed * t - t**2 / 2`` on its straight line meanwhile), checked along the way."""
+    speed = math.hypot(v_x, v_y)
+    for step in range(101):
+        t = speed * step / 100
+        gone = speed * t - t * t / 2
+        assert v_x / speed * centre + MARGIN_M + 1.0 * t - gone <= 1e-9
 
 
 def test_near_the_stop_zone_the_closing_speed_leaves_braking_room() -> None:
@@ -114,15 +130,17 @@ def test_inside_the_stop_zone_moving_away_is_allowed(bearing: float) -> None:
     assert event is None
 
 
-def test_inside_the_stop_zone_sideways_is_bent_away_from_the_uncertainty_disc() -> None:
-    # the human may be anywhere within the margin of the reading: a purely sideways move
-    # could graze them, so it keeps its speed but turns a little away
+def test_inside_the_stop_zone_sideways_is_bent_away_from_where_the_child_may_walk() -> None:
+    # the human may be anywhere within the margin of the reading, and walk on while the
+    # base brakes: a purely sideways move could graze them, so it turns away from all of it
     d = centre_at(0.05)
-    verdict, _ = supervise(Velocity(0.0, 0.4, 0.0), room(seen(d)))
+    verdict, _ = supervise(Velocity(0.0, 0.2, 0.0), room(seen(d)))
     v_x, v_y, _ = verdict.velocity
-    sin_cone = MARGIN_M / d
-    assert v_x == pytest.approx(-sin_cone * math.hypot(v_x, v_y))
-    assert v_y > 0.35
+    speed = math.hypot(v_x, v_y)
+    asked = 0.2  # on the edge of the cone of the speed asked for (a slower one's is narrower)
+    assert v_x == pytest.approx(-(MARGIN_M + asked - asked**2 / 2) / d * speed)
+    assert_points_away(v_x, v_y, d)
+    assert 0.15 < v_y < 0.2
 
 
 def test_the_closest_of_several_humans_binds_and_all_are_respected() -> None:
