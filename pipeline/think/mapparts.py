@@ -27,6 +27,8 @@ FIELDS: Final = WorldMap.__struct_fields__
 """The map's top-level parts, in the order it encodes them."""
 
 _encode = msgspec.msgpack.Encoder().encode
+_STORES: Final = ("aliases", "variables")
+"""The map's parts a condition may write (its alias and variable stores)."""
 
 
 class MapParts:
@@ -50,6 +52,14 @@ class MapParts:
     def forget(self) -> None:
         """Drop every cached encoding (the map may have changed)."""
         self._encoded.clear()
+
+    def rebound(self) -> None:
+        """A condition bound or released aliases or variables (not a body's doing): their
+        encodings are dropped, and the next body's ``before`` is taken as the map is then
+        (kept, a body after it reported the binding as its own change)."""
+        for name in _STORES:
+            self._encoded.pop(name, None)
+        self.baseline = None
 
     def before(self, names: tuple[str, ...]) -> dict[str, bytes]:
         """The top-level parts ``names`` before a body: as the last fired rule left them."""

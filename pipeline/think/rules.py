@@ -128,7 +128,7 @@ class Rule:
                     memo.misses = 0
                     if last[2] is not None:  # it bound or released aliases or variables
                         _restore((world_map.aliases, world_map.variables, ctx.tick_scope), last[2])
-                        parts.baseline = None
+                        parts.rebound()
                     return last[1]
                 memo.missed()
         found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
@@ -137,7 +137,7 @@ class Rule:
         after = stores_of(world_map, ctx.tick_scope) if memo.stores else None
         moved = after != stores
         if moved:
-            parts.baseline = None  # the condition bound U-scope aliases: not the body's doing
+            parts.rebound()  # the condition bound U-scope aliases: not the body's doing
         changes: tuple[MapChange, ...] = ()
         if found.result:
             written = self.writes if ctx.shortcuts and self.writes is not None else FIELDS

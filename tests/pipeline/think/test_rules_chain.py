@@ -9,7 +9,7 @@ from oimi.pipeline.events import Level
 from oimi.pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
 from oimi.pipeline.registries import Registries
 from oimi.pipeline.think.chain import RuleChain
-from oimi.pipeline.think.rules import Rule, RuleRegistry, diff
+from oimi.pipeline.think.rules import Effect, Rule, RuleRegistry, diff
 from oimi.pipeline.think.stdlib import default_registry
 
 RULES = Registries.build().rules
@@ -95,6 +95,37 @@ def test_a_decision_names_bindings_and_the_map_fields_the_body_changed() -> None
     world.humans[0].positionrho = 2.0
     (decision,) = chain.propagate(world, now_ms=60)
     assert not decision.fired and decision.changes == ()
+
+
+@pytest.mark.parametrize("shortcuts", [True, False])
+def test_an_alias_a_condition_binds_is_not_the_next_bodys_change(shortcuts: bool) -> None:
+    """A fired rule encodes the map's parts; a condition then binds a scope-U alias (not
+    a body's doing, and no change of the body after it). The body after that changes one
+    variable: that is all it reports (the alias once came with it, from a stale encoding)."""
+
+    class Look(Rule):
+        rulecode = 20
+        condition_text = "! {TRUE}"
+
+    class Bind(Rule):
+        rulecode = 21
+        condition_text = "{CLASS #Human U ?pal} ! {E: far (?pal, 3.0)}"
+
+    class Note(Rule):
+        rulecode = 22
+        condition_text = "! {TRUE}"
+
+        def act(self, world_map, found, ctx) -> Effect:
+            world_map.variables["@noted"] = "yes"
+            return Effect.CHANGED
+
+    registry = RuleRegistry([Look, Bind, Note], functions=default_registry())
+    chain = RuleChain(registry, shortcuts=shortcuts)
+    chain.apply([msg(20, "look", "A", "U"), msg(21, "bind", "A", "U"), msg(22, "note", "A", "U")])
+    world = WorldMap(humans=[Human(id="c1", creationtime=0, positionrho=1.0)])
+    look, bind, note = chain.propagate(world, now_ms=0)
+    assert look.fired and not bind.fired and world.aliases == {"?pal": "Human/c1"}
+    assert [(c.path, c.new) for c in note.changes] == [("variables.@noted", '"yes"')]
 
 
 def test_registering_a_rule_with_a_bad_condition_fails_at_load_time() -> None:
