@@ -93,8 +93,12 @@ class Supervised(NamedTuple):
 class _Anchor(NamedTuple):
     """A reading placed in the odometry frame."""
 
+    stamp_ms: int
+    """Its ``positionchangetime`` (a new one is a new reading)."""
     at_ms: int
-    """When it was taken (its ``positionchangetime``)."""
+    """When it was taken: its stamp, but no later than it came (a sensor whose clock is
+    ahead, frozen since, repeats a reading that would otherwise look fresh once the
+    session's clock reached its stamp)."""
     x: float
     y: float
     since: Placed
@@ -169,12 +173,12 @@ class SafetySupervisor:
             if human.poses:
                 anchor = anchors.get(human.id)
                 if anchor is None or anchor[0] != human.positionchangetime:
-                    self._anchor(human.id, human)
+                    self._anchor(human.id, human, now_ms)
         echoes = self._echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
             if anchor is None or anchor[0] != echo.positionchangetime:
-                self._anchor(key, echo)
+                self._anchor(key, echo, now_ms)
         verdict = self._limit(requested, world_map, echoes, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
@@ -275,15 +279,17 @@ class SafetySupervisor:
         kept: list[tuple[str, Entity, int]] = []  # the echoes kept, and their age
         seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
-            age_ms = self._age(human, now_ms)
-            if not human.poses or age_ms > config.max_data_age_ms:
+            if not human.poses:
                 stale = True
-            if human.poses:
-                placed.append((human.id, human, age_ms))
-                if age_ms <= config.max_data_age_ms:
-                    seen.append(self._anchors[human.id])
+                continue
+            age_ms = self._age(human.id, human, now_ms)
+            placed.append((human.id, human, age_ms))
+            if age_ms > config.max_data_age_ms:
+                stale = True
+            else:
+                seen.append(self._anchors[human.id])
         for key, echo in echoes:
-            age_ms = self._age(echo, now_ms)
+            age_ms = self._age(key, echo, now_ms)
             if age_ms > config.max_data_age_ms:
                 reported_ms = heard.get(("Obstacle", echo.id), _NEVER)
                 if now_ms - reported_ms <= config.max_data_age_ms:
@@ -334,12 +340,14 @@ class SafetySupervisor:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
         return Verdict(allowed, zone)
 
-    def _age(self, reading: Entity, now_ms: int) -> int:
-        """How long ago ``reading`` was taken, ms. One taken more than a tick after
-        ``now_ms`` (a sensor whose clock is ahead of the session's) has no age that can be
-        trusted: it is taken for stale, else it would look fresh until the clock caught up."""
-        age_ms = now_ms - reading.positionchangetime
-        return age_ms if age_ms >= -self._tick_ms else self.config.max_data_age_ms + 1
+    def _age(self, key: str, reading: Entity, now_ms: int) -> int:
+        """How long ago ``reading`` (placed as ``key``) was taken, ms: since its stamp, or
+        since it came if that was earlier. One stamped more than a tick after ``now_ms``
+        (a sensor whose clock is ahead of the session's) has no age that can be trusted:
+        it is taken for stale, else it would look fresh until the clock caught up."""
+        if reading.positionchangetime - now_ms > self._tick_ms:
+            return self.config.max_data_age_ms + 1  # type: ignore[operator]  # filled
+        return now_ms - self._anchors[key].at_ms
 
     def _constraint(self, key: str, human: Entity, age_ms: int, slipped: bool) -> Constraint:
         """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it;
@@ -389,28 +397,30 @@ class SafetySupervisor:
         if not seen:
             return False
         config = self.config
-        at_ms, x, y, since = echo
+        _, at_ms, x, y, since = echo
         largest = config.human_radius_m
         if slipped:
             drift = self._reckoning.drift(since)
             e_x, e_y = self._estimate(echo)
             largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
-        for human_ms, hx, hy, _ in seen:
+        for _, human_ms, hx, hy, _ in seen:
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
             gate = min(2 * config.sensing_error_m + walked, largest)
             if math.hypot(x - hx, y - hy) <= gate:
                 return True
         return False
 
-    def _anchor(self, key: str, human: Entity) -> None:
+    def _anchor(self, key: str, human: Entity, now_ms: int) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it
         was taken (looked for every tick, so that a reading is placed while that pose is
-        kept)."""
-        at_ms = human.positionchangetime
+        kept), and no later than ``now_ms``, when it came."""
+        stamp_ms = human.positionchangetime
+        at_ms = min(stamp_ms, now_ms)
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
         self._anchors[key] = _Anchor(
+            stamp_ms,
             at_ms,
             px + human.positionrho * math.cos(bearing),
             py + human.positionrho * math.sin(bearing),

@@ -36,6 +36,8 @@ from supervision import (
     supervise,
 )
 
+FAST = Velocity(0.5, 0.0, 0.0)
+
 
 def test_far_from_everyone_full_speed_passes_untouched() -> None:
     verdict, event = supervise(Velocity(0.5, 0.0, 1.0), room(seen(3.0)))
@@ -172,6 +174,19 @@ def test_a_reading_from_the_future_is_stale_not_fresh() -> None:
     assert verdict.velocity[:2] == pytest.approx((0.2, 0.0)) and verdict.zone is SafetyZone.STALE
     just = room(seen(centre_at(1.0), at_ms=600 + TICK_MS))
     assert supervise(Velocity(0.5, 0.0, 0.0), just, now_ms=600)[0].velocity == (0.5, 0.0, 0.0)
+
+
+def test_a_reading_from_the_future_ages_from_when_it_came() -> None:
+    """A camera whose clock is 2 s ahead, frozen since: its last reading, stamped 2600,
+    came at 600. Once the clock reaches its stamp it is 2 s old, stale, not fresh (it
+    looked fresh for 500 ms, as a frozen ring's heartbeat once did)."""
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    frozen = room(seen(centre_at(1.6), at_ms=2600))
+    for now_ms in range(600, 2620, TICK_MS):
+        verdict, _ = supervise(FAST, frozen, now_ms=now_ms, supervisor=supervisor)
+    assert verdict.velocity[:2] == pytest.approx((0.2, 0.0)) and verdict.zone is SafetyZone.STALE
+    came_late = room(seen(centre_at(1.6), at_ms=2600))  # a new supervisor: it came just now
+    assert supervise(FAST, came_late, now_ms=2600)[0].velocity == FAST
 
 
 def test_a_heartbeat_from_the_future_does_not_keep_a_camera_framing() -> None:
