@@ -150,11 +150,28 @@ def map_changes(before: dict[str, bytes], after: dict[str, bytes]) -> tuple[MapC
         change
         for name in FIELDS
         if name in before and before[name] != after[name]
-        for change in diff(_decode(before[name]), _decode(after[name]), name)
+        for change in _part_changes(before[name], after[name], name)
     )
 
 
+def _part_changes(old: bytes, new: bytes, name: str) -> Iterator[MapChange]:
+    """:func:`diff` of one part's encodings. A list of as many items before as after is
+    compared item by item, and only the items whose encodings differ are decoded (equal
+    bytes make no change), as :func:`diff` walks a list of unchanged length."""
+    try:
+        olds, news = _items(old), _items(new)
+    except msgspec.ValidationError:  # not a list: decoded whole
+        olds = news = []
+    if not olds or len(olds) != len(news):
+        yield from diff(_decode(old), _decode(new), name)
+        return
+    for index, (a, b) in enumerate(zip(olds, news, strict=True)):
+        if a != b:
+            yield from diff(_decode(a), _decode(b), f"{name}[{index}]")
+
+
 _decode: Final = msgspec.msgpack.Decoder().decode
+_items: Final = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:
