@@ -36,9 +36,10 @@ class MapParts:
     def __init__(self, world_map: WorldMap) -> None:
         self.world_map = world_map
         self._encoded: dict[str, bytes] = {}
-        self.baseline: dict[str, bytes] | None = None
+        self.baseline: dict[str, bytes | None] | None = None
         """Top-level parts as the last fired rule left them: the ``before`` of the next body
-        (``None`` after a condition bound aliases or variables: not a body's doing)."""
+        (``None`` after a condition bound aliases or variables: not a body's doing); a part
+        ``None`` is as the map has it (:meth:`defer`)."""
 
     def encoded(self, path: str) -> bytes:
         """The part at ``path`` (``"humans"``, ``"robotstatus.touch"``), encoded."""
@@ -57,9 +58,27 @@ class MapParts:
         if baseline is None:
             baseline = self.baseline = {}
         for name in names:
-            if name not in baseline:
+            if baseline.get(name) is None:
                 baseline[name] = self.encoded(name)
-        return {name: baseline[name] for name in names}
+        return {name: baseline[name] for name in names}  # type: ignore[misc]
+
+    def defer(self, names: tuple[str, ...]) -> None:
+        """Take the parts ``names`` that the baseline lacks as the map has them now, and
+        encode them only when the map may change (:meth:`settle`): a body that changes
+        nothing (it returns early) encodes none."""
+        baseline = self.baseline
+        if baseline is None:
+            baseline = self.baseline = {}
+        for name in names:
+            baseline.setdefault(name, None)
+
+    def settle(self) -> None:
+        """Encode the parts :meth:`defer` left to the map: called before it may change."""
+        baseline = self.baseline
+        if baseline is not None and None in baseline.values():
+            for name, data in baseline.items():
+                if data is None:
+                    baseline[name] = self.encoded(name)
 
     def after(self, names: tuple[str, ...], before: dict[str, bytes]) -> dict[str, bytes]:
         """The top-level parts ``names`` after a body (they become the baseline), each that
