@@ -4,8 +4,9 @@ Each rule's condition is its class attribute ``condition_text``; its body change
 the map (the current block and its ``changed`` flag, ``overridecmd``, variables,
 attributes). Bodies are idempotent per situation, so a rule that keeps firing
 does not keep restarting the actuators; a body that decides to do nothing returns
-``Effect.UNCHANGED``, which spares the chain comparing the map, and ``writes`` names
-the parts of the map a body may change (only these are encoded before it runs).
+``Effect.UNCHANGED``, which spares the chain comparing the map, ``writes`` names
+the parts of the map a body may change, and every body calls ``ctx.changing()`` before
+its first change (``announces``): only then are those parts encoded, to compare after it.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ class KickStarter(Rule):
     """Kept out of the analysis report by default: it keeps the session running, it is not
     something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
 
+    announces = True
     rulecode = rulecodes.KICK_STARTER
     condition_text = "{CLASS #Human L ?child B: infront (), B: closer_than (2.0)} ! {TRUE}"
     writes = ("humans", "scriptinfo")
@@ -56,6 +58,7 @@ class KickStarter(Rule):
             return Effect.UNCHANGED
         if world_map.scriptinfo.currentactivity != IDLE_ACTIVITY:
             return Effect.UNCHANGED
+        ctx.changing()
         child.attributes["welcomed"] = "yes"
         replace_block(
             world_map,
@@ -73,6 +76,7 @@ def soften(
     moving = block is not None and any(m.v_x or m.v_y or m.v_theta for m in block.move)
     if not moving or (block is not None and block.flagged == "softened"):
         return Effect.UNCHANGED
+    ctx.changing()
     entity = found.entity(world_map, alias) if alias else None
     if entity is not None:
         entity.attributes["too_close_at"] = str(ctx.now_ms)
@@ -87,6 +91,7 @@ class ChildTooClose(Rule):
     """A child closer than 0.8 m (centre to centre, a gap of about 0.25 m): stop moving and
     soften the lights (the block is replaced)."""
 
+    announces = True
     rulecode = rulecodes.CHILD_TOO_CLOSE
     condition_text = "{CLASS #Human L ?child ?THIS>&positionrho OP< 0.8} ! {TRUE}"
     writes = ("humans", "scriptinfo")
@@ -98,6 +103,7 @@ class ChildTooClose(Rule):
 class ObstacleTooClose(Rule):
     """Furniture closer than 0.45 m (sonar): stop moving and soften the lights."""
 
+    announces = True
     rulecode = rulecodes.OBSTACLE_TOO_CLOSE
     condition_text = "{CLASS #Obstacle L ?thing ?THIS>&positionrho OP< 0.45} ! {TRUE}"
     writes = ("obstacles", "scriptinfo")
@@ -114,6 +120,7 @@ class SensorsBlind(Rule):
     """Kept out of the analysis report by default: it keeps the session running, it is not
     something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
 
+    announces = True
     rulecode = rulecodes.SENSORS_BLIND
     condition_text = "! {E: camera_offline ()}"
     writes = ("scriptinfo",)
@@ -125,6 +132,7 @@ class SensorsBlind(Rule):
 class ChildLeft(Rule):
     """The child tracked by the activity went farther than 3 m: switch to the waiting script."""
 
+    announces = True
     rulecode = rulecodes.CHILD_LEFT
     condition_text = "{CLASS #Human U ?child} ! {E: far (?child, 3.0)}"
     writes = ("scriptinfo", "variables")
@@ -133,12 +141,15 @@ class ChildLeft(Rule):
         current = world_map.scriptinfo.currentactivity
         if current in (WAITING_ACTIVITY, IDLE_ACTIVITY) or world_map.scriptinfo.overridecmd:
             return Effect.UNCHANGED
+        ctx.changing()
         world_map.variables["@left_during"] = current
         force_switch(world_map, WAITING_ACTIVITY)
         return Effect.CHANGED
 
 
-def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -> Effect:
+def reward_touch(
+    world_map: WorldMap, ctx: RuleContext, touchtype: str, block: InstructionBlock
+) -> Effect:
     """Play ``block`` once for the latest touch of ``touchtype`` (remembered in a variable)."""
     touches = [t for t in world_map.robotstatus.touch if t.touchtype == touchtype]
     if not touches:
@@ -146,6 +157,7 @@ def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -
     key, stamp = f"@rewarded_{touchtype}", str(touches[-1].startingtime)
     if world_map.variables.get(key) == stamp:
         return Effect.UNCHANGED
+    ctx.changing()
     world_map.variables[key] = stamp
     replace_block(world_map, block)
     return Effect.CHANGED
@@ -154,6 +166,7 @@ def reward_touch(world_map: WorldMap, touchtype: str, block: InstructionBlock) -
 class TouchReward(Rule):
     """A caress (``C``) is rewarded with a rainbow of light and a chime, once per touch."""
 
+    announces = True
     rulecode = rulecodes.TOUCH_REWARD
     condition_text = '! {E: touched ("C")}'
     writes = ("scriptinfo", "variables")
@@ -169,12 +182,13 @@ class TouchReward(Rule):
     )
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
-        return reward_touch(world_map, "C", self.reward)
+        return reward_touch(world_map, ctx, "C", self.reward)
 
 
 class HugReward(Rule):
     """A hug (``H``) is answered with a slow warm glow and a purr, once per hug."""
 
+    announces = True
     rulecode = rulecodes.HUG_REWARD
     condition_text = '! {E: touched ("H")}'
     writes = ("scriptinfo", "variables")
@@ -185,12 +199,13 @@ class HugReward(Rule):
     )
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
-        return reward_touch(world_map, "H", self.reward)
+        return reward_touch(world_map, ctx, "H", self.reward)
 
 
 class AttentionLost(Rule):
     """No child in front for 5 s: a call-back block (a wiggle, a warm light, a call), every 10 s."""
 
+    announces = True
     rulecode = rulecodes.ATTENTION_LOST
     condition_text = "{CLASS #Human L ?child} ! {E: attention_low (?child, 5000)}"
     writes = ("scriptinfo", "variables")
@@ -200,6 +215,7 @@ class AttentionLost(Rule):
         last = int(world_map.variables.get("@called_back_at", str(-self.repeat_ms)))
         if ctx.now_ms - last < self.repeat_ms:
             return Effect.UNCHANGED
+        ctx.changing()
         world_map.variables["@called_back_at"] = str(ctx.now_ms)
         wiggle = (
             Move(v_x=0.0, v_y=0.0, v_theta=0.6, wait_t=0, duration=400),
@@ -220,6 +236,7 @@ class AttentionLost(Rule):
 class BatteryLow(Rule):
     """Battery below 2 minutes: drop the waiting activities and go to the idle activity."""
 
+    announces = True
     rulecode = rulecodes.BATTERY_LOW
     condition_text = "! {E: battery_below (120000)}"
     writes = ("scriptinfo",)
@@ -228,6 +245,7 @@ class BatteryLow(Rule):
         info = world_map.scriptinfo
         if info.currentactivity == IDLE_ACTIVITY and not info.script_vect:
             return Effect.UNCHANGED
+        ctx.changing()
         info.script_vect = []
         force_switch(world_map, IDLE_ACTIVITY)
         return Effect.CHANGED
@@ -240,6 +258,7 @@ class JoystickNote(Rule):
     """Kept out of the analysis report by default: it keeps the session running, it is not
     something a therapist needs to see (``analysis.metrics.rule_episodes``)."""
 
+    announces = True
     rulecode = rulecodes.JOYSTICK_NOTE
     condition_text = "! {E: joystick_engaged ()}"
     writes = ("variables",)
@@ -248,6 +267,7 @@ class JoystickNote(Rule):
         since = str(world_map.robotstatus.joystick_engagedtime)
         if world_map.variables.get("@joystick_engaged_since") == since:
             return Effect.UNCHANGED
+        ctx.changing()
         world_map.variables["@joystick_engaged_since"] = since
         count = int(world_map.variables.get("@joystick_takeovers", "0")) + 1
         world_map.variables["@joystick_takeovers"] = str(count)
@@ -257,6 +277,7 @@ class JoystickNote(Rule):
 class ToyNearby(Rule):
     """The target toy is within 1 m: noted on the toy (``$nearby_since``) for scripts to use."""
 
+    announces = True
     rulecode = rulecodes.TOY_NEARBY
     condition_text = "{CLASS #Object L ?toy ?THIS>&istarget OP= 1} ! {E: near (?toy, 1.0)}"
     writes = ("objects",)
@@ -265,6 +286,7 @@ class ToyNearby(Rule):
         toy = found.entity(world_map, "?toy")
         if toy is None or "nearby_since" in toy.attributes:
             return Effect.UNCHANGED
+        ctx.changing()
         toy.attributes["nearby_since"] = str(ctx.now_ms)
         return Effect.CHANGED
 

@@ -38,9 +38,10 @@ class MapParts:
     def __init__(self, world_map: WorldMap) -> None:
         self.world_map = world_map
         self._encoded: dict[str, bytes] = {}
-        self.baseline: dict[str, bytes] | None = None
+        self.baseline: dict[str, bytes | None] | None = None
         """Top-level parts as the last fired rule left them: the ``before`` of the next body
-        (``None`` after a condition bound aliases or variables: not a body's doing)."""
+        (``None`` after a condition bound aliases or variables: not a body's doing); a part
+        ``None`` is as the map has it (:meth:`defer`)."""
 
     def encoded(self, path: str) -> bytes:
         """The part at ``path`` (``"humans"``, ``"robotstatus.touch"``), encoded."""
@@ -67,9 +68,27 @@ class MapParts:
         if baseline is None:
             baseline = self.baseline = {}
         for name in names:
-            if name not in baseline:
+            if baseline.get(name) is None:
                 baseline[name] = self.encoded(name)
-        return {name: baseline[name] for name in names}
+        return {name: baseline[name] for name in names}  # type: ignore[misc]
+
+    def defer(self, names: tuple[str, ...]) -> None:
+        """Take the parts ``names`` that the baseline lacks as the map has them now, and
+        encode them only when the map may change (:meth:`settle`): a body that changes
+        nothing (it returns early) encodes none."""
+        baseline = self.baseline
+        if baseline is None:
+            baseline = self.baseline = {}
+        for name in names:
+            baseline.setdefault(name, None)
+
+    def settle(self) -> None:
+        """Encode the parts :meth:`defer` left to the map: called before it may change."""
+        baseline = self.baseline
+        if baseline is not None and None in baseline.values():
+            for name, data in baseline.items():
+                if data is None:
+                    baseline[name] = self.encoded(name)
 
     def after(self, names: tuple[str, ...], before: dict[str, bytes]) -> dict[str, bytes]:
         """The top-level parts ``names`` after a body (they become the baseline), each that
@@ -160,11 +179,28 @@ def map_changes(before: dict[str, bytes], after: dict[str, bytes]) -> tuple[MapC
         change
         for name in FIELDS
         if name in before and before[name] != after[name]
-        for change in diff(_decode(before[name]), _decode(after[name]), name)
+        for change in _part_changes(before[name], after[name], name)
     )
 
 
+def _part_changes(old: bytes, new: bytes, name: str) -> Iterator[MapChange]:
+    """:func:`diff` of one part's encodings. A list of as many items before as after is
+    compared item by item, and only the items whose encodings differ are decoded (equal
+    bytes make no change), as :func:`diff` walks a list of unchanged length."""
+    try:
+        olds, news = _items(old), _items(new)
+    except msgspec.ValidationError:  # not a list: decoded whole
+        olds = news = []
+    if not olds or len(olds) != len(news):
+        yield from diff(_decode(old), _decode(new), name)
+        return
+    for index, (a, b) in enumerate(zip(olds, news, strict=True)):
+        if a != b:
+            yield from diff(_decode(a), _decode(b), f"{name}[{index}]")
+
+
 _decode: Final = msgspec.msgpack.Decoder().decode
+_items: Final = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 
 
 def diff(old: Any, new: Any, path: str = "") -> Iterator[MapChange]:

@@ -46,8 +46,22 @@ class RuleContext:
     """Messages the rules wrote to script generators this tick (delivered by the loop)."""
     shortcuts: bool = True
     """Skip a rule whose condition would find what it read at its last evaluation that did
-    not hold (see :class:`Memo`), and compare only the parts of the map a body declares
-    it writes (:attr:`Rule.writes`). Off: every rule is evaluated, the whole map compared."""
+    not hold (see :class:`Memo`), compare only the parts of the map a body declares it
+    writes (:attr:`Rule.writes`), and encode them only when a body that announces its
+    changes (:attr:`Rule.announces`) makes one. Off: every rule is evaluated, the whole
+    map compared (encoded before each body)."""
+    writing: tuple[str, ...] = ()
+    """The parts of the map the running body may change."""
+    before: dict[str, bytes] | None = None
+    """Those parts, encoded before the body changed them (``None`` until :meth:`changing`)."""
+
+    def changing(self) -> None:
+        """What a body calls before it first changes the map: the parts it may change are
+        encoded as they are (for a rule that :attr:`Rule.announces` its changes, only
+        then; for any other, before its body ran)."""
+        if self.before is None and self.parts is not None:
+            self.parts.settle()
+            self.before = self.parts.before(self.writing)
 
 
 class Effect(enum.Enum):
@@ -73,6 +87,10 @@ class Rule:
     writes: ClassVar[tuple[str, ...] | None] = None
     """The parts of the map (``WorldMap`` fields) the body may change; only these are
     compared after it. ``None``: any part."""
+    announces: ClassVar[bool] = False
+    """Whether the body calls ``ctx.changing()`` (:meth:`RuleContext.changing`) before it
+    first changes the map, and changes nothing when it returns early without calling it:
+    the parts it writes are then encoded only when it changes them, not at every firing."""
     housekeeping: ClassVar[bool] = False
     """A rule that keeps the robot's mind running (kick-starting, blind stops, notes) rather
     than one a therapist reads: reports fold its firings away by default."""
@@ -118,34 +136,48 @@ class Rule:
             parts = ctx.parts = MapParts(world_map)
         stores = stores_of(world_map, ctx.tick_scope) if memo.stores else None
         inputs = None
+        later = False
         if memo.paths is not None and ctx.shortcuts:
             if memo.wait:
                 memo.wait -= 1
+            elif memo.last is None:  # nothing to compare with: encoded if it does not hold
+                memo.missed()  # (the evaluation changes none of the parts it reads)
+                later = True
             else:
-                inputs = (stores, *[parts.encoded(path) for path in memo.paths])
+                inputs = memo.inputs(stores, parts)
                 last = memo.last
-                if last is not None and last[0] == inputs:
+                if last[0] == inputs:
                     memo.misses = 0
                     if last[2] is not None:  # it bound or released aliases or variables
                         _restore((world_map.aliases, world_map.variables, ctx.tick_scope), last[2])
                         parts.rebound()
                     return last[1]
                 memo.missed()
+        if not memo.known:  # its functions may change anything: the parts a fired body
+            parts.settle()  # left to the map are encoded first, and all are stale after
         found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
         if not memo.known:
-            parts.forget()  # its functions may have changed anything
+            parts.forget()
         after = stores_of(world_map, ctx.tick_scope) if memo.stores else None
         moved = after != stores
         if moved:
             parts.rebound()  # the condition bound U-scope aliases: not the body's doing
         changes: tuple[MapChange, ...] = ()
         if found.result:
-            written = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
-            before = parts.before(written)
+            ctx.writing = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
+            ctx.before = None
+            if self.announces and ctx.shortcuts:
+                parts.defer(ctx.writing)
+            else:
+                ctx.changing()
             effect = self.act(world_map, found, ctx)
             if effect is not Effect.UNCHANGED:  # (a body that left the map as it was leaves
                 parts.forget()  # its parts' encodings good for the rules after it)
-                changes = map_changes(before, parts.after(written, before))
+                before = ctx.before
+                if before is None:
+                    name = type(self).__name__
+                    raise RuntimeError(f"{name}.act changed the map without ctx.changing()")
+                changes = map_changes(before, parts.after(ctx.writing, before))
         decision = RuleDecision(
             rule=self.name,
             rulecode=self.rulecode,
@@ -153,6 +185,8 @@ class Rule:
             bindings=dict(found.bindings),
             changes=changes,
         )
+        if later and not found.result:
+            inputs = memo.inputs(stores, parts)
         if inputs is not None and not found.result:
             memo.last = (inputs, decision, after if moved else None)
         return decision
@@ -233,8 +267,10 @@ class Memo:
     only the stores, so one that finds all of them as the last evaluation that did not
     hold found them would decide the same and write the same. Comparing costs encoding
     the parts read: after ``n`` differences in a row, a rule compares once in
-    ``min(n, MAX_WAIT)`` evaluations. A condition that may read anything (a function
-    without ``reads``) or reads the clock (new at every tick) is always evaluated.
+    ``min(n, MAX_WAIT)`` evaluations; with no evaluation to compare with, it encodes them
+    after evaluating (which changes none of them), only when the condition did not hold.
+    A condition that may read anything (a function without ``reads``) or reads the clock
+    (new at every tick) is always evaluated.
     """
 
     __slots__ = ("condition", "known", "last", "misses", "paths", "stores", "wait")
@@ -257,6 +293,10 @@ class Memo:
         decision and, when it wrote to the stores, what they held after it."""
         self.misses = 0
         self.wait = 0
+
+    def inputs(self, stores: Stores | None, parts: MapParts) -> tuple[object, ...]:
+        """What an evaluation reads: the stores' contents and the parts, encoded."""
+        return (stores, *[parts.encoded(path) for path in self.paths or ()])
 
     def missed(self) -> None:
         """The inputs differed: wait longer before comparing again."""

@@ -80,8 +80,21 @@ class Mistypes(Rule):
         return Effect.CHANGED
 
 
+class Unannounced(Rule):
+    """Announces its changes, but changes the map without saying so first."""
+
+    rulecode = 2005
+    writes = ("variables",)
+    announces = True
+
+    def act(self, world_map: WorldMap, found: object, ctx: object) -> Effect:
+        world_map.variables["@said"] = "no"
+        return Effect.CHANGED
+
+
 def chain_of(*codes: int) -> RuleChain:
-    chain = RuleChain(RuleRegistry([Asks, Breaks, Counts, Mistypes], functions=FUNCTIONS))
+    rules = [Asks, Breaks, Counts, Mistypes, Unannounced]
+    chain = RuleChain(RuleRegistry(rules, functions=FUNCTIONS))
     assert chain.apply([message(code) for code in codes]) == []
     return chain
 
@@ -101,6 +114,14 @@ def test_a_body_that_raises_is_removed_reported_and_the_next_rule_still_runs() -
     assert chain.names() == (("r2003",), (), ("r2002",)) and chain.take_failures() == []
     chain.propagate(world, now_ms=20)
     assert world.variables["@count"] == "2" and chain.take_failures() == []
+
+
+def test_a_body_that_announces_its_changes_but_did_not_is_removed() -> None:
+    chain, world = chain_of(2005), WorldMap()
+    assert chain.propagate(world, now_ms=0) == []
+    [report] = chain.take_failures()
+    assert "Unannounced.act changed the map without ctx.changing()" in report.message
+    assert chain.names() == ((), (), ("r2005",))
 
 
 def test_a_removed_failing_rule_comes_back_with_c() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -9,6 +10,7 @@ from oimi.pipeline.events import Level
 from oimi.pipeline.messages import Human, MutexCmd, RuleAction, RuleMessage, WorldMap
 from oimi.pipeline.registries import Registries
 from oimi.pipeline.think.chain import RuleChain
+from oimi.pipeline.think.mapparts import map_changes
 from oimi.pipeline.think.rules import Effect, Rule, RuleRegistry, diff
 from oimi.pipeline.think.stdlib import default_registry
 
@@ -164,6 +166,29 @@ def test_diff_reads_values_as_the_recorded_json_does() -> None:
     assert [c[0] for c in changes] == ["z", "long[1]"]
     cut = list(diff({"v": "a" * 200 + "b"}, {"v": "a" * 200 + "c"}))
     assert len(cut) == 1 and cut[0].old == cut[0].new and cut[0].old.endswith("…")
+
+
+LEAVES = st.sampled_from([0.0, -0.0, 1, 1.0, True, None, "a", float("nan"), float("inf")])
+TREES = st.recursive(
+    LEAVES,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.sampled_from("ab"), inner),
+    max_leaves=8,
+)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(TREES | st.lists(TREES, max_size=4), TREES | st.lists(TREES, max_size=4))
+def test_a_body_s_changes_are_the_diff_of_the_whole_parts(old, new) -> None:
+    """A listed part is compared item by item (only items whose encodings differ are
+    decoded): the changes are those of the whole parts' diff, in its order."""
+    before, after = {"humans": msgspec.msgpack.encode(old)}, {"humans": msgspec.msgpack.encode(new)}
+    whole = msgspec.msgpack.decode
+    expected = (
+        ()
+        if before == after
+        else tuple(diff(whole(before["humans"]), whole(after["humans"]), "humans"))
+    )
+    assert map_changes(before, after) == expected
 
 
 # ------------------------------------------------------------ one state per rule (issue 16)

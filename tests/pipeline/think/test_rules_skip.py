@@ -29,7 +29,7 @@ from oimi.pipeline.think.functions import (
     evaluation,
 )
 from oimi.pipeline.think.library import BUILTIN_RULES
-from oimi.pipeline.think.rules import Memo, Rule, RuleRegistry
+from oimi.pipeline.think.rules import Effect, Memo, Rule, RuleContext, RuleRegistry
 from oimi.pipeline.think.stdlib import default_registry
 
 CALLS: list[str] = []
@@ -50,8 +50,17 @@ def battery_low_undeclared(ctx: FunctionContext, below_ms: float) -> bool:
     return ctx.world_map.robotstatus.batterytimeleft < below_ms
 
 
+@evaluation("poke_undeclared")
+def poke_undeclared(ctx: FunctionContext, mark: str) -> bool:
+    """Marks every person; declares no reads (it may change anything). Example:
+    ! {E: poke_undeclared ("1")}"""
+    for human in ctx.world_map.humans:
+        human.attributes["poked"] = mark
+    return False
+
+
 FUNCTIONS = FunctionRegistry(
-    [*default_registry().functions(), battery_low_counted, battery_low_undeclared]
+    [*default_registry().functions(), battery_low_counted, battery_low_undeclared, poke_undeclared]
 )
 
 
@@ -76,8 +85,8 @@ EXTRA_RULES = (
 REGISTRY = RuleRegistry([*BUILTIN_RULES, *EXTRA_RULES], functions=FUNCTIONS)
 
 
-def loaded(codes: list[int], *, skip: bool) -> RuleChain:
-    chain = RuleChain(REGISTRY, shortcuts=skip)
+def loaded(codes: list[int], *, skip: bool, registry: RuleRegistry = REGISTRY) -> RuleChain:
+    chain = RuleChain(registry, shortcuts=skip)
     chain.apply(
         RuleMessage(
             rulecode=code,
@@ -268,3 +277,40 @@ def test_skipping_decides_exactly_as_evaluating_every_rule(changes) -> None:
             )
         assert decided[0] == decided[1]
         now_ms += 20
+
+
+class Quiet(Rule):
+    """Fires and changes nothing: the people it may change are encoded only if it does."""
+
+    rulecode = 1010
+    condition_text = "! {TRUE}"
+    writes = ("humans",)
+    announces = True
+
+
+class Tags(Rule):
+    rulecode = 1012
+    condition_text = "! {TRUE}"
+    writes = ("humans",)
+    announces = True
+
+    def act(self, world_map: WorldMap, found: object, ctx: RuleContext) -> Effect:
+        ctx.changing()
+        world_map.humans[0].attributes["tagged"] = "yes"
+        return Effect.CHANGED
+
+
+@pytest.mark.parametrize("skip", [True, False])
+def test_a_body_s_changes_count_from_the_last_fired_rule_however_late_it_encodes(skip) -> None:
+    """A function declaring no reads changed the map after a rule that fired: the next
+    body's changes include it, as when every body's parts are encoded before it runs."""
+    rules = RuleRegistry(
+        [Quiet, _rule(1011, '! {E: poke_undeclared ("yes")}'), Tags], functions=FUNCTIONS
+    )
+    chain = loaded([1010, 1011, 1012], skip=skip, registry=rules)
+    world = WorldMap(humans=[Human(id="h", creationtime=0)])
+    *_, tagged = chain.propagate(world, now_ms=0)
+    assert [(c.path, c.new) for c in tagged.changes] == [
+        ("humans[0].attributes.poked", '"yes"'),
+        ("humans[0].attributes.tagged", '"yes"'),
+    ]
