@@ -36,6 +36,9 @@ ZONE_NAMES: Final = tuple(name for name, _, _ in ZONES_M)
 
 MERGE_MS: Final = 200
 """Contacts separated by less than this are one episode (bodies bounce apart for a tick)."""
+ROLL_MS: Final = 1000
+"""How long a robot pushed may roll on once the push ended: a push of 1 m/s (a walking
+child's) braked at the base's 1 m/s²."""
 
 
 class Initiator(enum.StrEnum):
@@ -47,9 +50,9 @@ class Initiator(enum.StrEnum):
     PERSON = "person"
     """The person moved towards the robot at least as fast (a standing robot never initiates)."""
     PUSHED = "pushed"
-    """The robot moved towards the person faster, but another person was pressing into it
-    and its own drive (its last move command) did not point towards this one: it was pushed
-    into them."""
+    """The robot moved towards the person faster, but another person was pressing into it,
+    or did within :data:`ROLL_MS` (it rolled on from the push), and its own drive (its move
+    commands since) did not point towards this one: it was pushed into them."""
 
 
 def surface_distance(robot: BodyState, human: BodyState) -> float:
@@ -146,6 +149,10 @@ class ProximityTracker:
         """The robot's own drive: its last move command's velocity (body frame, m/s)."""
         self._previous_drive = self._drive
         """The drive as it was at the previous state."""
+        self._pressed: tuple[int, str] | None = None
+        """When a person last pressed into the robot, and who (within :data:`ROLL_MS`)."""
+        self._drives_since: list[tuple[float, float]] = []
+        """The drives the robot had since that press."""
 
     def command(self, message: ActuatorCommands) -> None:
         """Note the robot's move commands (its own drive, which tells a robot that drove
@@ -153,6 +160,8 @@ class ProximityTracker:
         for command in message.commands:
             if type(command) is MoveCommand:
                 self._drive = (0.0, 0.0) if command.stop else (command.v_x, command.v_y)
+                if self._pressed is not None:
+                    self._drives_since.append(self._drive)
 
     def update(self, state: WorldState) -> None:
         robot, now = state.robot, state.time_ms
@@ -185,7 +194,17 @@ class ProximityTracker:
                 self._touch(who, human, robot, now, distance)
             elif open_ and who in open_ and now - open_[who].last_ms > MERGE_MS:
                 self._close(who)
+        if contacts:
+            self._note_press(state)
+        elif self._pressed is not None and now - self._pressed[0] > ROLL_MS:
+            self._pressed, self._drives_since = None, []
         self._previous, self._previous_drive = state, self._drive
+
+    def _note_press(self, state: WorldState) -> None:
+        """Note a person touching the robot and moving into it (a push)."""
+        for human in state.humans:
+            if human.id in state.contacts and approach_speeds(state.robot, human)[1] > 0.0:
+                self._pressed, self._drives_since = (state.time_ms, human.id), [self._drive]
 
     def _touch(self, who: str, human: BodyState, robot: BodyState, now: int, d: float) -> None:
         if (open_ := self._open.get(who)) is not None:
@@ -215,19 +234,25 @@ class ProximityTracker:
         self._open[who] = _Open(episode=episode, last_ms=now, deepest=d)
 
     def _pushed(self, previous: WorldState, human: BodyState) -> bool:
-        """Whether, at ``previous``, another person touching the robot pressed into it while
-        the robot's own drive did not point towards ``human`` (then it was pushed)."""
+        """Whether, at ``previous``, another person pressed into the robot, or had within
+        :data:`ROLL_MS`, while the robot's own drive did not point towards ``human`` (since
+        that press): then it was pushed."""
         robot = previous.robot
         dx, dy = human.x_m - robot.x_m, human.y_m - robot.y_m
-        v_x, v_y = self._previous_drive
         cos, sin = math.cos(robot.theta_rad), math.sin(robot.theta_rad)
-        if (v_x * cos - v_y * sin) * dx + (v_x * sin + v_y * cos) * dy > 0.0:
+
+        def towards(drive: tuple[float, float]) -> bool:
+            v_x, v_y = drive
+            return (v_x * cos - v_y * sin) * dx + (v_x * sin + v_y * cos) * dy > 0.0
+
+        if towards(self._previous_drive):
             return False  # it drove towards them: its own doing, pushed or not
-        return any(
-            other.id != human.id
-            and other.id in previous.contacts
-            and approach_speeds(robot, other)[1] > 0.0
-            for other in previous.humans
+        pressed = self._pressed
+        return (
+            pressed is not None
+            and pressed[1] != human.id
+            and previous.time_ms - pressed[0] <= ROLL_MS
+            and not any(map(towards, self._drives_since))
         )
 
     def _closed(self, open_: _Open) -> ContactEpisode:

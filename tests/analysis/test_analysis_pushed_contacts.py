@@ -78,6 +78,50 @@ def test_without_someone_pressing_into_it_a_moving_robot_initiated() -> None:
     assert _first_contact(pusher_vx_mps=0.5) is Initiator.ROBOT  # the other child steps away
 
 
+def _rolled_into(*, pushed_ms: int, drive: tuple[float, float] | None = None) -> Initiator:
+    """Who initiated the contact of a robot rolling at 0.3 m/s (-x) into a standing child,
+    ``pushed_ms`` after another child pressed into it and stepped back; ``drive``: a move
+    command the robot had since (body frame)."""
+    tracker = ProximityTracker(tick_ms=20)
+    still = BodyState(id="still", kind="child", x_m=-0.65, y_m=0.0, radius_m=0.2)
+    for time_ms in range(0, pushed_ms + 20, 20):
+        x_m = -0.2 if time_ms == pushed_ms else -0.1  # 5 cm from still, then touching
+        robot = BodyState(id="robot", kind="robot", x_m=x_m, y_m=0.0, vx_mps=-0.3, radius_m=0.3)
+        pressing = time_ms == 0
+        pusher = BodyState(
+            id="pusher",
+            kind="child",
+            x_m=0.4 if pressing else 1.0,
+            y_m=0.0,
+            vx_mps=-0.5 if pressing else 0.5,
+            radius_m=0.2,
+        )
+        if drive is not None and time_ms == 20:
+            move = MoveCommand(source=Source.SCRIPT, v_x=drive[0], v_y=drive[1])
+            tracker.command(ActuatorCommands(tick=1, time_ms=20, commands=(move,)))
+        contacts = ("pusher",) if pressing else ()
+        tracker.update(
+            WorldState(
+                tick=time_ms // 20,
+                time_ms=time_ms,
+                robot=robot,
+                humans=(still, pusher) if time_ms else (pusher,),
+                contacts=contacts,
+            )
+        )
+    (episode,) = [e for e in tracker.finish() if e.human == "still"]
+    return episode.initiator
+
+
+def test_a_robot_rolling_on_from_a_push_did_not_initiate() -> None:
+    """The push ended before the contact: the robot, commanded nothing or away, rolled on
+    (a review found such a contact counted as the robot's)."""
+    assert _rolled_into(pushed_ms=400) is Initiator.PUSHED
+    assert _rolled_into(pushed_ms=400, drive=(0.2, 0.0)) is Initiator.PUSHED  # away
+    assert _rolled_into(pushed_ms=400, drive=(-0.2, 0.0)) is Initiator.ROBOT  # towards them
+    assert _rolled_into(pushed_ms=1600) is Initiator.ROBOT  # long after: its own roll
+
+
 def test_run_and_analysis_say_the_robot_was_pushed_into_the_child(contact_mcaps) -> None:
     """A child walks through a standing robot and pushes it into another child: the run's
     summary and expectation and the analysis of its recording say so alike."""
