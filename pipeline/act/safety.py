@@ -308,8 +308,13 @@ class SafetySupervisor:
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
-        constraints = [self._constraint(k, reading, age, ring_down) for k, reading, age in placed]
         v_x, v_y = requested.v_x, requested.v_y
+        clear_m = self._clear_m(math.hypot(v_x, v_y))
+        constraints = []
+        for key, reading, age_ms in placed:
+            constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
+            if constraint is not None:
+                constraints.append(constraint)
         zone: SafetyZone | None = None
         if blind or stale:
             speed = math.hypot(v_x, v_y)
@@ -349,9 +354,24 @@ class SafetySupervisor:
             return self.config.max_data_age_ms + 1  # type: ignore[operator]  # filled
         return now_ms - self._anchors[key].at_ms
 
-    def _constraint(self, key: str, human: Entity, age_ms: int, slipped: bool) -> Constraint:
+    def _clear_m(self, speed: float) -> float:
+        """The surface distance beyond which a human sets no limit on a velocity of at most
+        ``speed``: the braking bound, ``c * dt + (c + 2 walk) * (c + across) / (2 a) <= s -
+        stop``, holds for any ``c <= speed`` and ``c + across <= 2 speed`` (so does moving
+        across or away, which needs ``walk * speed / a <= s - stop``), and outside the slow
+        zone. Every velocity the supervisor tries is at most as fast as the one asked for."""
+        config = self.config
+        walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
+        a = self._limits.max_accel_mps2
+        braking = speed * self._dt_s + (speed + 2 * walk) * speed / a
+        return max(config.stop_distance_m + braking, config.slow_distance_m)  # type: ignore[type-var,operator]
+
+    def _constraint(
+        self, key: str, human: Entity, age_ms: int, slipped: bool, clear_m: float
+    ) -> Constraint | None:
         """The limit ``human`` (a human, or an echo kept as one) sets; ``key`` names it;
-        ``slipped``: its margin grows by the slip counted since it was taken."""
+        ``slipped``: its margin grows by the slip counted since it was taken. None: it
+        is farther than ``clear_m`` (:meth:`_clear_m`) and under no protective stop."""
         config = self.config
         anchor = self._anchors[key]
         x, y = self._estimate(anchor)
@@ -362,20 +382,23 @@ class SafetySupervisor:
             drift = self._reckoning.drift(anchor.since)
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
+        release = (config.stop_distance_m + config.slow_distance_m) / 2
+        held = self._held
+        if surface <= config.stop_distance_m:
+            held[key] = None
+        elif key in held and surface >= release:
+            del held[key]
+        elif surface >= clear_m:  # (release < slow <= clear_m) nothing it asks can fail
+            return None
         if distance > 0:
             u_x, u_y = x / distance, y / distance
         else:
             u_x, u_y = 1.0, 0.0
-        release = (config.stop_distance_m + config.slow_distance_m) / 2
-        if surface <= config.stop_distance_m:
-            self._held[key] = None
-        elif key in self._held and surface >= release:
-            del self._held[key]
         a = self._limits.max_accel_mps2
         walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         sin_disc = 1.0 if margin >= distance else margin / distance
         reach = a * distance
-        if key in self._held:
+        if key in held:
             return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, SafetyZone.STOP, walk, reach)
         # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
         # no faster than the base brakes): separation.braking_cap
