@@ -126,6 +126,8 @@ class SafetySupervisor:
         self._limits = limits
         self._tick_ms = tick_ms
         self._dt_s = tick_ms / 1000
+        self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
+        """How fast a human may walk (``human_speed_mps``)."""
         self._reckoning = DeadReckoning(
             limits,
             tick_ms=tick_ms,
@@ -361,9 +363,8 @@ class SafetySupervisor:
         across or away, which needs ``walk * speed / a <= s - stop``), and outside the slow
         zone. Every velocity the supervisor tries is at most as fast as the one asked for."""
         config = self.config
-        walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         a = self._limits.max_accel_mps2
-        braking = speed * self._dt_s + (speed + 2 * walk) * speed / a
+        braking = speed * self._dt_s + (speed + 2 * self._walk) * speed / a
         return max(config.stop_distance_m + braking, config.slow_distance_m)  # type: ignore[type-var,operator]
 
     def _constraint(
@@ -394,8 +395,7 @@ class SafetySupervisor:
             u_x, u_y = x / distance, y / distance
         else:
             u_x, u_y = 1.0, 0.0
-        a = self._limits.max_accel_mps2
-        walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
+        a, walk = self._limits.max_accel_mps2, self._walk
         sin_disc = 1.0 if margin >= distance else margin / distance
         reach = a * distance
         if key in held:

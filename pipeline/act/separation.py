@@ -79,7 +79,7 @@ def cone_sine(c: Constraint, speed: float) -> float:
     it in ``t = speed / a``, moving ``speed * t / 2`` away while the human may walk ``walk *
     t`` towards where it goes: the disc grows by the difference (at most ``walk**2 / 2a``:
     beyond ``walk`` the base outruns them). With the disc as it stood, a child who walked
-    round the braking robot had it close on them at 0.0013 m/s inside the stop zone."""
+    round the braking robot had it close on them at 0.0003 m/s inside the stop zone."""
     if c.sin_disc >= 1.0:  # the robot is inside the disc (its distance may be none)
         return c.sin_disc
     s = min(speed, c.walk)
@@ -141,10 +141,10 @@ def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[flo
     if along * cos_cone <= -sin_cone * across:
         return v_x, v_y
     # project onto the cone's edge: direction (-sin, cos) in the (along, across) plane
-    reach = -along * sin_cone + across * cos_cone
-    if reach <= 0.0 or across == 0.0:
+    length = -along * sin_cone + across * cos_cone
+    if length <= 0.0 or across == 0.0:
         return 0.0, 0.0
-    new_along, new_across = -reach * sin_cone, reach * cos_cone
+    new_along, new_across = -length * sin_cone, length * cos_cone
     return (
         new_along * c.u_x + new_across * p_x / across,
         new_along * c.u_y + new_across * p_y / across,
