@@ -57,6 +57,7 @@ from oimi.pipeline.act.separation import (
     allowed_by,
     braking_cap,
     satisfied,
+    scaled_to_meet,
     within_view,
 )
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
@@ -330,7 +331,7 @@ class SafetySupervisor:
             v_x, v_y = looking
             zone = SafetyZone.BLIND
         binding: Constraint | None = None
-        for _ in range(3):  # a few passes settle several humans; otherwise stop
+        for _ in range(3):  # a few passes settle several humans; otherwise slow down
             for constraint in constraints:
                 limited = allowed_by(constraint, v_x, v_y)
                 if limited != (v_x, v_y):
@@ -340,8 +341,8 @@ class SafetySupervisor:
             v_x, v_y = within_view(v_x, v_y, half_view)
             if all(satisfied(c, v_x, v_y) for c in constraints):
                 break
-        else:
-            v_x = v_y = 0.0
+        else:  # as fast as meets them all, direction kept (stopped, a child once waited)
+            v_x, v_y = scaled_to_meet(constraints, v_x, v_y)
         allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
         if binding is not None:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))

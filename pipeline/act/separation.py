@@ -125,16 +125,38 @@ def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
 
 def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[float, float]:
     """The nearest velocity to (v_x, v_y) inside the cone of its speed (projected onto its
-    edge; first slowed to :func:`cone_speed` when too fast for any)."""
+    edge). One too fast for any cone is slowed: its direction kept, to the fastest speed
+    whose cone holds it, or to :func:`cone_speed` and projected, whichever is nearer."""
+    if c.sin_disc >= 1.0:  # the robot is inside the human's uncertainty disc
+        return 0.0, 0.0
     speed = math.hypot(v_x, v_y)
     sin_cone = cone_sine(c, speed)
-    if sin_cone >= 1.0:
-        slower = cone_speed(c)
-        if slower <= 0.0:  # the robot is inside the human's uncertainty disc
-            return 0.0, 0.0
-        scale = slower / speed
-        v_x, v_y, along = v_x * scale, v_y * scale, along * scale
-        sin_cone = cone_sine(c, slower)
+    if sin_cone < 1.0:
+        return _onto_cone(c, v_x, v_y, along, sin_cone)
+    scale = min(_fastest_along(c, along / speed), speed) / speed  # (speed > 0: sin_disc < 1)
+    kept = v_x * scale, v_y * scale
+    slower = cone_speed(c) / speed
+    bent = _onto_cone(c, v_x * slower, v_y * slower, along * slower, cone_sine(c, slower * speed))
+    if (kept[0] - v_x) ** 2 + (kept[1] - v_y) ** 2 <= (bent[0] - v_x) ** 2 + (bent[1] - v_y) ** 2:
+        return kept
+    return bent
+
+
+def _fastest_along(c: Constraint, cosine: float) -> float:
+    """The fastest speed at which a velocity whose cosine with u is ``cosine`` points away
+    from every point of its cone's disc (:func:`cone_sine`): 0.0 when none does."""
+    grown = (-cosine - c.sin_disc) * c.reach  # walk * s - s**2 / 2 may reach this
+    if grown <= 0.0:
+        return 0.0
+    rest = c.walk * c.walk - 2 * grown
+    return c.walk - math.sqrt(rest) if rest > 0.0 else math.inf
+
+
+def _onto_cone(
+    c: Constraint, v_x: float, v_y: float, along: float, sin_cone: float
+) -> tuple[float, float]:
+    """(v_x, v_y) when it points inside the cone of sine ``sin_cone``, else its projection
+    onto the cone's nearer edge (none when it points at the human)."""
     p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
     across = math.hypot(p_x, p_y)
     cos_cone = math.sqrt(1.0 - sin_cone**2)
@@ -149,6 +171,20 @@ def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[flo
         new_along * c.u_x + new_across * p_x / across,
         new_along * c.u_y + new_across * p_y / across,
     )
+
+
+def scaled_to_meet(constraints: list[Constraint], v_x: float, v_y: float) -> tuple[float, float]:
+    """(v_x, v_y) slowed, its direction kept, to the largest share of it (to 1/1024) that
+    meets every constraint: each is easier the slower the velocity (the braking bound and
+    standing in time by its speed, the cone narrower), and a stand meets all."""
+    low, high = 0.0, 1.0
+    for _ in range(10):
+        share = (low + high) / 2
+        if all(satisfied(c, v_x * share, v_y * share) for c in constraints):
+            low = share
+        else:
+            high = share
+    return v_x * low, v_y * low
 
 
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:
