@@ -9,7 +9,7 @@ OUT    ?= out
 FUZZ   ?= 20
 SEED   ?=
 
-.PHONY: env dev demo test fuzz lint golden bench clean accel
+.PHONY: env dev demo test fuzz soak lint golden bench clean accel
 
 env: $(STAMP)
 
@@ -46,6 +46,12 @@ test: $(DEV)
 fuzz: $(DEV)
 	OIMI_FUZZ_EXAMPLES=$(FUZZ) OIMI_FUZZ_SEED=$(SEED) $(BIN)/python -m pytest tests/fuzz \
 		$(if $(SEED),--hypothesis-seed=$(SEED))
+
+# The child-safety properties (also part of `test`: every source of motion, sensors failing)
+# with FUZZ times as many sessions; SEED as for fuzz.
+soak: $(DEV)
+	OIMI_FUZZ_EXAMPLES=$(FUZZ) OIMI_FUZZ_SEED=$(SEED) $(BIN)/python -m pytest \
+		tests/scenarios/test_safety_property.py $(if $(SEED),--hypothesis-seed=$(SEED))
 
 lint: $(DEV)
 	$(BIN)/ruff check .

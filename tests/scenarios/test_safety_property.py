@@ -50,13 +50,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hypothesis import HealthCheck, event, example, given, settings
+from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.runner import Session
 from oimi.scenarios.simulation.bodies import STATE_DECIMALS
+
+from tests.fuzz.fuzzing import fuzz_settings
 
 TICK_MS = 20
 MAX_SPEED_MPS = 0.5
@@ -285,13 +287,9 @@ def run_session(trial: Trial) -> MemorySink:
 
 
 def examples(count: int) -> settings:
-    """``count`` examples, the same at every run, each a whole session."""
-    return settings(
-        max_examples=count,
-        derandomize=True,
-        deadline=None,
-        suppress_health_check=[HealthCheck.too_slow],
-    )
+    """``count`` examples, each a whole session, the same at every run; ``make soak`` runs
+    ``FUZZ`` times as many (``SEED``: others), as ``make fuzz`` does its fuzz tests."""
+    return fuzz_settings(count)
 
 
 @examples(80)
