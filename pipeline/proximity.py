@@ -147,8 +147,6 @@ class ProximityTracker:
         """The state before the one being read: where a contact's speeds are taken."""
         self._drive: tuple[float, float] = (0.0, 0.0)
         """The robot's own drive: its last move command's velocity (body frame, m/s)."""
-        self._previous_drive = self._drive
-        """The drive as it was at the previous state."""
         self._pressed: tuple[int, str] | None = None
         """When a person last pressed into the robot, and who (within :data:`ROLL_MS`)."""
         self._drives_since: list[tuple[float, float]] = []
@@ -196,9 +194,9 @@ class ProximityTracker:
                 self._close(who)
         if contacts:
             self._note_press(state)
-        elif self._pressed is not None and now - self._pressed[0] > ROLL_MS:
-            self._pressed, self._drives_since = None, []
-        self._previous, self._previous_drive = state, self._drive
+        if self._pressed is not None and now - self._pressed[0] > ROLL_MS:
+            self._pressed, self._drives_since = None, []  # (a touch that presses no more)
+        self._previous = state
 
     def _note_press(self, state: WorldState) -> None:
         """Note a person touching the robot and moving into it (a push)."""
@@ -235,24 +233,17 @@ class ProximityTracker:
 
     def _pushed(self, previous: WorldState, human: BodyState) -> bool:
         """Whether, at ``previous``, another person pressed into the robot, or had within
-        :data:`ROLL_MS`, while the robot's own drive did not point towards ``human`` (since
-        that press): then it was pushed."""
+        :data:`ROLL_MS`, while none of the robot's own drives since that press (the one at
+        ``previous`` among them) pointed towards ``human``: then it was pushed."""
+        pressed = self._pressed
+        if pressed is None or pressed[1] == human.id or previous.time_ms - pressed[0] > ROLL_MS:
+            return False
         robot = previous.robot
         dx, dy = human.x_m - robot.x_m, human.y_m - robot.y_m
         cos, sin = math.cos(robot.theta_rad), math.sin(robot.theta_rad)
-
-        def towards(drive: tuple[float, float]) -> bool:
-            v_x, v_y = drive
-            return (v_x * cos - v_y * sin) * dx + (v_x * sin + v_y * cos) * dy > 0.0
-
-        if towards(self._previous_drive):
-            return False  # it drove towards them: its own doing, pushed or not
-        pressed = self._pressed
-        return (
-            pressed is not None
-            and pressed[1] != human.id
-            and previous.time_ms - pressed[0] <= ROLL_MS
-            and not any(map(towards, self._drives_since))
+        return not any(  # a drive towards them: its own doing, pushed or not
+            (v_x * cos - v_y * sin) * dx + (v_x * sin + v_y * cos) * dy > 0.0
+            for v_x, v_y in self._drives_since
         )
 
     def _closed(self, open_: _Open) -> ContactEpisode:

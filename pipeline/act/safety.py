@@ -56,6 +56,7 @@ from oimi.pipeline.act.separation import (
     Constraint,
     allowed_by,
     braking_cap,
+    clear_gap,
     satisfied,
     scaled_to_meet,
     within_view,
@@ -129,6 +130,8 @@ class SafetySupervisor:
         self._dt_s = tick_ms / 1000
         self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         """How fast a human may walk (``human_speed_mps``)."""
+        self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
+        """Where a protective stop ends: halfway from the stop zone to the slow zone's edge."""
         self._reckoning = DeadReckoning(
             limits,
             tick_ms=tick_ms,
@@ -312,19 +315,18 @@ class SafetySupervisor:
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
         v_x, v_y = requested.v_x, requested.v_y
-        clear_m = self._clear_m(math.hypot(v_x, v_y))
+        speed = math.hypot(v_x, v_y)
+        zone: SafetyZone | None = None
+        if (blind or stale) and speed > config.slow_speed_mps:
+            scale = config.slow_speed_mps / speed
+            v_x, v_y, speed = v_x * scale, v_y * scale, config.slow_speed_mps
+            zone = SafetyZone.BLIND if blind else SafetyZone.STALE
+        clear_m = self._clear_m(speed)
         constraints = []
         for key, reading, age_ms in placed:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
             if constraint is not None:
                 constraints.append(constraint)
-        zone: SafetyZone | None = None
-        if blind or stale:
-            speed = math.hypot(v_x, v_y)
-            if speed > config.slow_speed_mps:
-                scale = config.slow_speed_mps / speed
-                v_x, v_y = v_x * scale, v_y * scale
-                zone = SafetyZone.BLIND if blind else SafetyZone.STALE
         half_view = config.camera_fov_rad / 2 if sonars and ring_down else math.pi
         looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
@@ -359,14 +361,12 @@ class SafetySupervisor:
 
     def _clear_m(self, speed: float) -> float:
         """The surface distance beyond which a human sets no limit on a velocity of at most
-        ``speed``: the braking bound, ``c * dt + (c + 2 walk) * (c + across) / (2 a) <= s -
-        stop``, holds for any ``c <= speed`` and ``c + across <= 2 speed`` (so does moving
-        across or away, which needs ``walk * speed / a <= s - stop``), and outside the slow
-        zone. Every velocity the supervisor tries is at most as fast as the one asked for."""
+        ``speed`` (:func:`~oimi.pipeline.act.separation.clear_gap` past the stop zone, and
+        outside the slow zone). Every velocity the supervisor tries after the blind or stale
+        cap is at most as fast as ``speed``, the one asked for, capped."""
         config = self.config
-        a = self._limits.max_accel_mps2
-        braking = speed * self._dt_s + (speed + 2 * self._walk) * speed / a
-        return max(config.stop_distance_m + braking, config.slow_distance_m)  # type: ignore[type-var,operator]
+        gap = clear_gap(speed, self._dt_s, self._walk, self._limits.max_accel_mps2)
+        return max(config.stop_distance_m + gap, config.slow_distance_m)  # type: ignore[type-var,operator]
 
     def _constraint(
         self, key: str, human: Entity, age_ms: int, slipped: bool, clear_m: float
@@ -384,11 +384,10 @@ class SafetySupervisor:
             drift = self._reckoning.drift(anchor.since)
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
-        release = (config.stop_distance_m + config.slow_distance_m) / 2
         held = self._held
         if surface <= config.stop_distance_m:
             held[key] = None
-        elif key in held and surface >= release:
+        elif key in held and surface >= self._release_m:
             del held[key]
         elif surface >= clear_m:  # (release < slow <= clear_m) nothing it asks can fail
             return None

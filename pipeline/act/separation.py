@@ -59,6 +59,13 @@ def braking_cap(lead: float, room: float, walk: float, across: float = 0.0) -> f
     return -lead + math.sqrt(lead * lead + rest)
 
 
+def clear_gap(speed: float, dt: float, walk: float, a: float) -> float:
+    """The gap (``s - stop``) from which :func:`braking_cap` allows any closing part up to
+    ``speed`` with as much again across (``c + across <= 2 speed``), and a base at
+    ``speed`` stands in time (:func:`stops_in_time`): no velocity that fast can break it."""
+    return speed * dt + (speed + 2 * walk) * speed / a
+
+
 def closing_cap(c: Constraint, across: float) -> float:
     """The largest velocity component along u with ``across`` m/s across it (outside the
     stop zone): :func:`braking_cap`, and ``cap_mps`` (its value with nothing across, and
@@ -86,14 +93,14 @@ def cone_sine(c: Constraint, speed: float) -> float:
     return c.sin_disc + (c.walk * s - s * s / 2) / c.reach
 
 
-def cone_speed(c: Constraint) -> float:
-    """The speed whose cone is halfway from a stand's to a closed one (sine 1), or 0.0 when
-    the robot stands inside the disc: a velocity too fast for any cone is cut to it."""
-    if c.sin_disc >= 1.0:
+def cone_speed(c: Constraint, sine: float) -> float:
+    """The inverse of :func:`cone_sine`: the fastest speed whose cone's sine is at most
+    ``sine`` (0.0 when even a stand's is wider; ``inf`` when no speed's reaches it)."""
+    grown = (sine - c.sin_disc) * c.reach  # walk * s - s**2 / 2 may reach this
+    if grown <= 0.0:
         return 0.0
-    grown = (1.0 - c.sin_disc) / 2 * c.reach  # walk * s - s**2 / 2 at that speed
     rest = c.walk * c.walk - 2 * grown
-    return c.walk - math.sqrt(rest) if rest > 0.0 else c.walk
+    return c.walk - math.sqrt(rest) if rest > 0.0 else math.inf
 
 
 def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
@@ -126,30 +133,22 @@ def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
 def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[float, float]:
     """The nearest velocity to (v_x, v_y) inside the cone of its speed (projected onto its
     edge). One too fast for any cone is slowed: its direction kept, to the fastest speed
-    whose cone holds it, or to :func:`cone_speed` and projected, whichever is nearer."""
+    whose cone holds it, or to the speed whose cone is halfway from a stand's to a closed
+    one and projected, whichever is nearer."""
     if c.sin_disc >= 1.0:  # the robot is inside the human's uncertainty disc
         return 0.0, 0.0
     speed = math.hypot(v_x, v_y)
     sin_cone = cone_sine(c, speed)
     if sin_cone < 1.0:
         return _onto_cone(c, v_x, v_y, along, sin_cone)
-    scale = min(_fastest_along(c, along / speed), speed) / speed  # (speed > 0: sin_disc < 1)
+    scale = min(cone_speed(c, -along / speed), speed) / speed  # (speed > 0: sin_disc < 1)
     kept = v_x * scale, v_y * scale
-    slower = cone_speed(c) / speed
-    bent = _onto_cone(c, v_x * slower, v_y * slower, along * slower, cone_sine(c, slower * speed))
+    halfway = (1.0 + c.sin_disc) / 2
+    slower = min(cone_speed(c, halfway), speed) / speed
+    bent = _onto_cone(c, v_x * slower, v_y * slower, along * slower, halfway)
     if (kept[0] - v_x) ** 2 + (kept[1] - v_y) ** 2 <= (bent[0] - v_x) ** 2 + (bent[1] - v_y) ** 2:
         return kept
     return bent
-
-
-def _fastest_along(c: Constraint, cosine: float) -> float:
-    """The fastest speed at which a velocity whose cosine with u is ``cosine`` points away
-    from every point of its cone's disc (:func:`cone_sine`): 0.0 when none does."""
-    grown = (-cosine - c.sin_disc) * c.reach  # walk * s - s**2 / 2 may reach this
-    if grown <= 0.0:
-        return 0.0
-    rest = c.walk * c.walk - 2 * grown
-    return c.walk - math.sqrt(rest) if rest > 0.0 else math.inf
 
 
 def _onto_cone(
@@ -200,11 +199,10 @@ def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]
 def satisfied(c: Constraint, v_x: float, v_y: float) -> bool:
     """Whether (v_x, v_y) meets the constraint (what :func:`allowed_by` returns does)."""
     along = v_x * c.u_x + v_y * c.u_y
+    if c.zone is not SafetyZone.STOP and along > 0.0:
+        across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
+        return along <= closing_cap(c, across) + _TOLERANCE
     speed = math.hypot(v_x, v_y)
-    if c.zone is not SafetyZone.STOP:
-        if along > 0.0:
-            across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
-            return along <= closing_cap(c, across) + _TOLERANCE
-        if stops_in_time(c, speed):
-            return True
+    if c.zone is not SafetyZone.STOP and stops_in_time(c, speed):
+        return True
     return along <= -cone_sine(c, speed) * speed + _TOLERANCE

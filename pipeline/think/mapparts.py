@@ -19,16 +19,17 @@ import msgspec
 from oimi.pipeline.events import MapChange
 from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.messages import WorldMap
+from oimi.pipeline.think.condition_runtime import STORE_READS
 
 MAX_CHANGE_TEXT: Final = 120
 """Longest value text kept in a decision's diff; longer values are cut with an ellipsis."""
 
 FIELDS: Final = WorldMap.__struct_fields__
 """The map's top-level parts, in the order it encodes them."""
+_STORES: Final = tuple(name for name in STORE_READS if name in FIELDS)
+"""The map's parts a condition may write (its alias and variable stores)."""
 
 _encode = msgspec.msgpack.Encoder().encode
-_STORES: Final = ("aliases", "variables")
-"""The map's parts a condition may write (its alias and variable stores)."""
 
 
 class MapParts:
