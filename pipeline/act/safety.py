@@ -17,7 +17,9 @@ base, braking, stands before the human could walk into the stop zone. ``s`` is
 the centre distance less both radii and a margin ``sensing_error_m + human_speed_mps * (age
 + one tick)`` (age capped at ``max_data_age_ms``); between readings the robot's own motion
 is dead-reckoned, its base taken to follow what is let through at ``max_accel_mps2`` and
-``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once), and
+``max_angular_accel_radps2`` (a cut or a spin's end is braked to, not taken at once; the
+velocity it will have after the tick must meet the limits too: a base spinning under a
+command lags it most), and
 while a sonar is down the margin grows by the slip the robot's measured speed shows since
 the reading, and by a push no report covers yet (``pipeline/act/reckoning.py``: a base
 blocked by furniture or pushed).
@@ -54,11 +56,10 @@ from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.act.separation import (
     Constraint,
-    allowed_by,
     braking_cap,
     clear_gap,
-    satisfied,
-    scaled_to_meet,
+    followed_meeting,
+    meeting,
     within_view,
 )
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
@@ -247,7 +248,8 @@ class SafetySupervisor:
         beats: Mapping[tuple[str, str], int],
         now_ms: int,
     ) -> Verdict:
-        if requested.v_x == 0.0 and requested.v_y == 0.0:
+        rolling = self._reckoning.speed
+        if requested.v_x == 0.0 and requested.v_y == 0.0 and rolling == 0.0:
             return Verdict(requested)  # standing or turning on the spot: nothing to limit
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
@@ -321,7 +323,7 @@ class SafetySupervisor:
             scale = config.slow_speed_mps / speed
             v_x, v_y, speed = v_x * scale, v_y * scale, config.slow_speed_mps
             zone = SafetyZone.BLIND if blind else SafetyZone.STALE
-        clear_m = self._clear_m(speed)
+        clear_m = self._clear_m(max(speed, rolling))  # (what the base takes: between both)
         constraints = []
         for key, reading, age_ms in placed:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
@@ -332,19 +334,14 @@ class SafetySupervisor:
         if looking != (v_x, v_y):
             v_x, v_y = looking
             zone = SafetyZone.BLIND
-        binding: Constraint | None = None
-        for _ in range(3):  # a few passes settle several humans; otherwise slow down
-            for constraint in constraints:
-                limited = allowed_by(constraint, v_x, v_y)
-                if limited != (v_x, v_y):
-                    v_x, v_y = limited
-                    if binding is None or constraint.surface_m < binding.surface_m:
-                        binding = constraint
-            v_x, v_y = within_view(v_x, v_y, half_view)
-            if all(satisfied(c, v_x, v_y) for c in constraints):
-                break
-        else:  # as fast as meets them all, direction kept (stopped, a child once waited)
-            v_x, v_y = scaled_to_meet(constraints, v_x, v_y)
+        v_x, v_y, binding = meeting(constraints, v_x, v_y, half_view)
+        if constraints:  # the base lags its command (a spinning body's most): its velocity too
+            reckoning = self._reckoning
+            v_x, v_y, lagging = followed_meeting(
+                constraints, v_x, v_y, half_view, reckoning.followed, reckoning.velocity
+            )
+            if lagging is not None and (binding is None or lagging.surface_m < binding.surface_m):
+                binding = lagging
         allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
         if binding is not None:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
@@ -362,8 +359,9 @@ class SafetySupervisor:
     def _clear_m(self, speed: float) -> float:
         """The surface distance beyond which a human sets no limit on a velocity of at most
         ``speed`` (:func:`~oimi.pipeline.act.separation.clear_gap` past the stop zone, and
-        outside the slow zone). Every velocity the supervisor tries after the blind or stale
-        cap is at most as fast as ``speed``, the one asked for, capped."""
+        outside the slow zone). Every velocity the supervisor tries or checks is at most as fast
+        as ``speed``: the one asked for (capped when blind or stale) or the base's, whichever
+        is faster (what the base takes for a command lies between both)."""
         config = self.config
         gap = clear_gap(speed, self._dt_s, self._walk, self._limits.max_accel_mps2)
         return max(config.stop_distance_m + gap, config.slow_distance_m)  # type: ignore[type-var,operator]

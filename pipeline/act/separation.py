@@ -10,6 +10,7 @@ Inside the stop zone only the cone is left. No clock, no IO.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Final, NamedTuple
 
 from oimi.pipeline.events import SafetyZone
@@ -40,6 +41,8 @@ class Constraint(NamedTuple):
 
 
 _TOLERANCE: Final = 1e-12
+_SAME: Final = 1e-12
+"""Two velocities this close (m/s, each component) are the same, give or take rounding."""
 _ANGLE_TOLERANCE: Final = 1e-9
 """A velocity projected onto the view's edge points along it, give or take rounding."""
 
@@ -172,18 +175,85 @@ def _onto_cone(
     )
 
 
-def scaled_to_meet(constraints: list[Constraint], v_x: float, v_y: float) -> tuple[float, float]:
-    """(v_x, v_y) slowed, its direction kept, to the largest share of it (to 1/1024) that
-    meets every constraint: each is easier the slower the velocity (the braking bound and
-    standing in time by its speed, the cone narrower), and a stand meets all."""
+def scaled_to_meet(
+    constraints: list[Constraint],
+    v_x: float,
+    v_y: float,
+    followed: Callable[[float, float], tuple[float, float]] | None = None,
+    start: tuple[float, float] = (0.0, 0.0),
+) -> tuple[float, float]:
+    """The velocity nearest (v_x, v_y) on the way from ``start`` (a stand unless told) that
+    meets every constraint (to 1/1024 of the way): each is easier the slower the velocity
+    (the braking bound and standing in time by its speed, the cone narrower), and a stand
+    meets all. Given ``followed`` (the velocity the base takes for a command), the one whose
+    outcome meets them (``start``'s must)."""
+    s_x, s_y = start
+    d_x, d_y = v_x - s_x, v_y - s_y
     low, high = 0.0, 1.0
     for _ in range(10):
         share = (low + high) / 2
-        if all(satisfied(c, v_x * share, v_y * share) for c in constraints):
+        o_x, o_y = s_x + d_x * share, s_y + d_y * share
+        if followed is not None:
+            o_x, o_y = followed(o_x, o_y)
+        if all(satisfied(c, o_x, o_y) for c in constraints):
             low = share
         else:
             high = share
-    return v_x * low, v_y * low
+    return s_x + d_x * low, s_y + d_y * low
+
+
+def meeting(
+    constraints: list[Constraint], v_x: float, v_y: float, half_view: float
+) -> tuple[float, float, Constraint | None]:
+    """The velocity nearest (v_x, v_y) that meets every constraint and stays within
+    ``half_view`` of straight ahead, and the nearest constraint that changed it."""
+    binding: Constraint | None = None
+    for _ in range(3):  # a few passes settle several humans; otherwise slow down
+        for constraint in constraints:
+            limited = allowed_by(constraint, v_x, v_y)
+            if limited != (v_x, v_y):
+                v_x, v_y = limited
+                if binding is None or constraint.surface_m < binding.surface_m:
+                    binding = constraint
+        v_x, v_y = within_view(v_x, v_y, half_view)
+        if all(satisfied(c, v_x, v_y) for c in constraints):
+            break
+    else:  # as fast as meets them all, direction kept (stopped, a child once waited)
+        v_x, v_y = scaled_to_meet(constraints, v_x, v_y)
+    return v_x, v_y, binding
+
+
+def _surface(constraint: Constraint) -> float:
+    return constraint.surface_m
+
+
+def followed_meeting(
+    constraints: list[Constraint],
+    v_x: float,
+    v_y: float,
+    half_view: float,
+    followed: Callable[[float, float], tuple[float, float]],
+    rolling: tuple[float, float],
+) -> tuple[float, float, Constraint | None]:
+    """(v_x, v_y) when the velocity the base takes for it in a tick (``followed``: it
+    changes by ``max_accel_mps2`` at most from ``rolling``, its velocity now) meets every
+    constraint; else, with the nearest constraint its outcome broke, the command nearest it
+    on the way from what meets them nearest ``rolling`` (:func:`meeting`) whose outcome does,
+    or when none does, that one (the base turns towards it as fast as it can) unless (v_x,
+    v_y) turns it the same way (a stand asked while braking straight: nothing to change)."""
+    f_x, f_y = followed(v_x, v_y)
+    failing = [c for c in constraints if not satisfied(c, f_x, f_y)]
+    if not failing:
+        return v_x, v_y, None
+    b_x, b_y, _ = meeting(constraints, *rolling, half_view)
+    o_x, o_y = followed(b_x, b_y)
+    if all(satisfied(c, o_x, o_y) for c in constraints):
+        v_x, v_y = scaled_to_meet(constraints, v_x, v_y, followed, (b_x, b_y))
+    elif abs(o_x - f_x) <= _SAME and abs(o_y - f_y) <= _SAME:
+        return v_x, v_y, None
+    else:
+        v_x, v_y = b_x, b_y
+    return v_x, v_y, min(failing, key=_surface)
 
 
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:

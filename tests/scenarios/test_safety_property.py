@@ -51,7 +51,6 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import pytest
 from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic, WorldState
@@ -341,19 +340,13 @@ def test_with_sensors_failing_the_robot_keeps_off_the_people_it_has_seen(
     assert_safe(run_session(Trial(pads, [], humans, heading, all_round, faults=faults)), all_round)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="open: the supervisor checks the command, not the velocity the base lags with",
-)
 def test_a_base_lagging_its_spinning_command_does_not_close_on_a_child() -> None:
-    """Found by ``make soak SEED=21`` (open; it failed before this session's changes too).
-    The pad drives forward and spins at 1.5 rad/s while a child walks in at 1 m/s. The
-    supervisor lets a command through that points away from the child's disc, but the base,
-    following it at 1 m/s² while the body turns, moves at a velocity 67° off it, towards the
-    child; released, it brakes from that one and closes on them at 0.002 m/s inside the stop
-    zone (tick 50). The mend: check the velocity the base will have after the tick (the dead
-    reckoning models it), not only the command. Strict: it fails here once mended."""
+    """Found by ``make soak SEED=21``. The pad drives forward and spins at 1.5 rad/s while a
+    child walks in at 1 m/s. The supervisor let a command through that pointed away from
+    the child's disc, but the base, following it at 1 m/s² while the body turned, moved at a
+    velocity 67° off it, towards the child; released, it braked from that one and closed on
+    them at 0.002 m/s inside the stop zone (tick 50). The supervisor now checks the velocity
+    the base will have after the tick too."""
     with _no_events():
         pads = [
             (2, 0.0, 0.0, 0.0, ()),

@@ -324,6 +324,45 @@ def test_dead_reckoning_follows_the_robot_turning(max_age_ms: int) -> None:
     assert right.velocity.v_y == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.parametrize(
+    ("bearing_deg", "ask"),
+    [(-20, (0.0, 0.5)), (-20, (0.0, 0.0)), (-45, (-0.3, 0.4)), (-45, (0.0, 0.0))],
+)
+def test_a_base_closing_too_fast_sheds_it_at_its_braking_rate_whatever_is_asked(
+    bearing_deg: float, ask: tuple[float, float]
+) -> None:
+    """The robot drives at 0.5 m/s when a child is first seen ahead to its right, 0.3 m
+    away: the base closes on them faster than the slow zone allows. Whether the drive asks
+    to veer off, back away or stand, the base (following what is let through at 1 m/s², as
+    the simulated one does) sheds its closing speed at that whole rate: the supervisor
+    checks what the base will do, not only what it is told (a stand, braked straight,
+    shed 0.0188 m/s a tick here; a veer 0.0187)."""
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    for tick in range(30):  # up to 0.5 m/s in 25 ticks, nobody about
+        supervise(FAST, room(), now_ms=tick * TICK_MS, supervisor=supervisor)
+    bearing, rho = math.radians(bearing_deg), centre_at(0.3)
+    child_x, child_y = rho * math.cos(bearing), rho * math.sin(bearing)
+    x = y = 0.0
+    v_x, v_y = 0.5, 0.0
+    step = LIMITS.max_accel_mps2 * TICK_MS / 1000
+    for tick in range(30, 34):
+        dx, dy = child_x - x, child_y - y
+        centre = math.hypot(dx, dy)
+        seen_now = room(seen(centre, math.atan2(dy, dx), at_ms=tick * TICK_MS))
+        verdict, _ = supervise(
+            Velocity(*ask, 0.0), seen_now, now_ms=tick * TICK_MS, supervisor=supervisor
+        )
+        closing = (v_x * dx + v_y * dy) / centre
+        c_x, c_y = verdict.velocity.v_x - v_x, verdict.velocity.v_y - v_y
+        change = math.hypot(c_x, c_y)
+        if change > step:
+            c_x, c_y = c_x * step / change, c_y * step / change
+        v_x, v_y = v_x + c_x, v_y + c_y
+        assert verdict.zone is SafetyZone.SLOW
+        assert (v_x * dx + v_y * dy) / centre <= closing - 0.99 * step
+        x, y = x + v_x * TICK_MS / 1000, y + v_y * TICK_MS / 1000
+
+
 def test_an_episode_is_recorded_when_it_starts_worsens_and_ends_not_every_tick() -> None:
     supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
     events: list[SafetyIntervention] = []
