@@ -235,13 +235,16 @@ def followed_meeting(
     followed: Callable[[float, float], tuple[float, float]],
     rolling: tuple[float, float],
 ) -> tuple[float, float, Constraint | None]:
-    """(v_x, v_y) when the velocity the base takes for it in a tick (``followed``: it
-    changes by ``max_accel_mps2`` at most from ``rolling``, its velocity now) meets every
-    constraint; else, with the nearest constraint its outcome broke, the command nearest it
-    on the way from what meets them nearest ``rolling`` (:func:`meeting`) whose outcome does,
-    or when none does, that one (the base turns towards it as fast as it can) unless (v_x,
-    v_y) turns it the same way (a stand asked while braking straight: nothing to change)."""
+    """For (v_x, v_y), what :func:`meeting` let through: itself when the velocity the base
+    takes for it in a tick (``followed``: it changes by ``max_accel_mps2`` at most from
+    ``rolling``, its velocity now) meets every constraint; else, with the nearest constraint
+    its outcome broke, the command nearest it on the way from what meets them nearest
+    ``rolling`` (:func:`meeting`) whose outcome does, or when none does, that one (the base
+    turns towards it as fast as it can) unless (v_x, v_y) turns it the same way (a stand
+    asked while braking straight: nothing to change)."""
     f_x, f_y = followed(v_x, v_y)
+    if f_x == v_x and f_y == v_y:  # within a tick's reach: (v_x, v_y) met them (most ticks)
+        return v_x, v_y, None
     failing = [c for c in constraints if not satisfied(c, f_x, f_y)]
     if not failing:
         return v_x, v_y, None

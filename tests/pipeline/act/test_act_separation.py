@@ -9,11 +9,13 @@ import math
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
 from oimi.pipeline.act.separation import (
     Constraint,
     allowed_by,
     braking_cap,
+    followed_meeting,
+    meeting,
     satisfied,
     scaled_to_meet,
 )
@@ -60,6 +62,41 @@ def test_a_velocity_is_slowed_to_the_largest_share_that_meets_every_constraint(
         more = share + 1 / 1024
         assert not all(satisfied(c, v_x * more, v_y * more) for c in humans)
     assert s_x * v_y == pytest.approx(s_y * v_x, abs=1e-12)  # its direction kept
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(
+    humans=st.lists(human, min_size=1, max_size=3),
+    v_x=speed,
+    v_y=speed,
+    m_x=speed,
+    m_y=speed,
+)
+def test_the_base_lagging_its_command_still_meets_every_constraint_when_it_can(
+    humans, v_x, v_y, m_x, m_y
+) -> None:
+    """The base moves at (m_x, m_y) and changes by a*dt a tick at most. Whenever some
+    command's outcome meets every constraint (the velocity that meets them nearest the
+    base's is within a tick's reach), the command let through has such an outcome; else it
+    is that velocity (the base turns to it as fast as it can) or the one asked for when it
+    turns the base the same way."""
+
+    def followed(c_x: float, c_y: float) -> tuple[float, float]:
+        after = ramp_velocity(Velocity(m_x, m_y), Velocity(c_x, c_y), RobotLimits(), dt_ms=TICK_MS)
+        return after.v_x, after.v_y
+
+    v_x, v_y, _ = meeting(humans, v_x, v_y, math.pi)  # what the passes let through
+    r_x, r_y, broken = followed_meeting(humans, v_x, v_y, math.pi, followed, (m_x, m_y))
+    o_x, o_y = followed(r_x, r_y)
+    meets = all(satisfied(c, o_x, o_y) for c in humans)
+    b_x, b_y, _ = meeting(humans, m_x, m_y, math.pi)
+    if math.hypot(b_x - m_x, b_y - m_y) <= A * TICK_MS / 1000:
+        assert meets
+    if broken is None:
+        assert (r_x, r_y) == (v_x, v_y)
+    elif not meets:
+        assert (r_x, r_y) == (b_x, b_y)
+    assert math.hypot(r_x, r_y) <= max(math.hypot(v_x, v_y), math.hypot(m_x, m_y)) + 1e-12
 
 
 def test_two_children_the_passes_cannot_settle_slow_the_robot_rather_than_stop_it() -> None:
