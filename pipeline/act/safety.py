@@ -248,9 +248,8 @@ class SafetySupervisor:
         beats: Mapping[tuple[str, str], int],
         now_ms: int,
     ) -> Verdict:
-        rolling = self._reckoning.speed
-        if requested.v_x == 0.0 and requested.v_y == 0.0 and rolling == 0.0:
-            return Verdict(requested)  # standing or turning on the spot: nothing to limit
+        if requested.v_x == 0.0 and requested.v_y == 0.0:
+            return Verdict(requested)  # a stand (or a turn on the spot) is braked to straight
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
         max_age = config.max_status_age_ms
@@ -323,7 +322,7 @@ class SafetySupervisor:
             scale = config.slow_speed_mps / speed
             v_x, v_y, speed = v_x * scale, v_y * scale, config.slow_speed_mps
             zone = SafetyZone.BLIND if blind else SafetyZone.STALE
-        clear_m = self._clear_m(max(speed, rolling))  # (what the base takes: between both)
+        clear_m = self._clear_m(max(speed, self._reckoning.speed))  # (the base's: between)
         constraints = []
         for key, reading, age_ms in placed:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)

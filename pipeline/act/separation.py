@@ -240,8 +240,8 @@ def followed_meeting(
     ``rolling``, its velocity now) meets every constraint; else, with the nearest constraint
     its outcome broke, the command nearest it on the way from what meets them nearest
     ``rolling`` (:func:`meeting`) whose outcome does, or when none does, that one (the base
-    turns towards it as fast as it can) unless (v_x, v_y) turns it the same way (a stand
-    asked while braking straight: nothing to change)."""
+    turns towards it as fast as it can) unless (v_x, v_y) turns it the same way (a slower
+    drive straight on: nothing to change)."""
     f_x, f_y = followed(v_x, v_y)
     if f_x == v_x and f_y == v_y:  # within a tick's reach: (v_x, v_y) met them (most ticks)
         return v_x, v_y, None

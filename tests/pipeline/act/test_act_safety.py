@@ -324,19 +324,12 @@ def test_dead_reckoning_follows_the_robot_turning(max_age_ms: int) -> None:
     assert right.velocity.v_y == pytest.approx(0.0, abs=1e-9)
 
 
-@pytest.mark.parametrize(
-    ("bearing_deg", "ask"),
-    [(-20, (0.0, 0.5)), (-20, (0.0, 0.0)), (-45, (-0.3, 0.4)), (-45, (0.0, 0.0))],
-)
-def test_a_base_closing_too_fast_sheds_it_at_its_braking_rate_whatever_is_asked(
-    bearing_deg: float, ask: tuple[float, float]
-) -> None:
+def _child_seen_while_driving(bearing_deg: float, ask: tuple[float, float]):
     """The robot drives at 0.5 m/s when a child is first seen ahead to its right, 0.3 m
-    away: the base closes on them faster than the slow zone allows. Whether the drive asks
-    to veer off, back away or stand, the base (following what is let through at 1 m/s², as
-    the simulated one does) sheds its closing speed at that whole rate: the supervisor
-    checks what the base will do, not only what it is told (a stand, braked straight,
-    shed 0.0188 m/s a tick here; a veer 0.0187)."""
+    away (the base closes on them faster than the slow zone allows); then ``ask`` is asked
+    for four ticks, the base following what is let through at 1 m/s² as the simulated one
+    does. Yields each tick's verdict, the base's velocity before and after it, and the
+    unit vector to the child."""
     supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
     for tick in range(30):  # up to 0.5 m/s in 25 ticks, nobody about
         supervise(FAST, room(), now_ms=tick * TICK_MS, supervisor=supervisor)
@@ -352,15 +345,41 @@ def test_a_base_closing_too_fast_sheds_it_at_its_braking_rate_whatever_is_asked(
         verdict, _ = supervise(
             Velocity(*ask, 0.0), seen_now, now_ms=tick * TICK_MS, supervisor=supervisor
         )
-        closing = (v_x * dx + v_y * dy) / centre
         c_x, c_y = verdict.velocity.v_x - v_x, verdict.velocity.v_y - v_y
         change = math.hypot(c_x, c_y)
         if change > step:
             c_x, c_y = c_x * step / change, c_y * step / change
+        yield verdict, (v_x, v_y), (v_x + c_x, v_y + c_y), (dx / centre, dy / centre)
         v_x, v_y = v_x + c_x, v_y + c_y
-        assert verdict.zone is SafetyZone.SLOW
-        assert (v_x * dx + v_y * dy) / centre <= closing - 0.99 * step
         x, y = x + v_x * TICK_MS / 1000, y + v_y * TICK_MS / 1000
+
+
+@pytest.mark.parametrize(("bearing_deg", "ask"), [(-20, (0.0, 0.5)), (-45, (-0.3, 0.4))])
+def test_a_base_closing_too_fast_sheds_it_at_its_braking_rate_when_a_drive_is_asked(
+    bearing_deg: float, ask: tuple[float, float]
+) -> None:
+    """Whether the drive asks to veer off or back away, the base sheds its closing speed
+    at its whole braking rate: the supervisor checks what the base will do, not only what
+    it is told (let through as asked, the base shed 0.0187 m/s a tick at -20°, 0.0190 at
+    -45°: less than braking along the line to the child)."""
+    step = LIMITS.max_accel_mps2 * TICK_MS / 1000
+    for verdict, before, after, (u_x, u_y) in _child_seen_while_driving(bearing_deg, ask):
+        assert verdict.zone is SafetyZone.SLOW
+        closing = before[0] * u_x + before[1] * u_y
+        assert after[0] * u_x + after[1] * u_y <= closing - 0.99 * step
+
+
+@pytest.mark.parametrize("bearing_deg", [-20, -45])
+def test_a_stand_asked_while_closing_too_fast_brakes_the_base_straight(bearing_deg) -> None:
+    """A stand (the pad released, a script's stop) is let through unchanged: the base
+    brakes straight at its whole rate, the fastest way to stand, as every limit plans for
+    (steering it towards a velocity that met the limits sheds the closing speed sooner
+    but stands later: a released pad must brake)."""
+    step = LIMITS.max_accel_mps2 * TICK_MS / 1000
+    for verdict, before, after, _ in _child_seen_while_driving(bearing_deg, (0.0, 0.0)):
+        assert verdict.velocity == (0.0, 0.0, 0.0) and not verdict.limited
+        assert math.hypot(*after) == pytest.approx(math.hypot(*before) - step, abs=1e-12)
+        assert after[0] * before[1] == pytest.approx(after[1] * before[0], abs=1e-12)
 
 
 def test_an_episode_is_recorded_when_it_starts_worsens_and_ends_not_every_tick() -> None:
