@@ -54,6 +54,11 @@ _HEARD: Final = frozenset({"isonline", "poses"})
 """The attributes whose arrival :attr:`MapProducer.heard` notes."""
 _LISTED: Final = {EntityClass(m.name): (m.field, m.struct) for m in MAP_LISTS}
 """Classes kept as lists in the map: the WorldMap field and the Struct to allocate."""
+_REPLACE: Final = Policy.R
+_NOTED: Final = Storage.NOTED
+_UPDATEABLE: Final = Storage.UPDATEABLE
+"""Looked up once: an enum's member read through its class takes ``EnumType``'s slow
+``__getattr__`` path, and ``submit`` and ``consume`` test these for every update."""
 
 
 class Rejection(Message):
@@ -128,11 +133,11 @@ class MapProducer:
         except MapUpdateError as exc:
             return Rejection(update=update, reason=exc.message)
         key = decoded.key
-        if update.policy is Policy.R and key in self._pending_keys:
+        if update.policy is _REPLACE and key in self._pending_keys:
             self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
         self._pending_keys.add(key)
-        if decoded.spec.storage is not Storage.NOTED:
+        if decoded.spec.storage is not _NOTED:
             self._changes_pending = True
         return None
 
@@ -190,7 +195,7 @@ class MapProducer:
         noted: list[DecodedUpdate] = []
         for decoded in pending:
             spec, target = decoded.spec, decoded.target
-            if spec.storage is Storage.NOTED:  # a heartbeat: noted, not the map's
+            if spec.storage is _NOTED:  # a heartbeat: noted, not the map's
                 noted.append(decoded)
                 continue
             owner = index.find(target)
@@ -237,7 +242,7 @@ class MapProducer:
             info = world.scriptinfo
             info.script_vect = list(value.paths)
             info.restart = value.restart
-        elif spec.storage is Storage.UPDATEABLE:
+        elif spec.storage is _UPDATEABLE:
             setattr(owner, spec.name, value)
         else:
             # R and A alike are appended: R only dropped the pending updates (``submit``).
@@ -255,7 +260,10 @@ class _Index:
 
     def __init__(self, world: WorldMap):
         self._world = world
-        self._by_id: dict[EntityClass, dict[str, State]] = {}
+        self._by_id: dict[EntityClass, dict[str, State]] = {
+            EntityClass.ROBOT_STATUS: {"": world.robotstatus},  # a singleton's Target.id is ""
+            EntityClass.SCRIPT: {"": world.scriptinfo},
+        }
         for klass, (field, _) in _LISTED.items():
             ids: dict[str, State] = {}
             for entity in getattr(world, field):
@@ -263,10 +271,6 @@ class _Index:
             self._by_id[klass] = ids
 
     def find(self, target: Target) -> State | None:
-        if target.klass is EntityClass.ROBOT_STATUS:
-            return self._world.robotstatus
-        if target.klass is EntityClass.SCRIPT:
-            return self._world.scriptinfo
         return self._by_id[target.klass].get(target.id)
 
     def count(self, klass: EntityClass) -> int:

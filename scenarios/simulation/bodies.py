@@ -132,6 +132,9 @@ class Thing(Mover):
         """Fraction of speed kept per step."""
         self.slowing = spec.rolling_decel_mps2 * step_s
         """Speed lost per step to rolling resistance."""
+        self.rested: Motion | None = None
+        """The motion it came to rest in (no velocity, no spin), while it keeps it: rolling
+        resistance leaves a body at rest as it is, so the world skips it."""
 
 
 class BodyReader:

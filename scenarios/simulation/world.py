@@ -229,7 +229,8 @@ class World:
             self._count_odometer(before)
         self._reclamp_robot()
         for thing in self.things:
-            self._roll(thing)
+            if thing.motion is not thing.rested:  # untouched since it stopped: nothing to do
+                self._roll(thing)
         contacts, ended, left = self._contacts(time_ms)
         self.last_report = StepReport(
             tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
@@ -284,7 +285,10 @@ class World:
             factor = slower / speed
             vx, vy = vx * factor, vy * factor
         spin = motion.omega_radps * thing.keep
-        thing.drive(vx, vy, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
+        spin = spin if abs(spin) > STOP_SPEED_MPS else 0.0
+        thing.drive(vx, vy, spin)
+        # stopped (+0.0 each): rolling this motion again would drive the same zeros
+        thing.rested = thing.motion if not (vx or vy or spin) else None
 
     def _contacts(
         self, time_ms: int
