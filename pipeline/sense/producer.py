@@ -32,7 +32,6 @@ from oimi.pipeline.messages import (
     MapUpdate,
     Message,
     Policy,
-    RobotStatus,
     State,
     WorldMap,
 )
@@ -238,7 +237,8 @@ class MapProducer:
 
     def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:
         spec, value = decoded.spec, decoded.value
-        if isinstance(value, ScriptVect):
+        # (no isinstance: on a Struct class it asks the metaclass, a call for every update)
+        if type(value) is ScriptVect:
             info = world.scriptinfo
             info.script_vect = list(value.paths)
             info.restart = value.restart
@@ -251,8 +251,8 @@ class MapProducer:
             setattr(owner, field, register[-self.register_capacity :])
             for name in spec.mirrors:
                 setattr(owner, name, getattr(value, name))
-        if isinstance(owner, RobotStatus):
-            owner.mark_set(spec.name)
+        if owner is world.robotstatus:
+            world.robotstatus.mark_set(spec.name)
 
 
 class _Index:
