@@ -56,8 +56,10 @@ _LISTED: Final = {EntityClass(m.name): (m.field, m.struct) for m in MAP_LISTS}
 _REPLACE: Final = Policy.R
 _NOTED: Final = Storage.NOTED
 _UPDATEABLE: Final = Storage.UPDATEABLE
+_ROBOT_STATUS: Final = EntityClass.ROBOT_STATUS
+_SCRIPT: Final = EntityClass.SCRIPT
 """Looked up once: an enum's member read through its class takes ``EnumType``'s slow
-``__getattr__`` path, and ``submit`` and ``consume`` test these for every update."""
+``__getattr__`` path, and ``submit`` and ``consume`` use these for every update or map."""
 
 
 class Rejection(Message):
@@ -261,8 +263,8 @@ class _Index:
     def __init__(self, world: WorldMap):
         self._world = world
         self._by_id: dict[EntityClass, dict[str, State]] = {
-            EntityClass.ROBOT_STATUS: {"": world.robotstatus},  # a singleton's Target.id is ""
-            EntityClass.SCRIPT: {"": world.scriptinfo},
+            _ROBOT_STATUS: {"": world.robotstatus},  # a singleton's Target.id is ""
+            _SCRIPT: {"": world.scriptinfo},
         }
         for klass, (field, _) in _LISTED.items():
             ids: dict[str, State] = {}
