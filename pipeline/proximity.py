@@ -129,11 +129,13 @@ class ProximityTracker:
 
     Feed it every ``WorldState`` in order (:meth:`update`), or a recording's samples of
     them (a state counts in its zone for the time since the one before), then
-    :meth:`finish`; memory is one entry per human plus the episodes found.
+    :meth:`finish`; memory is one entry per human plus the episodes found. ``zones=False``
+    counts no time in zones (``zone_ms`` stays empty: the expectations read none).
     """
 
-    def __init__(self, *, tick_ms: int) -> None:
+    def __init__(self, *, tick_ms: int, zones: bool = True) -> None:
         self.tick_ms = tick_ms
+        self.zones = zones
         self.kinds: dict[str, str] = {}
         self.closest_m: dict[str, float] = {}
         self.closest_centres_m: dict[str, float] = {}
@@ -173,21 +175,22 @@ class ProximityTracker:
             math.isnan,
             math.inf,
         )
-        contacts, open_ = state.contacts, self._open
+        contacts, open_, count_zones = state.contacts, self._open, self.zones
         for human in state.humans:
             who = human.id
-            zones = zone_ms.get(who)
-            if zones is None:  # first seen
+            if who not in kinds:  # first seen
                 kinds[who] = human.kind
-                zones = zone_ms[who] = dict.fromkeys(ZONE_NAMES, 0)
                 centres_m[who] = math.inf
+                if count_zones:
+                    zone_ms[who] = dict.fromkeys(ZONE_NAMES, 0)
             centres = hypot(human.x_m - x, human.y_m - y)
             if not centres >= (closest := centres_m[who]) and not isnan(closest):
                 centres_m[who] = centres
             distance = surface_gap(centres, robot, human)
             if distance < closest_m.get(who, inf):
                 closest_m[who], self.closest_at_ms[who] = distance, now
-            zones[zone_of(distance)] += lasted
+            if count_zones:
+                zone_ms[who][zone_of(distance)] += lasted
             if distance <= 0.0 or who in contacts:
                 self._touch(who, human, robot, now, distance)
             elif open_ and who in open_ and now - open_[who].last_ms > MERGE_MS:

@@ -32,7 +32,6 @@ from oimi.pipeline.messages import (
     MapUpdate,
     Message,
     Policy,
-    RobotStatus,
     State,
     WorldMap,
 )
@@ -54,6 +53,13 @@ _HEARD: Final = frozenset({"isonline", "poses"})
 """The attributes whose arrival :attr:`MapProducer.heard` notes."""
 _LISTED: Final = {EntityClass(m.name): (m.field, m.struct) for m in MAP_LISTS}
 """Classes kept as lists in the map: the WorldMap field and the Struct to allocate."""
+_REPLACE: Final = Policy.R
+_NOTED: Final = Storage.NOTED
+_UPDATEABLE: Final = Storage.UPDATEABLE
+_ROBOT_STATUS: Final = EntityClass.ROBOT_STATUS
+_SCRIPT: Final = EntityClass.SCRIPT
+"""Looked up once: an enum's member read through its class takes ``EnumType``'s slow
+``__getattr__`` path, and ``submit`` and ``consume`` use these for every update or map."""
 
 
 class Rejection(Message):
@@ -128,11 +134,11 @@ class MapProducer:
         except MapUpdateError as exc:
             return Rejection(update=update, reason=exc.message)
         key = decoded.key
-        if update.policy is Policy.R and key in self._pending_keys:
+        if update.policy is _REPLACE and key in self._pending_keys:
             self._pending = [p for p in self._pending if p.key != key]
         self._pending.append(decoded)
         self._pending_keys.add(key)
-        if decoded.spec.storage is not Storage.NOTED:
+        if decoded.spec.storage is not _NOTED:
             self._changes_pending = True
         return None
 
@@ -190,7 +196,7 @@ class MapProducer:
         noted: list[DecodedUpdate] = []
         for decoded in pending:
             spec, target = decoded.spec, decoded.target
-            if spec.storage is Storage.NOTED:  # a heartbeat: noted, not the map's
+            if spec.storage is _NOTED:  # a heartbeat: noted, not the map's
                 noted.append(decoded)
                 continue
             owner = index.find(target)
@@ -233,11 +239,12 @@ class MapProducer:
 
     def _apply(self, world: WorldMap, owner: State, decoded: DecodedUpdate) -> None:
         spec, value = decoded.spec, decoded.value
-        if isinstance(value, ScriptVect):
+        # (no isinstance: on a Struct class it asks the metaclass, a call for every update)
+        if type(value) is ScriptVect:
             info = world.scriptinfo
             info.script_vect = list(value.paths)
             info.restart = value.restart
-        elif spec.storage is Storage.UPDATEABLE:
+        elif spec.storage is _UPDATEABLE:
             setattr(owner, spec.name, value)
         else:
             # R and A alike are appended: R only dropped the pending updates (``submit``).
@@ -246,8 +253,8 @@ class MapProducer:
             setattr(owner, field, register[-self.register_capacity :])
             for name in spec.mirrors:
                 setattr(owner, name, getattr(value, name))
-        if isinstance(owner, RobotStatus):
-            owner.mark_set(spec.name)
+        if owner is world.robotstatus:
+            world.robotstatus.mark_set(spec.name)
 
 
 class _Index:
@@ -255,7 +262,10 @@ class _Index:
 
     def __init__(self, world: WorldMap):
         self._world = world
-        self._by_id: dict[EntityClass, dict[str, State]] = {}
+        self._by_id: dict[EntityClass, dict[str, State]] = {
+            _ROBOT_STATUS: {"": world.robotstatus},  # a singleton's Target.id is ""
+            _SCRIPT: {"": world.scriptinfo},
+        }
         for klass, (field, _) in _LISTED.items():
             ids: dict[str, State] = {}
             for entity in getattr(world, field):
@@ -263,10 +273,6 @@ class _Index:
             self._by_id[klass] = ids
 
     def find(self, target: Target) -> State | None:
-        if target.klass is EntityClass.ROBOT_STATUS:
-            return self._world.robotstatus
-        if target.klass is EntityClass.SCRIPT:
-            return self._world.scriptinfo
         return self._by_id[target.klass].get(target.id)
 
     def count(self, klass: EntityClass) -> int:

@@ -463,7 +463,7 @@ def decode_update(update: MapUpdate, *, script_root: str = "activities") -> Deco
         value = spec.decode(update.jsonmsg)
     except ValueError as exc:
         raise MapUpdateError(f"{_where(target, update)}: bad jsonmsg: {exc}") from None
-    if isinstance(value, ScriptVectPayload):
+    if type(value) is ScriptVectPayload:  # (isinstance would ask the Struct's metaclass)
         where = _where(target, update)
         for index, path in enumerate(value.update):
             problem = check_script_entry(path, script_root=script_root)

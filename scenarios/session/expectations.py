@@ -93,8 +93,9 @@ class Tracker:
         self.safety = Interventions()
         """The supervisor's episodes (the definition ``oimi analyse`` uses)."""
         self.last_ms = 0
-        self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz)
-        """Surface distances and contact episodes (the definitions ``oimi analyse`` uses)."""
+        self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz, zones=False)
+        """Surface distances and contact episodes (the definitions ``oimi analyse`` uses; no
+        time in zones, which no expectation reads)."""
         self._handle = {topic: getattr(self, name) for topic, name in HANDLERS.items()}
         """:attr:`HANDLERS`, bound."""
 

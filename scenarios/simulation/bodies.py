@@ -121,6 +121,50 @@ class Human(Mover):
         self.heading_of: float | None = None
         """The driver's heading ``state`` was built from (with ``state_of``, the motion)."""
 
+    def steer(self, robot_xy: tuple[float, float], time_ms: int, step_s: float) -> bool:
+        """Give the body the velocity its driver wants for the step starting at ``time_ms``
+        (a human out of the room stands); whether it comes back into the room (the world
+        puts it back in its space)."""
+        driver = self.driver
+        velocity = driver.velocity(self.xy, robot_xy, time_ms, step_s)
+        back = False
+        if not self.present:
+            if driver.left:
+                velocity = STILL
+            else:
+                self.present = back = True
+        # set only when changed (a standing human's stays set); equal floats are the
+        # same bits but for a zero's sign, so equal zeros count only as the same object
+        last = self.velocity
+        if velocity is not last and (velocity != last or 0.0 in velocity):
+            _chipmunk.cpBodySetVelocity(self.cp_body, velocity)
+            self.velocity = velocity
+        return back
+
+    def entry(self) -> BodyState:
+        """Its ``/world/state`` entry, facing where its driver heads: the one it had while
+        its motion and heading are the same objects, else a new one (kept)."""
+        motion, heading, last = self.motion, self.driver.heading_rad, self.state
+        if motion is self.state_of and heading is self.heading_of:
+            return last  # type: ignore[return-value]  # (state_of is set with state)
+        x, y, _, vx, vy, _ = motion
+        if last is not None and heading == self.heading_of and heading:  # the same bits
+            theta = last.theta_rad  # (a walk straight on keeps its heading)
+        else:
+            theta = rounded(heading, STATE_DECIMALS)
+        self.state = last = BodyState(
+            id=self.ident,
+            kind=self.kind,
+            x_m=rounded(x, STATE_DECIMALS),
+            y_m=rounded(y, STATE_DECIMALS),
+            theta_rad=theta,
+            vx_mps=int(vx * _SCALE) / _SCALE,
+            vy_mps=int(vy * _SCALE) / _SCALE,
+            radius_m=self.radius_m,
+        )
+        self.state_of, self.heading_of = motion, heading
+        return last
+
 
 class Thing(Mover):
     """An object (a ball): it rolls to a stop."""
@@ -132,6 +176,9 @@ class Thing(Mover):
         """Fraction of speed kept per step."""
         self.slowing = spec.rolling_decel_mps2 * step_s
         """Speed lost per step to rolling resistance."""
+        self.rested: Motion | None = None
+        """The motion it came to rest in (no velocity, no spin), while it keeps it: rolling
+        resistance leaves a body at rest as it is, so the world skips it."""
 
 
 class BodyReader:
@@ -194,28 +241,6 @@ class BodyReader:
             for index, ident in enumerate(ids)
             if (mover := self._movers.get(ident)) is not None
         ]
-
-
-def human_state(human: Human) -> BodyState:
-    """A human's ``/world/state`` entry (facing where its driver heads), kept in ``human``."""
-    motion, heading, last = human.motion, human.driver.heading_rad, human.state
-    x, y, _, vx, vy, _ = motion
-    if last is not None and heading == human.heading_of and heading:  # the same bits
-        theta = last.theta_rad  # (a walk straight on keeps its heading)
-    else:
-        theta = rounded(heading, STATE_DECIMALS)
-    human.state = BodyState(
-        id=human.ident,
-        kind=human.kind,
-        x_m=rounded(x, STATE_DECIMALS),
-        y_m=rounded(y, STATE_DECIMALS),
-        theta_rad=theta,
-        vx_mps=int(vx * _SCALE) / _SCALE,
-        vy_mps=int(vy * _SCALE) / _SCALE,
-        radius_m=human.radius_m,
-    )
-    human.state_of, human.heading_of = motion, heading
-    return human.state
 
 
 def thing_state(thing: Thing) -> BodyState:

@@ -53,13 +53,15 @@ silent), ms: the safety supervisor then counts a push over the time no report co
 a report a second would leave it unsure where the robot is by a walk's second."""
 
 
-class _Update(msgspec.Struct, frozen=True):
-    """A MapUpdate before its sequence number."""
+_REPLACE: Final = Policy.R
+_APPEND: Final = Policy.A
+_ONLINE: Final = FaultMode.ONLINE
+"""Looked up once: an enum's member read through its class takes ``EnumType``'s slow
+``__getattr__`` path (every reading names a policy per entity)."""
 
-    objectid: str
-    attributename: str
-    policy: Policy
-    jsonmsg: str
+_Update = tuple[str, str, Policy, str]
+"""A MapUpdate before its sequence number: ``(objectid, attributename, policy, jsonmsg)``
+(a plain tuple: sensors make and drop several per person at every reading)."""
 
 
 class Schedule:
@@ -190,37 +192,28 @@ class Sensors:
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
             updates.extend(self._sensor_status())
-        elif (
-            self.sonar.mode is not FaultMode.ONLINE
-            and time_ms - self._odometer[0] >= RING_DOWN_SPEED_MS
-        ):
+        elif self.sonar.mode is not _ONLINE and time_ms - self._odometer[0] >= RING_DOWN_SPEED_MS:
             updates.append(self._speed(world, time_ms))
         if not updates:
             return []
         first = self._seq + 1
         self._seq += len(updates)
         return [
-            MapUpdate(
-                objectid=update.objectid,
-                attributename=update.attributename,
-                policy=update.policy,
-                jsonmsg=update.jsonmsg,
-                seq=seq,
-            )
-            for seq, update in enumerate(updates, first)
+            MapUpdate(objectid=target, attributename=name, policy=policy, jsonmsg=jsonmsg, seq=seq)
+            for seq, (target, name, policy, jsonmsg) in enumerate(updates, first)
         ]
 
     def _startup(self, time_ms: int) -> list[_Update]:
         config = self.config
         camera, sonar = self.camera.objectid, self.sonar.objectid
         return [
-            _Update(camera, "isonline", Policy.R, TRUE),
-            _Update(camera, "width", Policy.R, str(config.camera_width_px)),
-            _Update(camera, "height", Policy.R, str(config.camera_height_px)),
-            _Update(camera, "fps", Policy.R, str(config.camera_fps)),
-            _Update(sonar, "isonline", Policy.R, TRUE),
-            _Update(sonar, "scanfrequency", Policy.R, str(config.sonar_scan_hz)),
-            _Update("RobotStatus", "startingtime", Policy.R, str(time_ms)),
+            (camera, "isonline", _REPLACE, TRUE),
+            (camera, "width", _REPLACE, str(config.camera_width_px)),
+            (camera, "height", _REPLACE, str(config.camera_height_px)),
+            (camera, "fps", _REPLACE, str(config.camera_fps)),
+            (sonar, "isonline", _REPLACE, TRUE),
+            (sonar, "scanfrequency", _REPLACE, str(config.sonar_scan_hz)),
+            ("RobotStatus", "startingtime", _REPLACE, str(time_ms)),
         ]
 
     def _read(
@@ -233,10 +226,8 @@ class Sensors:
         fov_rad: float,
     ) -> list[_Update]:
         """One reading of a sensor: what it sees, or its last reading when frozen."""
-        if sensor.mode is FaultMode.OFFLINE or sensor.mode is FaultMode.SILENT:
-            return []
-        if sensor.mode is FaultMode.FROZEN:
-            return list(sensor.last)
+        if sensor.mode is not _ONLINE:  # offline or silent: nothing; frozen: the last again
+            return list(sensor.last) if sensor.mode is FaultMode.FROZEN else []
         x, y, theta = pose
         half_fov, tracks, rng, config = fov_rad / 2, sensor.tracks, self.rng, self.config
         dropout, noise_rho, noise_theta = (
@@ -245,7 +236,7 @@ class Sensors:
             config.noise_theta_rad,
         )
         reading: list[_Update] = []
-        in_view: list[str] = []
+        in_view: set[str] = set()
         for cls, ident, ex, ey in entities:
             dx, dy = ex - x, ey - y
             rho = math.hypot(dx, dy)
@@ -253,7 +244,7 @@ class Sensors:
             if rho > range_m or abs(bearing) > half_fov:
                 continue
             objectid = f"{cls}/{ident}"
-            in_view.append(objectid)
+            in_view.add(objectid)
             appeared = tracks.setdefault(objectid, time_ms)
             if dropout and rng.random() < dropout:
                 continue
@@ -266,24 +257,24 @@ class Sensors:
                 reading.extend(self._first_sight(cls, ident, objectid))
             reading.append(_pose(objectid, rho, bearing, time_ms))
             tracking = {"permanencetime": time_ms - appeared, "appearanceon": appeared}
-            reading.append(_Update(objectid, "tracking", Policy.R, _json(tracking)))
+            reading.append((objectid, "tracking", _REPLACE, _json(tracking)))
         for objectid in list(tracks):
             if objectid not in in_view:
                 del tracks[objectid]
         # its heartbeat: when this scan or frame was taken (a frozen sensor repeats it, old)
-        reading.append(_Update(sensor.objectid, sensor.heartbeat, Policy.R, str(time_ms)))
+        reading.append((sensor.objectid, sensor.heartbeat, _REPLACE, str(time_ms)))
         sensor.last = reading
         return reading
 
     def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
         if cls == "Obstacle":
             fixed = ident not in self._echo_ids
-            return [_Update(objectid, "isfixed", Policy.R, TRUE if fixed else FALSE)]
+            return [(objectid, "isfixed", _REPLACE, TRUE if fixed else FALSE)]
         if cls == "Object":
             spec = next(o for o in self.scenario.world.objects if o.id == ident)
             return [
-                _Update(objectid, "istarget", Policy.R, TRUE if spec.istarget else FALSE),
-                _Update(objectid, "category", Policy.R, spec.category),
+                (objectid, "istarget", _REPLACE, TRUE if spec.istarget else FALSE),
+                (objectid, "category", _REPLACE, spec.category),
             ]
         return []
 
@@ -305,13 +296,13 @@ class Sensors:
                     "duration": time_ms - since,
                     "startingtime": since,
                 }
-                updates.append(_Update("RobotStatus", "led", Policy.A, _json(led)))
+                updates.append(("RobotStatus", "led", _APPEND, _json(led)))
             self._led = (world.led, time_ms)
         track, since = self._audio
         if world.audio != track:
             if track:
                 audio = {"duration": time_ms - since, "startingtime": since, "trackpath": track}
-                updates.append(_Update("RobotStatus", "audioout", Policy.A, _json(audio)))
+                updates.append(("RobotStatus", "audioout", _APPEND, _json(audio)))
             self._audio = (world.audio, time_ms)
         return updates
 
@@ -319,8 +310,8 @@ class Sensors:
         battery_ms = max(0, round(self.scenario.robot.battery_s * 1000) - time_ms)
         return [
             self._speed(world, time_ms),
-            _Update("RobotStatus", "batterytimeleft", Policy.R, str(battery_ms)),
-            _Update("RobotStatus", "elapsedtime", Policy.R, str(time_ms)),
+            ("RobotStatus", "batterytimeleft", _REPLACE, str(battery_ms)),
+            ("RobotStatus", "elapsedtime", _REPLACE, str(time_ms)),
         ]
 
     def _speed(self, world: World, time_ms: int) -> _Update:
@@ -336,7 +327,7 @@ class Sensors:
             "startingtime": since_ms,
         }
         self._odometer = (time_ms, odometer)
-        return _Update("RobotStatus", "speed", Policy.R, _json(speed))
+        return ("RobotStatus", "speed", _REPLACE, _json(speed))
 
     def _sensor_status(self) -> list[_Update]:
         """Each sensor's ``isonline`` again, with the robot's status: a listener that missed
@@ -347,7 +338,7 @@ class Sensors:
     def _status_of(self, sensor: _Sensor) -> _Update:
         """A sensor's ``isonline`` as its mode says."""
         online = FALSE if sensor.mode is FaultMode.OFFLINE else TRUE
-        return _Update(sensor.objectid, "isonline", Policy.R, online)
+        return (sensor.objectid, "isonline", _REPLACE, online)
 
 
 def _period_ms(rate_hz: float) -> float:
@@ -361,12 +352,12 @@ def _pose(objectid: str, rho: float, theta: float, time_ms: int) -> _Update:
         "positiontheta": rounded(theta, DECIMALS) + 0.0,
         "positionchangetime": time_ms,
     }
-    return _Update(objectid, "poses", Policy.A, _json(content))
+    return (objectid, "poses", _APPEND, _json(content))
 
 
 def _touch(touchtype: str, duration_ms: int, startingtime_ms: int) -> _Update:
     content = {"touchtype": touchtype, "duration": duration_ms, "startingtime": startingtime_ms}
-    return _Update("RobotStatus", "touch", Policy.A, _json(content))
+    return ("RobotStatus", "touch", _APPEND, _json(content))
 
 
 _ENCODER: Final = msgspec.json.Encoder()

@@ -34,12 +34,11 @@ from oimi.scenarios.simulation.bodies import (
     Motion,
     Robot,
     Thing,
-    human_state,
     rigid_state,
     thing_state,
     wrap_angle,
 )
-from oimi.scenarios.simulation.humans import STILL, Arena, BehaviourFactory, HumanDriver, capped
+from oimi.scenarios.simulation.humans import Arena, BehaviourFactory, HumanDriver, capped
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1
@@ -200,22 +199,11 @@ class World:
         """Advance one tick (``tick * tick_ms`` to the next) with the actuator's outputs."""
         time_ms = tick * self.tick_ms
         robot_xy, before = self._robot.xy, self._robot.motion
-        step_s, set_velocity = self.step_s, _chipmunk.cpBodySetVelocity
+        step_s = self.step_s
         for human in self.humans:
-            velocity = human.driver.velocity(human.xy, robot_xy, time_ms, step_s)
-            if not human.present:
-                if human.driver.left:
-                    velocity = STILL
-                else:  # back in the room
-                    self.space.add(human.body, human.shape)
-                    human.present = True
-                    self._reader.moved_bodies()
-            # set only when changed (a standing human's stays set); equal floats are the
-            # same bits but for a zero's sign, so equal zeros count only as the same object
-            last = human.velocity
-            if velocity is not last and (velocity != last or 0.0 in velocity):
-                set_velocity(human.cp_body, velocity)
-                human.velocity = velocity
+            if human.steer(robot_xy, time_ms, step_s):  # back in the room
+                self.space.add(human.body, human.shape)
+                self._reader.moved_bodies()
         self._drive_robot(outputs)
         self.led, self.audio = outputs.led, outputs.audio
         space = self.space
@@ -229,7 +217,8 @@ class World:
             self._count_odometer(before)
         self._reclamp_robot()
         for thing in self.things:
-            self._roll(thing)
+            if thing.motion is not thing.rested:  # untouched since it stopped: nothing to do
+                self._roll(thing)
         contacts, ended, left = self._contacts(time_ms)
         self.last_report = StepReport(
             tick=tick, time_ms=time_ms, contacts=contacts, ended=ended, left=left
@@ -284,7 +273,10 @@ class World:
             factor = slower / speed
             vx, vy = vx * factor, vy * factor
         spin = motion.omega_radps * thing.keep
-        thing.drive(vx, vy, spin if abs(spin) > STOP_SPEED_MPS else 0.0)
+        spin = spin if abs(spin) > STOP_SPEED_MPS else 0.0
+        thing.drive(vx, vy, spin)
+        # stopped (+0.0 each): rolling this motion again would drive the same zeros
+        thing.rested = thing.motion if not (vx or vy or spin) else None
 
     def _contacts(
         self, time_ms: int
@@ -378,16 +370,7 @@ class World:
             tick=tick,
             time_ms=time_ms,
             robot=robot.state,
-            humans=tuple(
-                [
-                    human.state
-                    if human.motion is human.state_of
-                    and human.driver.heading_rad is human.heading_of
-                    else human_state(human)
-                    for human in self.humans
-                    if human.present
-                ]
-            ),
+            humans=tuple([human.entry() for human in self.humans if human.present]),
             objects=tuple(
                 [
                     thing.state if thing.motion is thing.state_of else thing_state(thing)

@@ -99,6 +99,22 @@ def test_touches_a_moment_apart_are_one_episode_and_zones_use_the_surfaces() -> 
     ]
 
 
+def test_a_tracker_without_zones_finds_the_same_distances_and_episodes() -> None:
+    """The expectations' tracker counts no time in zones; all else is the analysis's."""
+    from oimi.pipeline.proximity import ProximityTracker
+
+    session = Session(load_scenario(SCENARIOS / "child_walks_into_robot.toml"))
+    full, lean = ProximityTracker(tick_ms=20), ProximityTracker(tick_ms=20, zones=False)
+    for tick in range(session.scenario.ticks):
+        session.step(tick)
+        state = session.world.state(tick=tick, time_ms=tick * 20)
+        full.update(state)
+        lean.update(state)
+    assert lean.zone_ms == {} and sum(full.zone_ms["child"].values()) == tick * 20 + 20
+    assert (lean.closest_m, lean.closest_centres_m) == (full.closest_m, full.closest_centres_m)
+    assert lean.finish() == full.finish() != []
+
+
 @settings(max_examples=300, deadline=None, derandomize=True)
 @given(st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([0.45, 1.2, 3.6, -0.0]))
 def test_a_distance_is_in_the_zone_whose_bounds_hold_it(distance_m: float) -> None:
