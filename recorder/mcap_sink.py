@@ -234,6 +234,7 @@ class McapSink:
         try:
             if (last := self._sampling.last()) is not None:
                 self._add(Topic.WORLD_STATE, last[0], self._encode(last[1]))
+            self._messages.flush()
             self._writer.finish()
         finally:
             if self._file is not None:
@@ -257,13 +258,14 @@ class _MessageWriter:
     """Adds messages exactly as mcap's ``Writer.add_message`` does, in far fewer calls.
 
     mcap 1.6 builds a ``Message`` dataclass per message and writes it field by
-    field through its record builder (about twenty Python calls); this packs the
-    record's fixed part in one go into the writer's chunk builder and keeps the
-    writer's statistics the same way, so the file's bytes do not change (the
-    recorder tests and the golden recordings compare them). It relies on the
-    writer's private chunk builder, statistics and chunk finaliser and on the record
-    builder's buffer, like ``_outside_chunks``; without them it falls back to
-    ``add_message``.
+    field through its record builder (about twenty Python calls), and updates the
+    chunk's and the file's times, counts and message index at each. This packs each
+    record in one go into the open chunk's bytes and hands them, with the chunk's
+    times, counts and index, to the writer's chunk builder and statistics once per
+    chunk (when it is full, and at :meth:`flush`, before the writer finishes), so the
+    file's bytes do not change (the recorder tests and the golden recordings compare
+    them). It relies on the writer's private chunk builder, statistics and chunk
+    finaliser, like ``_outside_chunks``; without them it falls back to ``add_message``.
     """
 
     def __init__(self, writer: Writer, *, chunk_size_bytes: int) -> None:
@@ -271,13 +273,20 @@ class _MessageWriter:
         self._chunk_size = chunk_size_bytes
         self._fast = all(
             hasattr(writer, name) for name in (_outside_chunks._ATTR, _STATISTICS, _FINALIZE_CHUNK)
-        ) and isinstance(builder := getattr(writer, _outside_chunks._ATTR, None), ChunkBuilder)
-        self._fast = self._fast and hasattr(builder.record_writer, "_buffer")
+        ) and isinstance(getattr(writer, _outside_chunks._ATTR, None), ChunkBuilder)
         if self._fast:
             self._builder = ChunkBuilder()
             setattr(writer, _outside_chunks._ATTR, self._builder)
             self._statistics: Any = getattr(writer, _STATISTICS)
             self._finalize_chunk = getattr(writer, _FINALIZE_CHUNK)
+        self._records = bytearray()
+        """The open chunk's message records, not yet in the chunk builder."""
+        self._index: dict[int, list[tuple[int, int]]] = {}
+        """Each channel's ``(log time, offset)`` entries in the open chunk."""
+        self._count = 0
+        self._start = self._end = 0
+        self._base = 0
+        """Where the records begin in the chunk builder's (what it held before them)."""
 
     def add(self, channel: int, time_ns: int, payload: bytes) -> None:
         """One message with log time = publish time = ``time_ns`` and sequence 0 (MCAP's
@@ -292,30 +301,54 @@ class _MessageWriter:
                 sequence=0,
             )
             return
-        statistics = self._statistics
-        if statistics.message_count == 0 or time_ns < statistics.message_start_time:
-            statistics.message_start_time = time_ns
-        if time_ns > statistics.message_end_time:
-            statistics.message_end_time = time_ns
-        statistics.channel_message_counts[channel] += 1  # insertion order is recorded
-        statistics.message_count += 1
-        # What ``ChunkBuilder.add_message`` does for ``Message(channel, time_ns, ...)``:
-        chunk = self._builder
-        buffer = chunk.record_writer._buffer  # the RecordBuilder's BytesIO (new per chunk)
-        if chunk.num_messages == 0 or time_ns < chunk.message_start_time:
-            chunk.message_start_time = time_ns
-        if time_ns > chunk.message_end_time:
-            chunk.message_end_time = time_ns
-        index = chunk.message_indices.get(channel)
-        if index is None:
-            index = chunk.message_indices[channel] = _MessageIndex(channel_id=channel, records=[])
-        index.records.append((time_ns, buffer.tell()))
-        chunk.num_messages += 1
-        length = _MESSAGE_FIELDS_BYTES + len(payload)
-        buffer.write(_MESSAGE_PREFIX.pack(Opcode.MESSAGE, length, channel, 0, time_ns, time_ns))
-        buffer.write(payload)
-        if buffer.tell() > self._chunk_size:
+        records = self._records
+        if self._count == 0:
+            self._base = self._builder.count
+            self._start = time_ns
+        elif time_ns < self._start:
+            self._start = time_ns
+        if time_ns > self._end:
+            self._end = time_ns
+        self._count += 1
+        entries = self._index.get(channel)
+        if entries is None:
+            entries = self._index[channel] = []
+        entries.append((time_ns, self._base + len(records)))
+        records += _MESSAGE_PREFIX.pack(
+            Opcode.MESSAGE, _MESSAGE_FIELDS_BYTES + len(payload), channel, 0, time_ns, time_ns
+        )
+        records += payload
+        if self._base + len(records) > self._chunk_size:
+            self.flush()
             self._finalize_chunk()
+
+    def flush(self) -> None:
+        """Hand the open chunk's messages to the writer's chunk builder and statistics
+        (what ``add_message`` would have done at each of them)."""
+        if not self._count:
+            return
+        statistics, chunk = self._statistics, self._builder
+        _widen(statistics, statistics.message_count == 0, self._start, self._end)
+        _widen(chunk, chunk.num_messages == 0, self._start, self._end)
+        counts = statistics.channel_message_counts
+        for channel, entries in self._index.items():
+            counts[channel] += len(entries)  # in the order first written: it is recorded
+            index = _MessageIndex(channel_id=channel, records=[])
+            chunk.message_indices.setdefault(channel, index).records += entries
+        statistics.message_count += self._count
+        chunk.num_messages += self._count
+        chunk.record_writer.write(self._records)
+        self._records = bytearray()
+        self._index = {}
+        self._count = self._end = 0
+
+
+def _widen(target: Any, empty: bool, start: int, end: int) -> None:
+    """Make ``target``'s message time range (the file's or a chunk's) cover ``start`` to
+    ``end`` (an empty one takes ``start`` as it is)."""
+    if empty or start < target.message_start_time:
+        target.message_start_time = start
+    target.message_end_time = max(target.message_end_time, end)
 
 
 class _MessageIndex(MessageIndex):

@@ -141,18 +141,15 @@ class Rule:
             if memo.wait:
                 memo.wait -= 1
             elif memo.last is None:  # nothing to compare with: encoded if it does not hold
-                memo.missed()  # (the evaluation changes none of the parts it reads)
-                later = True
+                later = True  # (the evaluation changes none of the parts it reads)
             else:
                 inputs = memo.inputs(stores, parts)
                 last = memo.last
-                if last[0] == inputs:
-                    memo.misses = 0
+                if memo.compared(inputs, last[0] == inputs):
                     if last[2] is not None:  # it bound or released aliases or variables
                         _restore((world_map.aliases, world_map.variables, ctx.tick_scope), last[2])
                         parts.rebound()
                     return last[1]
-                memo.missed()
         if not memo.known:  # its functions may change anything: the parts a fired body
             parts.settle()  # left to the map are encoded first, and all are stale after
         found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
@@ -257,7 +254,10 @@ def check_rule(cls: type[Rule], *, functions: FunctionRegistry) -> None:
 
 
 MAX_WAIT: Final = 8
-"""The most evaluations a rule whose inputs keep changing goes without comparing them."""
+"""The evaluations a rule goes without comparing its inputs when comparing does not pay."""
+EVALUATION_BYTES: Final = 4000
+"""About what evaluating a condition costs, in bytes of the map encoded to compare its
+inputs (the library's conditions take 1 to 5 us; encoding takes about 1 us per kB)."""
 
 
 class Memo:
@@ -266,14 +266,16 @@ class Memo:
     An evaluation reads only :attr:`Condition.reads` (map parts, the stores) and writes
     only the stores, so one that finds all of them as the last evaluation that did not
     hold found them would decide the same and write the same. Comparing costs encoding
-    the parts read: after ``n`` differences in a row, a rule compares once in
-    ``min(n, MAX_WAIT)`` evaluations; with no evaluation to compare with, it encodes them
-    after evaluating (which changes none of them), only when the condition did not hold.
-    A condition that may read anything (a function without ``reads``) or reads the clock
-    (new at every tick) is always evaluated.
+    the parts read, so a rule compares only while it pays: while the share of its
+    comparisons that found the inputs unchanged, times an evaluation
+    (:data:`EVALUATION_BYTES`), outweighs their size; else once in ``MAX_WAIT + 1``
+    evaluations. With no evaluation to compare with, it encodes them after evaluating
+    (which changes none of them), only when the condition did not hold. A condition that
+    may read anything (a function without ``reads``) or reads the clock (new at every
+    tick) is always evaluated.
     """
 
-    __slots__ = ("condition", "known", "last", "misses", "paths", "stores", "wait")
+    __slots__ = ("condition", "known", "last", "paths", "rate", "stores", "wait")
 
     def __init__(self, condition: Condition) -> None:
         self.condition = condition
@@ -291,17 +293,21 @@ class Memo:
         self.last: tuple[tuple[object, ...], RuleDecision, Stores | None] | None = None
         """The last evaluation that did not hold and was compared: what it found, its
         decision and, when it wrote to the stores, what they held after it."""
-        self.misses = 0
+        self.rate = 1.0
+        """The running share of comparisons that found the inputs unchanged."""
         self.wait = 0
 
     def inputs(self, stores: Stores | None, parts: MapParts) -> tuple[object, ...]:
         """What an evaluation reads: the stores' contents and the parts, encoded."""
         return (stores, *[parts.encoded(path) for path in self.paths or ()])
 
-    def missed(self) -> None:
-        """The inputs differed: wait longer before comparing again."""
-        self.misses = min(self.misses + 1, MAX_WAIT)
-        self.wait = self.misses - 1
+    def compared(self, inputs: tuple[object, ...], unchanged: bool) -> bool:
+        """Note what comparing ``inputs`` found (and whether the next evaluation compares
+        again); return ``unchanged``."""
+        self.rate += (unchanged - self.rate) / 8
+        size = sum(map(len, inputs[1:]))  # type: ignore[arg-type]
+        self.wait = 0 if self.rate * EVALUATION_BYTES >= size else MAX_WAIT
+        return unchanged
 
 
 def _restore(stores: tuple[dict[str, str], ...], contents: Stores) -> None:

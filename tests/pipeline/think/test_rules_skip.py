@@ -29,7 +29,15 @@ from oimi.pipeline.think.functions import (
     evaluation,
 )
 from oimi.pipeline.think.library import BUILTIN_RULES
-from oimi.pipeline.think.rules import Effect, Memo, Rule, RuleContext, RuleRegistry
+from oimi.pipeline.think.rules import (
+    EVALUATION_BYTES,
+    MAX_WAIT,
+    Effect,
+    Memo,
+    Rule,
+    RuleContext,
+    RuleRegistry,
+)
 from oimi.pipeline.think.stdlib import default_registry
 
 CALLS: list[str] = []
@@ -147,6 +155,16 @@ def test_a_function_without_reads_makes_its_conditions_read_anything() -> None:
 def test_a_condition_that_reads_the_clock_is_never_skipped() -> None:
     memo = Memo(compile_condition('! {E: touched ("C")}'))
     assert memo.known and memo.paths is None
+
+
+def test_a_rule_compares_its_inputs_only_while_that_pays() -> None:
+    memo = Memo(compile_condition("{CLASS #Obstacle L ?o ?THIS>&positionrho OP< 0.45} ! {TRUE}"))
+    small, large = (None, b"x" * 100), (None, b"x" * (EVALUATION_BYTES // 2))
+    assert memo.compared(small, False) is False and memo.wait == 0, "cheap: compared again"
+    assert memo.compared(large, True) is True and memo.wait == 0, "found unchanged: it pays"
+    for _ in range(8):
+        memo.compared(large, False)
+    assert memo.wait == MAX_WAIT, "large and changing: evaluated without comparing"
 
 
 def test_reads_name_fields_of_the_map() -> None:
