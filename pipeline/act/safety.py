@@ -108,6 +108,9 @@ class _Anchor(NamedTuple):
     """The reckoning then (its drift since widens the margin while a sonar is down)."""
 
 
+_STOP: Final = SafetyZone.STOP
+_SLOW: Final = SafetyZone.SLOW
+"""(Module names: a member read through its enum class takes a slow path, for each human.)"""
 EPISODE_GAP_MS: Final = 500
 """An intervention episode ends after this long without a limited tick."""
 _SEVERITY: Final = {
@@ -396,7 +399,7 @@ class SafetySupervisor:
         sin_disc = 1.0 if margin >= distance else margin / distance
         reach = a * distance
         if key in held:
-            return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, SafetyZone.STOP, walk, reach)
+            return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, _STOP, walk, reach)
         # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
         # no faster than the base brakes): separation.braking_cap
         lead = a * self._dt_s + walk
@@ -404,9 +407,7 @@ class SafetySupervisor:
         cap = braking_cap(lead, room, walk)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        return Constraint(
-            key, surface, u_x, u_y, cap, sin_disc, SafetyZone.SLOW, walk, reach, lead, room
-        )
+        return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
 
     def _explained(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> bool:
         """Whether an echo is a human the map tracks: their readings place them closer

@@ -40,6 +40,8 @@ class Constraint(NamedTuple):
     """``2 * a * (s - stop)`` (none inside the stop zone)."""
 
 
+_STOP: Final = SafetyZone.STOP
+"""(A module name: a member read through its enum class takes a slow path, at every test.)"""
 _TOLERANCE: Final = 1e-12
 _SAME: Final = 1e-12
 """Two velocities this close (m/s, each component) are the same, give or take rounding."""
@@ -111,7 +113,7 @@ def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
     what it has across u kept; else slowed to stop in time or bent into the cone, whichever
     is nearer)."""
     along = v_x * c.u_x + v_y * c.u_y
-    if c.zone is SafetyZone.STOP:
+    if c.zone is _STOP:
         return _into_cone(c, v_x, v_y, along)
     if along > 0.0:
         cap = closing_cap(c, math.hypot(v_x - along * c.u_x, v_y - along * c.u_y))
@@ -272,10 +274,10 @@ def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]
 def satisfied(c: Constraint, v_x: float, v_y: float) -> bool:
     """Whether (v_x, v_y) meets the constraint (what :func:`allowed_by` returns does)."""
     along = v_x * c.u_x + v_y * c.u_y
-    if c.zone is not SafetyZone.STOP and along > 0.0:
+    if c.zone is not _STOP and along > 0.0:
         across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
         return along <= closing_cap(c, across) + _TOLERANCE
     speed = math.hypot(v_x, v_y)
-    if c.zone is not SafetyZone.STOP and stops_in_time(c, speed):
+    if c.zone is not _STOP and stops_in_time(c, speed):
         return True
     return along <= -cone_sine(c, speed) * speed + _TOLERANCE
