@@ -339,8 +339,15 @@ class SafetySupervisor:
         v_x, v_y, binding = meeting(constraints, v_x, v_y, half_view)
         if constraints:  # the base lags its command (a spinning body's most): its velocity too
             reckoning = self._reckoning
+            r_x, r_y = reckoning.velocity
+            rolling = math.hypot(r_x, r_y)
+            if (blind or stale) and rolling > config.slow_speed_mps:  # capped as asked
+                r_x, r_y = (
+                    r_x * config.slow_speed_mps / rolling,
+                    r_y * config.slow_speed_mps / rolling,
+                )
             v_x, v_y, lagging = followed_meeting(
-                constraints, v_x, v_y, half_view, reckoning.followed, reckoning.velocity
+                constraints, v_x, v_y, half_view, reckoning.followed, (r_x, r_y)
             )
             if lagging is not None and (binding is None or lagging.surface_m < binding.surface_m):
                 binding = lagging

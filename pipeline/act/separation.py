@@ -238,27 +238,34 @@ def followed_meeting(
     rolling: tuple[float, float],
 ) -> tuple[float, float, Constraint | None]:
     """For (v_x, v_y), what :func:`meeting` let through: itself when the velocity the base
-    takes for it in a tick (``followed``: it changes by ``max_accel_mps2`` at most from
-    ``rolling``, its velocity now) meets every constraint; else, with the nearest constraint
-    its outcome broke, the command nearest it on the way from what meets them nearest
-    ``rolling`` (:func:`meeting`) whose outcome does, or when none does, that one (the base
-    turns towards it as fast as it can) unless (v_x, v_y) turns it the same way (a slower
-    drive straight on: nothing to change)."""
+    takes for it in a tick (``followed``: it changes by ``max_accel_mps2`` at most) meets
+    every constraint. Else, with the nearest constraint that outcome broke, the command
+    nearest (v_x, v_y) on the way to it from a start whose outcome meets them all: what
+    :func:`meeting` makes of ``rolling`` (the base's velocity, capped as the request was), or
+    else a stand (braking straight). When neither start's outcome meets them, the one whose
+    outcome closes more slowly on that constraint (the base turns towards it as fast as it
+    can), unless (v_x, v_y) turns the base the same way (a slower drive straight on:
+    nothing to change, no limit reported)."""
     f_x, f_y = followed(v_x, v_y)
     if f_x == v_x and f_y == v_y:  # within a tick's reach: (v_x, v_y) met them (most ticks)
         return v_x, v_y, None
     failing = [c for c in constraints if not satisfied(c, f_x, f_y)]
     if not failing:
         return v_x, v_y, None
+    nearest = min(failing, key=_surface)
     b_x, b_y, _ = meeting(constraints, *rolling, half_view)
-    o_x, o_y = followed(b_x, b_y)
-    if all(satisfied(c, o_x, o_y) for c in constraints):
-        v_x, v_y = scaled_to_meet(constraints, v_x, v_y, followed, (b_x, b_y))
-    elif abs(o_x - f_x) <= _SAME and abs(o_y - f_y) <= _SAME:
+    starts = ((b_x, b_y), (0.0, 0.0))
+    outcomes = [followed(*start) for start in starts]
+    for start, (o_x, o_y) in zip(starts, outcomes, strict=True):
+        if all(satisfied(c, o_x, o_y) for c in constraints):
+            v_x, v_y = scaled_to_meet(constraints, v_x, v_y, followed, start)
+            return v_x, v_y, nearest
+    (o_x, o_y), (s_x, s_y) = outcomes
+    if s_x * nearest.u_x + s_y * nearest.u_y < o_x * nearest.u_x + o_y * nearest.u_y:
+        b_x, b_y, o_x, o_y = 0.0, 0.0, s_x, s_y  # braking straight closes more slowly
+    if abs(o_x - f_x) <= _SAME and abs(o_y - f_y) <= _SAME:
         return v_x, v_y, None
-    else:
-        v_x, v_y = b_x, b_y
-    return v_x, v_y, min(failing, key=_surface)
+    return b_x, b_y, nearest
 
 
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:

@@ -382,6 +382,22 @@ def test_a_stand_asked_while_closing_too_fast_brakes_the_base_straight(bearing_d
         assert after[0] * before[1] == pytest.approx(after[1] * before[0], abs=1e-12)
 
 
+def test_a_stale_reading_caps_what_the_lag_check_lets_through_at_the_slow_speed() -> None:
+    """The robot drives at 0.5 m/s when a child beside it is reported by a reading older
+    than max_data_age_ms: every velocity let through is capped at slow_speed_mps, the
+    one the lag check steers the base's braking towards too (an adversarial review saw
+    0.43 m/s let through, the base's own velocity made to meet the limits, uncapped)."""
+    supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    for tick in range(30):
+        supervise(FAST, room(), now_ms=tick * TICK_MS, supervisor=supervisor)
+    stamp = 30 * TICK_MS - supervisor.config.max_data_age_ms - 1  # (filled: not None)
+    for tick in range(30, 40):
+        child = seen(centre_at(0.7), -math.pi / 2, at_ms=stamp)
+        verdict, _ = supervise(FAST, room(child), now_ms=tick * TICK_MS, supervisor=supervisor)
+        assert verdict.limited
+        assert math.hypot(*verdict.velocity[:2]) <= supervisor.config.slow_speed_mps + 1e-12
+
+
 def test_an_episode_is_recorded_when_it_starts_worsens_and_ends_not_every_tick() -> None:
     supervisor = SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
     events: list[SafetyIntervention] = []

@@ -64,7 +64,7 @@ def test_a_velocity_is_slowed_to_the_largest_share_that_meets_every_constraint(
     assert s_x * v_y == pytest.approx(s_y * v_x, abs=1e-12)  # its direction kept
 
 
-@settings(max_examples=300, deadline=None, derandomize=True)
+@settings(max_examples=1000, deadline=None, derandomize=True)
 @given(
     humans=st.lists(human, min_size=1, max_size=3),
     v_x=speed,
@@ -75,11 +75,13 @@ def test_a_velocity_is_slowed_to_the_largest_share_that_meets_every_constraint(
 def test_the_base_lagging_its_command_still_meets_every_constraint_when_it_can(
     humans, v_x, v_y, m_x, m_y
 ) -> None:
-    """The base moves at (m_x, m_y) and changes by a*dt a tick at most. Whenever some
-    command's outcome meets every constraint (the velocity that meets them nearest the
-    base's is within a tick's reach), the command let through has such an outcome; else it
-    is that velocity (the base turns to it as fast as it can) or the one asked for when it
-    turns the base the same way."""
+    """The base moves at (m_x, m_y) and changes by a*dt a tick at most. When the velocity
+    the passes make of the base's is within a tick's reach, or braking straight meets every
+    constraint after the tick, the command let through has an outcome that meets them all
+    (an adversarial review found braking straight meeting them where the command let
+    through did not, 116 times in 42,720). Otherwise it is that velocity or a stand,
+    whichever closes more slowly on the nearest constraint broken, or the one asked for
+    when it turns the base the same way; never faster than the request or the base."""
 
     def followed(c_x: float, c_y: float) -> tuple[float, float]:
         after = ramp_velocity(Velocity(m_x, m_y), Velocity(c_x, c_y), RobotLimits(), dt_ms=TICK_MS)
@@ -92,10 +94,18 @@ def test_the_base_lagging_its_command_still_meets_every_constraint_when_it_can(
     b_x, b_y, _ = meeting(humans, m_x, m_y, math.pi)
     if math.hypot(b_x - m_x, b_y - m_y) <= A * TICK_MS / 1000:
         assert meets
+    if all(satisfied(c, *followed(0.0, 0.0)) for c in humans):
+        assert meets
     if broken is None:
         assert (r_x, r_y) == (v_x, v_y)
     elif not meets:
-        assert (r_x, r_y) == (b_x, b_y)
+        assert (r_x, r_y) in ((b_x, b_y), (0.0, 0.0))
+        f_x, f_y = followed(v_x, v_y)
+        assert not all(satisfied(c, f_x, f_y) for c in humans)
+        closing = {(r_x, r_y): o_x * broken.u_x + o_y * broken.u_y}
+        for start in ((b_x, b_y), (0.0, 0.0)):
+            s_x, s_y = followed(*start)
+            assert closing[r_x, r_y] <= s_x * broken.u_x + s_y * broken.u_y
     assert math.hypot(r_x, r_y) <= max(math.hypot(v_x, v_y), math.hypot(m_x, m_y)) + 1e-12
 
 
