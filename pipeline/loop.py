@@ -8,6 +8,7 @@ back what the body must do. Every step's event goes to the sink it was given.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Final
 
 import msgspec
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
@@ -50,6 +51,10 @@ from oimi.pipeline.sink import NS_PER_MS, Sink
 from oimi.pipeline.think.chain import RuleChain
 from oimi.pipeline.think.mapparts import mistyped
 from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
+
+_SENSOR_UPDATES: Final = Topic.SENSOR_UPDATES
+_MAP: Final = Topic.MAP
+"""The topics written at most ticks: a global, not the enum class's slow attribute path."""
 
 
 class PipelineConfig(Message):
@@ -136,7 +141,7 @@ class Pipeline:
         moved = self.handler.tick(now_ms)
         self._operator_moved = moved or bool(commands) or not self._last_operator
         if updates:
-            emitter.emit(Topic.SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
+            emitter.emit(_SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
             for update in updates:
                 rejection = self.producer.submit(update)
                 if rejection is not None:
@@ -344,7 +349,7 @@ class Pipeline:
     def _publish_map(self, emitter: _Emitter) -> None:
         delta = self._map_deltas.after(self.map, tick=emitter.tick, time_ms=emitter.time_ms)
         if delta is not None:
-            self.sink.record(Topic.MAP, emitter.time_ns, delta)
+            self.sink.record(_MAP, emitter.time_ns, delta)
 
     def _publish_operator(self, emitter: _Emitter) -> None:
         if not self._operator_moved:
