@@ -53,8 +53,10 @@ from oimi.pipeline.think.mapparts import mistyped
 from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
 
 _SENSOR_UPDATES: Final = Topic.SENSOR_UPDATES
+_RULE_DECISIONS: Final = Topic.RULE_DECISIONS
 _MAP: Final = Topic.MAP
-"""The topics written at most ticks: a global, not the enum class's slow attribute path."""
+"""The topics of every tick the sensors move the map: a global each, not the enum class's
+slow attribute path."""
 
 
 class PipelineConfig(Message):
@@ -212,7 +214,7 @@ class Pipeline:
         # 8. Propagate the map through the rule chain.
         decisions = self.chain.propagate(self.map, now_ms=now_ms)
         if decisions:
-            emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+            emitter.emit(_RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
         failures = self.chain.take_failures()
         if failures:  # rules that raised were removed: the chain changed
             emitter.logs.extend(failures)
