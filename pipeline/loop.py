@@ -8,6 +8,7 @@ back what the body must do. Every step's event goes to the sink it was given.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Final
 
 import msgspec
 from oimi.pipeline.act.actuator import Actuator, ActuatorStep
@@ -50,6 +51,12 @@ from oimi.pipeline.sink import NS_PER_MS, Sink
 from oimi.pipeline.think.chain import RuleChain
 from oimi.pipeline.think.mapparts import mistyped
 from oimi.pipeline.think.reader import BlockReader, ReadOutcome, ScriptEntry, ScriptResolver
+
+_SENSOR_UPDATES: Final = Topic.SENSOR_UPDATES
+_RULE_DECISIONS: Final = Topic.RULE_DECISIONS
+_MAP: Final = Topic.MAP
+"""The topics of every tick the sensors move the map: a global each, not the enum class's
+slow attribute path."""
 
 
 class PipelineConfig(Message):
@@ -136,7 +143,7 @@ class Pipeline:
         moved = self.handler.tick(now_ms)
         self._operator_moved = moved or bool(commands) or not self._last_operator
         if updates:
-            emitter.emit(Topic.SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
+            emitter.emit(_SENSOR_UPDATES, SensorUpdates, updates=tuple(updates))
             for update in updates:
                 rejection = self.producer.submit(update)
                 if rejection is not None:
@@ -207,7 +214,7 @@ class Pipeline:
         # 8. Propagate the map through the rule chain.
         decisions = self.chain.propagate(self.map, now_ms=now_ms)
         if decisions:
-            emitter.emit(Topic.RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
+            emitter.emit(_RULE_DECISIONS, RuleDecisions, decisions=tuple(decisions))
         failures = self.chain.take_failures()
         if failures:  # rules that raised were removed: the chain changed
             emitter.logs.extend(failures)
@@ -344,7 +351,7 @@ class Pipeline:
     def _publish_map(self, emitter: _Emitter) -> None:
         delta = self._map_deltas.after(self.map, tick=emitter.tick, time_ms=emitter.time_ms)
         if delta is not None:
-            self.sink.record(Topic.MAP, emitter.time_ns, delta)
+            self.sink.record(_MAP, emitter.time_ns, delta)
 
     def _publish_operator(self, emitter: _Emitter) -> None:
         if not self._operator_moved:

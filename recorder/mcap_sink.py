@@ -197,7 +197,10 @@ class McapSink:
         """Write one event at simulated time ``time_ns`` (and its Foxglove views, if due)."""
         if self._closed:
             raise RecordingError(f"record({topic}) after close()", source=self._name)
-        if isinstance(message, WorldState):
+        # Exact classes (nothing derives from them): ``isinstance`` on a Struct class that
+        # misses goes through msgspec's metaclass, at every event.
+        kind = type(message)
+        if kind is WorldState:
             if self._sampling.keep(time_ns, message):
                 self._add(topic, time_ns, self._encode(message))
             if self._every:
@@ -205,7 +208,7 @@ class McapSink:
                     self._add(view_topic, time_ns, self._encode(view))
             return
         self._add(topic, time_ns, self._encode(message))
-        if self._every and isinstance(message, LogEntries):
+        if self._every and kind is LogEntries:
             for log in foxglove.log_messages(message, time_ns):
                 self._add(FoxgloveTopic.LOG, time_ns, self._encode(log))
 
@@ -250,6 +253,8 @@ class McapSink:
 _MESSAGE_PREFIX: Final = struct.Struct("<BQHIQQ")
 """A Message record's opcode and length, then channel id, sequence, log and publish time."""
 _MESSAGE_FIELDS_BYTES: Final = 2 + 4 + 8 + 8
+_MESSAGE_OPCODE: Final = Opcode.MESSAGE
+"""Read at every message: a global, not the enum class's slow attribute path."""
 _STATISTICS: Final = "_Writer__statistics"
 _FINALIZE_CHUNK: Final = "_Writer__finalize_chunk"
 
@@ -315,7 +320,7 @@ class _MessageWriter:
             entries = self._index[channel] = []
         entries.append((time_ns, self._base + len(records)))
         records += _MESSAGE_PREFIX.pack(
-            Opcode.MESSAGE, _MESSAGE_FIELDS_BYTES + len(payload), channel, 0, time_ns, time_ns
+            _MESSAGE_OPCODE, _MESSAGE_FIELDS_BYTES + len(payload), channel, 0, time_ns, time_ns
         )
         records += payload
         if self._base + len(records) > self._chunk_size:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Final
 
 import msgspec
 from oimi.pipeline.events import (
@@ -61,6 +62,9 @@ from oimi.pipeline.operator.generator import (
 )
 from oimi.pipeline.plurals import counted
 from oimi.pipeline.script.validate import script_errors
+
+_LOADING: Final = OperatorButton.LOADING
+"""Read at every tick: a global, not the enum class's slow attribute path."""
 
 
 class SelectedScript(Message):
@@ -207,7 +211,7 @@ class GeneratorHandler:
     def tick(self, now_ms: int) -> bool:
         """Advance the clock: ``loading`` becomes ``start``; True when the state changed."""
         del now_ms
-        if self._button is not OperatorButton.LOADING:
+        if self._button is not _LOADING:
             return False
         self._button = OperatorButton.START
         return True

@@ -31,7 +31,9 @@ MISSING: Final = object()
 
 def entity_ref(cls: str, entity: Bound) -> str:
     """``"Human/c1"``: how an alias names its entity (activities by ``activityname``)."""
-    key = entity.activityname if isinstance(entity, ActivityTracking) else entity.id
+    # The exact class (nothing derives from it): ``isinstance`` on a Struct class that
+    # misses goes through msgspec's metaclass, and most entities are not activities.
+    key = entity.activityname if type(entity) is ActivityTracking else entity.id
     return f"{cls}/{key}"
 
 
@@ -45,6 +47,10 @@ TICK_SCOPE: Final = "tick_scope"
 
 STORE_READS: Final = ("aliases", "variables", TICK_SCOPE)
 """What looking up an alias or a variable reads: the map's scope-U stores and scope T."""
+
+_U: Final = Scope.U
+_T: Final = Scope.T
+"""Read at every evaluation: a global, not the enum class's slow attribute path."""
 
 
 def entities_of(world_map: WorldMap, cls: str) -> Sequence[Bound]:
@@ -99,12 +105,12 @@ class Run:
         return self._ctx
 
     def store(self, scope: Scope) -> dict[str, str]:
-        if scope is Scope.U:
+        if scope is _U:
             return self.world_map.variables
-        return self.tick if scope is Scope.T else self.local
+        return self.tick if scope is _T else self.local
 
     def alias_store(self, scope: Scope) -> dict[str, str]:
-        return self.world_map.aliases if scope is Scope.U else self.store(scope)
+        return self.world_map.aliases if scope is _U else self.store(scope)
 
     def lookup(self, key: str, stores: tuple[dict[str, str], ...]) -> str | None:
         for store in stores:

@@ -73,6 +73,10 @@ class Effect(enum.Enum):
     """The body may have changed the map: it is compared before and after, changes reported."""
 
 
+_UNCHANGED: Final = Effect.UNCHANGED
+"""Read at every rule that fires: a global, not the enum class's slow attribute path."""
+
+
 class Rule:
     """Base of every rule: subclasses set ``rulecode``, ``condition_text`` and ``act``.
 
@@ -168,7 +172,7 @@ class Rule:
             else:
                 ctx.changing()
             effect = self.act(world_map, found, ctx)
-            if effect is not Effect.UNCHANGED:  # (a body that left the map as it was leaves
+            if effect is not _UNCHANGED:  # (a body that left the map as it was leaves
                 parts.forget()  # its parts' encodings good for the rules after it)
                 before = ctx.before
                 if before is None:
