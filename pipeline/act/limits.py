@@ -101,6 +101,27 @@ def clamp_velocity(requested: Velocity, limits: RobotLimits, *, what: str = "mov
     return Clamped(Velocity(v_x, v_y, v_theta), tuple(reports))
 
 
+def capped(v_x: float, v_y: float, top: float) -> tuple[float, float]:
+    """(v_x, v_y) scaled down to ``top`` m/s when faster, keeping its direction."""
+    speed = math.hypot(v_x, v_y)
+    if speed <= top:
+        return (v_x, v_y)
+    return (v_x * top / speed, v_y * top / speed)
+
+
+def ramp_towards(
+    c_x: float, c_y: float, t_x: float, t_y: float, step: float
+) -> tuple[float, float]:
+    """(c_x, c_y) moved towards (t_x, t_y) by at most ``step`` (keeping the direction of
+    the change): the target itself when within one step."""
+    d_x, d_y = t_x - c_x, t_y - c_y
+    change = math.hypot(d_x, d_y)
+    if change <= step:
+        return t_x, t_y
+    scale = step / change
+    return c_x + d_x * scale, c_y + d_y * scale
+
+
 def ramp_velocity(
     current: Velocity, target: Velocity, limits: RobotLimits, *, dt_ms: int
 ) -> Velocity:
@@ -110,18 +131,12 @@ def ramp_velocity(
     Reaches the target exactly when it is within one step (and returns ``target`` itself).
     """
     dt_s = dt_ms / 1000.0
-    d_x, d_y = target.v_x - current.v_x, target.v_y - current.v_y
-    change = math.hypot(d_x, d_y)
     step = limits.max_accel_mps2 * dt_s
-    if change <= step:
-        v_x, v_y = target.v_x, target.v_y
-    else:
-        scale = step / change
-        v_x, v_y = current.v_x + d_x * scale, current.v_y + d_y * scale
+    v_x, v_y = ramp_towards(current.v_x, current.v_y, target.v_x, target.v_y, step)
     d_theta = target.v_theta - current.v_theta
     step_theta = limits.max_angular_accel_radps2 * dt_s
     if abs(d_theta) <= step_theta:
-        if change <= step:
+        if v_x == target.v_x and v_y == target.v_y:  # (reached: within a step)
             return target
         v_theta = target.v_theta
     else:

@@ -229,13 +229,6 @@ class DeadReckoning:
         m_x, m_y, _ = self._moving
         return cos * m_x + sin * m_y, cos * m_y - sin * m_x
 
-    def followed(self, v_x: float, v_y: float) -> tuple[float, float]:
-        """The base's linear velocity after one tick towards (v_x, v_y), both in the body
-        frame at the tick's start: what :meth:`advance` would take it to."""
-        moving = Velocity(*self.velocity)
-        after = ramp_velocity(moving, Velocity(v_x, v_y), self._limits, dt_ms=self._tick_ms)
-        return after.v_x, after.v_y
-
     def _driven(self, start_ms: int, end_ms: int) -> tuple[float, float, float, float, float]:
         """What the reckoning took the base to drive from ``start_ms`` to ``end_ms`` (from the
         oldest state kept, for an older start), as its odometry would measure it: each tick's

@@ -60,6 +60,7 @@ from oimi.pipeline.act.separation import (
     clear_gap,
     followed_meeting,
     meeting,
+    nearer,
     within_view,
 )
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
@@ -132,6 +133,8 @@ class SafetySupervisor:
         self._limits = limits
         self._tick_ms = tick_ms
         self._dt_s = tick_ms / 1000
+        self._step_m: float = limits.max_accel_mps2 * self._dt_s
+        """The most the base's velocity changes in a tick, m/s."""
         self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         """How fast a human may walk (``human_speed_mps``)."""
         self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
@@ -338,19 +341,11 @@ class SafetySupervisor:
             zone = SafetyZone.BLIND
         v_x, v_y, binding = meeting(constraints, v_x, v_y, half_view)
         if constraints:  # the base lags its command (a spinning body's most): its velocity too
-            reckoning = self._reckoning
-            r_x, r_y = reckoning.velocity
-            rolling = math.hypot(r_x, r_y)
-            if (blind or stale) and rolling > config.slow_speed_mps:  # capped as asked
-                r_x, r_y = (
-                    r_x * config.slow_speed_mps / rolling,
-                    r_y * config.slow_speed_mps / rolling,
-                )
+            top = config.slow_speed_mps if blind or stale else math.inf
             v_x, v_y, lagging = followed_meeting(
-                constraints, v_x, v_y, half_view, reckoning.followed, (r_x, r_y)
+                constraints, v_x, v_y, half_view, self._reckoning.velocity, self._step_m, top
             )
-            if lagging is not None and (binding is None or lagging.surface_m < binding.surface_m):
-                binding = lagging
+            binding = nearer(binding, lagging)
         allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
         if binding is not None:
             return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))

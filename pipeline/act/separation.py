@@ -13,6 +13,7 @@ import math
 from collections.abc import Callable
 from typing import Final, NamedTuple
 
+from oimi.pipeline.act.limits import capped, ramp_towards
 from oimi.pipeline.events import SafetyZone
 
 
@@ -215,8 +216,7 @@ def meeting(
             limited = allowed_by(constraint, v_x, v_y)
             if limited != (v_x, v_y):
                 v_x, v_y = limited
-                if binding is None or constraint.surface_m < binding.surface_m:
-                    binding = constraint
+                binding = nearer(binding, constraint)
         v_x, v_y = within_view(v_x, v_y, half_view)
         if all(satisfied(c, v_x, v_y) for c in constraints):
             break
@@ -234,18 +234,24 @@ def followed_meeting(
     v_x: float,
     v_y: float,
     half_view: float,
-    followed: Callable[[float, float], tuple[float, float]],
     rolling: tuple[float, float],
+    step: float,
+    top: float,
 ) -> tuple[float, float, Constraint | None]:
     """For (v_x, v_y), what :func:`meeting` let through: itself when the velocity the base
-    takes for it in a tick (``followed``: it changes by ``max_accel_mps2`` at most) meets
-    every constraint. Else, with the nearest constraint that outcome broke, the command
-    nearest (v_x, v_y) on the way to it from a start whose outcome meets them all: what
-    :func:`meeting` makes of ``rolling`` (the base's velocity, capped as the request was), or
-    else a stand (braking straight). When neither start's outcome meets them, the one whose
-    outcome closes more slowly on that constraint (the base turns towards it as fast as it
-    can), unless (v_x, v_y) turns the base the same way (a slower drive straight on:
-    nothing to change, no limit reported)."""
+    takes for it in a tick (from ``rolling``, its velocity now, changing by ``step`` at
+    most: :func:`~oimi.pipeline.act.limits.ramp_towards`) meets every constraint. Else,
+    with the nearest constraint that outcome broke, the command nearest (v_x, v_y) on the
+    way to it from a start whose outcome meets them all: what :func:`meeting` makes of
+    ``rolling`` capped at ``top`` (as the request was), or else a stand (braking straight).
+    When neither start's outcome meets them, the one whose outcome closes more slowly on
+    that constraint (the base turns towards it as fast as it can), unless (v_x, v_y) turns
+    the base the same way (a slower drive straight on: nothing to change, no limit)."""
+    m_x, m_y = rolling
+
+    def followed(c_x: float, c_y: float) -> tuple[float, float]:
+        return ramp_towards(m_x, m_y, c_x, c_y, step)
+
     f_x, f_y = followed(v_x, v_y)
     if f_x == v_x and f_y == v_y:  # within a tick's reach: (v_x, v_y) met them (most ticks)
         return v_x, v_y, None
@@ -253,7 +259,7 @@ def followed_meeting(
     if not failing:
         return v_x, v_y, None
     nearest = min(failing, key=_surface)
-    b_x, b_y, _ = meeting(constraints, *rolling, half_view)
+    b_x, b_y, _ = meeting(constraints, *capped(m_x, m_y, top), half_view)
     starts = ((b_x, b_y), (0.0, 0.0))
     outcomes = [followed(*start) for start in starts]
     for start, (o_x, o_y) in zip(starts, outcomes, strict=True):
@@ -266,6 +272,13 @@ def followed_meeting(
     if abs(o_x - f_x) <= _SAME and abs(o_y - f_y) <= _SAME:
         return v_x, v_y, None
     return b_x, b_y, nearest
+
+
+def nearer(a: Constraint | None, b: Constraint | None) -> Constraint | None:
+    """The nearer of two constraints (either may be none)."""
+    if a is None or (b is not None and b.surface_m < a.surface_m):
+        return b
+    return a
 
 
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:

@@ -18,6 +18,7 @@ import re
 from collections.abc import Callable, Mapping, Sequence
 from typing import Final, NamedTuple, Protocol
 
+from oimi.pipeline.act.limits import capped
 from oimi.pipeline.errors import FAILURES, failure
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.schema import (
@@ -367,11 +368,3 @@ def _keep_distance(
     step = min(speed, gap / dt_s)
     norm = _hypot(dx, dy)
     return (dx / norm * step, dy / norm * step, step < speed)
-
-
-def capped(vx: float, vy: float, top_mps: float) -> tuple[float, float]:
-    """(vx, vy) scaled down to ``top_mps`` when faster, keeping its direction."""
-    speed = _hypot(vx, vy)
-    if speed <= top_mps:
-        return (vx, vy)
-    return (vx * top_mps / speed, vy * top_mps / speed)

@@ -25,6 +25,7 @@ from typing import Final
 
 import msgspec
 import pymunk
+from oimi.pipeline.act.limits import capped
 from oimi.pipeline.events import WorldState
 from oimi.pipeline.messages import ActuatorOutputs
 from oimi.scenarios.schema import BehaviourEvent, HumanSpec, ObjectSpec, Scenario
@@ -38,7 +39,7 @@ from oimi.scenarios.simulation.bodies import (
     thing_state,
     wrap_angle,
 )
-from oimi.scenarios.simulation.humans import Arena, BehaviourFactory, HumanDriver, capped
+from oimi.scenarios.simulation.humans import Arena, BehaviourFactory, HumanDriver
 from pymunk._chipmunk import lib as _chipmunk
 
 WALL_THICKNESS_M: Final = 0.1

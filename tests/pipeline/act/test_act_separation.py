@@ -88,11 +88,12 @@ def test_the_base_lagging_its_command_still_meets_every_constraint_when_it_can(
         return after.v_x, after.v_y
 
     v_x, v_y, _ = meeting(humans, v_x, v_y, math.pi)  # what the passes let through
-    r_x, r_y, broken = followed_meeting(humans, v_x, v_y, math.pi, followed, (m_x, m_y))
+    step = A * TICK_MS / 1000
+    r_x, r_y, broken = followed_meeting(humans, v_x, v_y, math.pi, (m_x, m_y), step, math.inf)
     o_x, o_y = followed(r_x, r_y)
     meets = all(satisfied(c, o_x, o_y) for c in humans)
     b_x, b_y, _ = meeting(humans, m_x, m_y, math.pi)
-    if math.hypot(b_x - m_x, b_y - m_y) <= A * TICK_MS / 1000:
+    if math.hypot(b_x - m_x, b_y - m_y) <= step:
         assert meets
     if all(satisfied(c, *followed(0.0, 0.0)) for c in humans):
         assert meets
