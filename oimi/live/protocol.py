@@ -160,6 +160,10 @@ class SessionState(msgspec.Struct, frozen=True, kw_only=True):
     """``get_ready``, ``loading``, ``start`` or ``stop`` (the activity command button)."""
     activities: tuple[ActivityEntry, ...] = ()
     block: Block = Block()
+    paused_by: str = ""
+    """The script the Block Reader runs instead of the current activity, which waits in
+    its LIFO (a rule's compulsory switch, e.g. to ``wait_for_child``); empty while the
+    current activity runs, or none is current."""
 
 
 class SessionFields(msgspec.Struct, frozen=True, kw_only=True):

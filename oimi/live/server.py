@@ -297,7 +297,7 @@ class LiveServer:
 
     def _broadcast_state(self) -> None:
         state = self.view.state()
-        key = msgspec.json.encode((state.button, state.activities, state.block))
+        key = msgspec.json.encode((state.button, state.activities, state.block, state.paused_by))
         if key == self._last_state:
             return
         self._last_state = key

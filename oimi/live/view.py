@@ -12,6 +12,8 @@ from typing import Final
 
 from oimi.live.protocol import Block, SessionState, WorldMessage
 from oimi.pipeline.events import (
+    ActivityEntry,
+    ActivityState,
     Event,
     Level,
     LogEntries,
@@ -85,13 +87,23 @@ class LiveView:
 
     def state(self) -> SessionState:
         """The console's activity screen now."""
+        activities = self.handler.activities()
         return SessionState(
             tick=self.tick,
             time_ms=self.time_ms,
             button=self.handler.button.value,
-            activities=self.handler.activities(),
+            activities=activities,
             block=self.block,
+            paused_by=self._paused_by(activities),
         )
+
+    def _paused_by(self, activities: tuple[ActivityEntry, ...]) -> str:
+        """The script running instead of the current activity ("": none is, or it runs)."""
+        running = self.block.activity
+        current = next((a.name for a in activities if a.state is ActivityState.CURRENT), None)
+        if current is None or not running or self.handler.running(running) == current:
+            return ""
+        return running
 
     def frame(self, *, joystick_engaged: bool, released: str = "") -> WorldMessage | None:
         """The live view now (None before the first tick)."""

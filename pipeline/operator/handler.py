@@ -157,6 +157,12 @@ class GeneratorHandler:
             for s in self._selected
         )
 
+    def running(self, name: str) -> str | None:
+        """The selected activity the Block Reader runs when it runs ``name`` (activity or
+        script name), if that is one pushed at start and not finished; else None."""
+        s = self._running_entry(name)
+        return s.name if s is not None else None
+
     def generated(self, name: str) -> Script | None:
         """The last script generated for the selected activity ``name``, if any."""
         s = self._find(name)

@@ -306,3 +306,27 @@ def test_the_clock_runs_with_the_session_between_operator_changes(browser_page, 
             shown.add(clock.text_content())
             page.wait_for_timeout(200)
         assert len(shown) >= 5, shown
+
+
+def test_a_rules_switch_shows_the_current_activity_paused(browser_page, tmp_path):
+    """child_leaves: the child walks off during play_together and child_left switches to
+    wait_for_child. The list said play_together was current all the while; it waits."""
+    page = browser_page
+    scenario = ROOT / "scenarios" / "library" / "child_leaves.toml"
+    screenshot = Path(os.environ.get("OIMI_PAUSED_SCREENSHOT", tmp_path / "paused.png"))
+    with served(tmp_path / "paused.mcap", "--token", "t0ken", scenario=scenario) as live:
+        page.goto(f"{live.console}?token=t0ken")
+        command = page.locator("#command")
+        expect(command).to_have_attribute("data-button", "get_ready")
+        command.click()
+        expect(command).to_have_attribute("data-button", "start")
+        command.click()
+        play = item(page, "play_together")
+        expect(play).to_have_attribute("data-state", "current")
+        badge = play.locator(".state")
+        expect(badge).to_have_text("current")
+        # the child leaves at 4 s of the session and is 3 m off about 2.5 s later
+        expect(badge).to_have_text("paused: wait_for_child runs", timeout=20_000)
+        expect(play).to_have_class("current paused")
+        expect(page.locator("#block")).to_contain_text("wait_for_child")
+        page.screenshot(path=str(screenshot))

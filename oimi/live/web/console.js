@@ -119,7 +119,7 @@ function render() {
   showClock();
 
   // Rebuild the list only when it changed (a drag in progress survives other updates).
-  const key = JSON.stringify([state.activities, still]);
+  const key = JSON.stringify([state.activities, still, state.paused_by]);
   if (key === listKey) return;
   listKey = key;
   const list = $("selected");
@@ -137,8 +137,10 @@ function showClock() {
 }
 
 function activityItem(activity, index, still) {
+  // The current activity waits while a rule's switch runs another script (paused_by).
+  const paused = activity.state === "current" && Boolean(state.paused_by);
   const li = document.createElement("li");
-  li.className = activity.state;
+  li.className = paused ? "current paused" : activity.state;
   li.dataset.name = activity.name;
   li.dataset.state = activity.state;
   li.dataset.index = index;
@@ -155,8 +157,11 @@ function activityItem(activity, index, still) {
   options.textContent = Object.entries(activity.options).map(([k, v]) => `${k} ${v}`).join(" · ");
   name.append(options);
   const badge = document.createElement("span");
-  badge.className = `state ${activity.state}`;
-  badge.textContent = STATE_LABELS[activity.state] || activity.state;
+  badge.className = paused ? "state paused" : `state ${activity.state}`;
+  badge.textContent = paused
+    ? `paused: ${titleOf(state.paused_by)} runs`
+    : STATE_LABELS[activity.state] || activity.state;
+  if (paused) badge.title = "A rule switched to another script; this activity resumes after it";
   name.append(badge);
   // Reordering by buttons too: a tablet's browser may not drag list items.
   const up = moveButton("▲", `Move ${activity.name} up`, index - 1, activity.name);
