@@ -164,6 +164,7 @@ class Recording:
                 stream, frozenset(t.value for t in wanted), check_indexes=check_indexes
             )
             counts: dict[str, int] = {}
+            topic_of = {t.value: t for t in wanted}  # (an enum call per message is slow)
             try:
                 for topic, _, log_time_ns, data in scan.messages():
                     sequence = counts.get(topic, 0)  # its place on its channel (the record: 0)
@@ -177,7 +178,7 @@ class Recording:
                         )
                         break
                     yield RecordedMessage(
-                        topic=Topic(topic),
+                        topic=topic_of[topic],
                         tick=tick,
                         time_ns=log_time_ns,
                         sequence=sequence,
