@@ -36,9 +36,9 @@ Sensing: a camera offline (or none), every sonar down, or a human's reading olde
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
 still says it is on), and a camera only while its frames do (``frametime`` within
 ``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
-unless a fresh reading of a tracked human explains them; one no longer reported is gone once
-every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated with an old
-reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
+unless a fresh reading of a tracked human explains them (one each); one no longer reported
+is gone once every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated
+with an old reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
 repeats an old echo, linear motion stays inside the camera's view (``camera_fov_rad``).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
@@ -315,9 +315,7 @@ class SafetySupervisor:
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
-        for key, echo, age_ms in kept:
-            if not self._explained(self._anchors[key], seen, ring_down):
-                placed.append((key, echo, age_ms))
+        placed += self._unexplained(kept, seen, ring_down)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
@@ -411,14 +409,25 @@ class SafetySupervisor:
             cap = min(cap, config.slow_speed_mps)
         return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
 
-    def _explained(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> bool:
-        """Whether an echo is a human the map tracks: their readings place them closer
-        than both readings' errors and the walk between their times allow. The distance
-        accepted is at most ``human_radius_m``, so an echo is never taken for another
-        body (two bodies' centres are at least two radii apart); ``slipped``: less the
-        drift since the echo (placed that far off, it may be another body)."""
-        if not seen:
-            return False
+    def _unexplained(
+        self, kept: list[tuple[str, Entity, int]], seen: list[_Anchor], slipped: bool
+    ) -> list[tuple[str, Entity, int]]:
+        """The kept echoes that are not a human the map tracks. An echo is that human when
+        their readings place them closer than both readings' errors and the walk between
+        their times allow, and no other echo is that close to the human: each body makes
+        one echo, so of two echoes near one child at least one is another body (a child
+        beside them that the camera does not see), and both are kept."""
+        near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
+        for i, (key, _, _) in enumerate(kept):
+            for j in self._near(self._anchors[key], seen, slipped):
+                near[j].append(i)
+        explained = {echoes[0] for echoes in near if len(echoes) == 1}
+        return [echo for i, echo in enumerate(kept) if i not in explained]
+
+    def _near(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> list[int]:
+        """The tracked humans (indices in ``seen``) whose reading an echo may be. The
+        distance accepted is at most ``human_radius_m``; ``slipped``: less the drift since
+        the echo (placed that far off, it may be another body)."""
         config = self.config
         _, at_ms, x, y, since = echo
         largest = config.human_radius_m
@@ -426,12 +435,13 @@ class SafetySupervisor:
             drift = self._reckoning.drift(since)
             e_x, e_y = self._estimate(echo)
             largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
-        for _, human_ms, hx, hy, _ in seen:
+        found = []
+        for j, (_, human_ms, hx, hy, _) in enumerate(seen):
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
             gate = min(2 * config.sensing_error_m + walked, largest)
             if math.hypot(x - hx, y - hy) <= gate:
-                return True
-        return False
+                found.append(j)
+        return found
 
     def _anchor(self, key: str, human: Entity, now_ms: int) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it

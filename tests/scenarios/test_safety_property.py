@@ -302,6 +302,23 @@ def examples(count: int) -> settings:
     all_round=False,
     tamper=None,
 )
+@example(  # make soak SEED=35: two children walking together (through each other), one
+    # beside the robot where the front camera does not look: both echoes were taken for the
+    # one the camera saw
+    pads=[
+        (2, 0.0, 0.0, 0.0, ()),
+        (2, 0.0, 0.0, 0.0, ()),
+        (2, 0.0, 0.0, 0.0, ()),
+        (32, 0.0, 0.0, 0.125, ("LB",)),
+        (16, -1.0, 1.0, 0.5, ("LB",)),
+        (2, -1.0, 1.0, -0.438, ("LB",)),
+    ],
+    moves=[],
+    humans=[((7.536, 6.839), [(4.0, 6.25)], 0.438), ((7.536, 6.839), [(4.0, 6.25)], 0.438)],
+    heading=-0.25,
+    all_round=False,
+    tamper=None,
+)
 @example(  # found by the search: an oblique reverse braked its closing part too slowly
     pads=[(2, 0, 0, 0, ()), (36, 0, 0, 0, ()), (14, 0, -1.0, 0, ("LB",)), (2, 0, 0, 0, ())],
     moves=[],
