@@ -66,23 +66,23 @@ LEVELS: Final[dict[Level, str]] = {
     Level.WARNING: rr.TextLogLevel.WARN,
     Level.ERROR: rr.TextLogLevel.ERROR,
 }
+PANES: Final = {"script": "script", "robot": "sound", "rules": "rules", "log": "log"}
+"""The text tab each text entity's first path segment goes to (``robot/audio``: Sound)."""
+RECENT_LINES: Final = 10
+"""Lines a text tab shows: the newest at the bottom of the pane at 1280x800."""
 # draw order, back to front
 _GRID, _ARENA, _TRAIL, _ZONE, _BODY, _RING, _INK, _MARK = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0
 
 
 def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
     """The room gets most of the screen; beside it what the robot does now, the LED band,
-    distances and speed, then the texts in tabs. Side panels collapsed, time in seconds."""
+    distances and speed, then the texts up to the time cursor in tabs. Side panels
+    collapsed, time in seconds."""
     bounds = None
     if scene is not None:
         bounds = rrb.VisualBounds2D(
             x_range=[-0.5, scene.width_m + 0.3], y_range=[-scene.height_m - 0.3, 0.5]
         )
-    hidden = [
-        rrb.encodings.TimelineColumn(name, visible=False) for name in ("sim_time", "tick")
-    ]  # each line starts with its time in seconds instead
-    texts = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["body"])
-    leveled = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["loglevel", "body"])
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial2DView(name="Room", origin="world", visual_bounds=bounds),
@@ -101,10 +101,10 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                     plot_legend=rrb.PlotLegend(visible=False),
                 ),
                 rrb.Tabs(
-                    rrb.TextLogView(name="Script", origin="script/events", columns=texts),
-                    rrb.TextLogView(name="Sound", origin="robot/audio", columns=texts),
-                    rrb.TextLogView(name="Rules", origin="rules", columns=texts),
-                    rrb.TextLogView(name="Log", origin="log", columns=leveled),
+                    *(
+                        rrb.TextDocumentView(name=pane.title(), origin=f"recent/{pane}")
+                        for pane in PANES.values()
+                    )
                 ),
                 row_shares=[1.2, 0.8, 1.6, 1.2, 2.4],
             ),
@@ -230,6 +230,9 @@ class RerunSink:
         self._contacts: tuple[str, ...] = ()
         self._place: tuple[str, str, str, str] | None = None
         self._block: InstructionBlock | None = None
+        self._recent = {pane: deque[str](maxlen=RECENT_LINES) for pane in PANES.values()}
+        self._stale: set[str] = set()
+        """Tabs with lines added this tick, redrawn once when the tick ends."""
         self._closed = False
         self._static()
         if scene is not None:
@@ -394,6 +397,7 @@ class RerunSink:
         if self._closed:
             raise RecordingError(f"record({topic}) after close()")
         if message.tick != self._tick:
+            self._show_recent()
             self._tick = message.tick
             self._seconds = time_ns / 1e9
             self._time_set = False
@@ -422,8 +426,21 @@ class RerunSink:
                 pass
 
     def _say(self, path: str, text: str, level: str = rr.TextLogLevel.INFO) -> None:
-        """A line of text, led by the simulated time in seconds (the views show no time column)."""
-        self._emit(path, rr.TextLog(f"{self._seconds:7.2f} s  {text}", level=level))
+        """A line of text, led by the simulated time in seconds, logged and added to its tab."""
+        stamp = f"{self._seconds:7.2f} s  "
+        self._emit(path, rr.TextLog(stamp + text, level=level))
+        pane = PANES[path.split("/")[0]]
+        flag = "" if level == rr.TextLogLevel.INFO else f"{level}  "
+        self._recent[pane].append(stamp + flag + text)
+        self._stale.add(pane)
+
+    def _show_recent(self) -> None:
+        """Each tab whose lines changed this tick, as a document of its last lines: Rerun's
+        text log view lists lines after the time cursor too, a document shows the latest
+        one up to it."""
+        for pane in sorted(self._stale):
+            self._emit(f"recent/{pane}", rr.TextDocument("\n".join(self._recent[pane])))
+        self._stale.clear()
 
     def _emit(self, path: str, archetype: rr.AsComponents) -> None:
         """Log now, at the current tick (the timelines are set lazily, once per tick)."""
@@ -634,6 +651,7 @@ class RerunSink:
         if self._closed:
             return
         self._closed = True
+        self._show_recent()
         self._send_columns()
         self._rec.flush()
         self._rec.disconnect()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import msgspec
 import pytest
+import rerun.blueprint as rrb
 from oimi.pipeline.events import (
     MotionSource,
     SafetyIntervention,
@@ -16,7 +17,13 @@ from oimi.pipeline.events import (
 )
 from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
 from oimi.recorder import palette
-from oimi.recorder.rerun_sink import RerunSink, block_line, zone_rings
+from oimi.recorder.rerun_sink import (
+    RECENT_LINES,
+    RerunSink,
+    block_line,
+    default_blueprint,
+    zone_rings,
+)
 from oimi.recorder.scene import SafetyZones
 from recorder_synthetic import SCENE, session, world_state
 from rerun.chunk import RrdReader
@@ -197,6 +204,43 @@ def test_the_sound_pane_names_tracks_as_the_block_line_does(tmp_path: Path) -> N
     said = [row["TextLog:text"][0] for row in rows(path, "/robot/audio")]
     expected = ["sound off", "sound cheer.wav", "sound bell", "sound off"]
     assert [text.split("  ")[-1] for text in said] == expected
+
+
+def test_the_text_tabs_show_the_lines_up_to_the_time_cursor_newest_last(tmp_path: Path) -> None:
+    """Rerun's text log view lists lines after the cursor too (it said 38.76 s at 26.1 s):
+    each tab is a document of its last lines, logged when they change."""
+    path = tmp_path / "tabs.rrd"
+    with RerunSink(path, recording_id="tabs", scene=SCENE, world_every_n_ticks=1) as sink:
+        for tick in range(RECENT_LINES + 4):
+            state = msgspec.structs.replace(world_state(tick), audio=f"t{tick}.wav")
+            if tick == 3:
+                state = msgspec.structs.replace(state, contacts=("child1",))
+            sink.record(Topic.WORLD_STATE, tick * 20_000_000, state)
+    sound = {row["tick"]: row["TextDocument:text"][0] for row in rows(path, "/recent/sound")}
+    assert sorted(sound) == list(range(RECENT_LINES + 4))
+    assert sound[1].splitlines() == ["   0.00 s  sound t0.wav", "   0.02 s  sound t1.wav"]
+    last = sound[RECENT_LINES + 3].splitlines()
+    assert len(last) == RECENT_LINES and last[-1].endswith(f"sound t{RECENT_LINES + 3}.wav")
+    log = sorted((row["tick"], row["TextDocument:text"][0]) for row in rows(path, "/recent/log"))
+    assert log[-1][1].splitlines() == [
+        "   0.06 s  WARN  contact: robot touches child1",  # the level, where it is not INFO
+        "   0.08 s  contact with child1 ended",
+    ]
+    tabs = [
+        view
+        for view in _views(default_blueprint(SCENE).root_container)
+        if view.name in ("Script", "Sound", "Rules", "Log")
+    ]
+    assert [(v.class_identifier, v.origin) for v in tabs] == [
+        ("TextDocument", f"recent/{pane}") for pane in ("script", "sound", "rules", "log")
+    ]
+
+
+def _views(part: rrb.Container | rrb.View) -> list[rrb.View]:
+    """The views of a blueprint's container, depth first."""
+    if isinstance(part, rrb.View):
+        return [part]
+    return [view for child in part.contents for view in _views(child)]
 
 
 def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path: Path) -> None:
