@@ -13,6 +13,7 @@ share the entity paths and palette; the MCAP -> RRD conversion reuses the same l
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections import deque
@@ -37,7 +38,7 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import InstructionBlock, RuleAction
+from oimi.pipeline.messages import InstructionBlock, Move, RuleAction
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
@@ -68,7 +69,7 @@ LEVELS: Final[dict[Level, str]] = {
 }
 PANES: Final = {"script": "script", "robot": "sound", "rules": "rules", "log": "log"}
 """The text tab each text entity's first path segment goes to (``robot/audio``: Sound)."""
-RECENT_LINES: Final = 10
+RECENT_LINES: Final = 9
 """Lines a text tab shows: the newest at the bottom of the pane at 1280x800."""
 # draw order, back to front
 _GRID, _ARENA, _TRAIL, _ZONE, _BODY, _RING, _INK, _MARK = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0
@@ -106,7 +107,7 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                         for pane in PANES.values()
                     )
                 ),
-                row_shares=[1.2, 0.8, 1.6, 1.2, 2.4],
+                row_shares=[1.5, 1.0, 1.4, 1.6, 2.0],
             ),
             column_shares=[3, 2],
         ),
@@ -618,8 +619,8 @@ class RerunSink:
         activity, goal, action, block = self._place or ("", "", "", "")
         where = f"{goal}/{action}/{block}" if goal else "-"
         lines = [f"**{activity or '(no activity)'}** · {where}"]
-        if self._block is not None:
-            lines += ["", f"### {block_line(self._block)}"]
+        if self._block is not None:  # body-sized lines that wrap: a heading was cut at 1280 px
+            lines += ["", *(f"- {line}" for line in block_lines(self._block))]
         self._emit("script/block", rr.TextDocument("\n".join(lines), media_type="text/markdown"))
 
     def _decisions(self, decisions: RuleDecisions) -> None:
@@ -709,24 +710,34 @@ def _box_outline(x: float, y: float, w: float, h: float, angle: float) -> list[l
     return [_xy(x + c * dx - s * dy, y + s * dx + c * dy) for dx, dy in corners]
 
 
-def block_line(block: InstructionBlock) -> str:
-    """What a block makes the robot do, in words:
-    ``MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav``."""
-    moves = []
-    for m in block.move:
-        speed = math.hypot(m.v_x, m.v_y)
-        parts = [f"MV {speed:.2f} m/s"] if speed else []
-        if m.v_theta:
-            parts.append(f"turn {m.v_theta:.2f} rad/s")
-        text = " ".join(parts) or "stand still"
-        text += f" for {m.duration / 1000:.1f} s"
-        if m.wait_t:
-            text += f" after {m.wait_t / 1000:.1f} s"
-        moves.append(text)
-    leds = [f"LED {palette.colour_name((x.r, x.g, x.b)) if x.turnas else 'off'}" for x in block.led]
-    sounds = [f"sound {os.path.basename(a.track_path)}" for a in block.audioout]
-    channels = [" then ".join(items) for items in (moves, leds, sounds) if items]
-    return " · ".join(channels) or "nothing"
+def block_lines(block: InstructionBlock) -> list[str]:
+    """What a block makes the robot do, in words, a line per channel (a run of one item
+    said once, with its count): ``MV 0.15 m/s for 2.0 s``, ``LED yellow → dim blue ×3``,
+    ``sound hello.wav``."""
+    moves = [_move_words(m) for m in block.move]
+    leds = [palette.colour_name((x.r, x.g, x.b)) if x.turnas else "off" for x in block.led]
+    sounds = [os.path.basename(a.track_path) for a in block.audioout]
+    channels = [("MV ", moves), ("LED ", leds), ("sound ", sounds)]
+    lines = [name + " → ".join(_runs(items)) for name, items in channels if items]
+    return lines or ["nothing"]
+
+
+def _move_words(move: Move) -> str:
+    speed = math.hypot(move.v_x, move.v_y)
+    parts = [f"{speed:.2f} m/s"] if speed else []
+    if move.v_theta:
+        parts.append(f"turn {move.v_theta:.2f} rad/s")
+    text = " ".join(parts) or "stand still"
+    text += f" for {move.duration / 1000:.1f} s"
+    if move.wait_t:
+        text += f" after {move.wait_t / 1000:.1f} s"
+    return text
+
+
+def _runs(items: list[str]) -> list[str]:
+    """Each run of equal items once, with its length when more than one."""
+    runs = [(item, len(list(group))) for item, group in itertools.groupby(items)]
+    return [item if n == 1 else f"{item} ×{n}" for item, n in runs]
 
 
 _DONE: Final = {

@@ -20,7 +20,7 @@ from oimi.recorder import palette
 from oimi.recorder.rerun_sink import (
     RECENT_LINES,
     RerunSink,
-    block_line,
+    block_lines,
     default_blueprint,
     zone_rings,
 )
@@ -102,7 +102,7 @@ def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path)
 
 
 @pytest.mark.parametrize(
-    ("block", "line"),
+    ("block", "lines"),
     [
         (
             InstructionBlock(
@@ -110,7 +110,7 @@ def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path)
                 led=(Led(r=1.0, g=1.0, b=0.0, turnas=1, wait_t=0, duration=2000),),
                 audioout=(AudioOut(track_path="audio/hello.wav", wait_t=0, duration=900),),
             ),
-            "MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav",
+            ["MV 0.15 m/s for 2.0 s", "LED yellow", "sound hello.wav"],
         ),
         (
             InstructionBlock(
@@ -118,15 +118,37 @@ def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path)
                     Move(v_x=0.0, v_y=0.0, v_theta=0.5, wait_t=500, duration=1000),
                     Move(v_x=0.0, v_y=0.0, v_theta=0.0, wait_t=0, duration=1000),
                 ),
-                led=(Led(r=1.0, g=1.0, b=1.0, turnas=0, wait_t=0, duration=0),),
+                led=(
+                    Led(r=1.0, g=1.0, b=1.0, turnas=0, wait_t=0, duration=0),
+                    *[Led(r=0.0, g=0.0, b=0.4, turnas=1, wait_t=0, duration=200)] * 3,
+                    Led(r=1.0, g=1.0, b=1.0, turnas=0, wait_t=0, duration=0),
+                ),
             ),
-            "turn 0.50 rad/s for 1.0 s after 0.5 s then stand still for 1.0 s · LED off",
+            [
+                "MV turn 0.50 rad/s for 1.0 s after 0.5 s → stand still for 1.0 s",
+                "LED off → dim blue ×3 → off",
+            ],
         ),
-        (InstructionBlock(), "nothing"),
+        (InstructionBlock(), ["nothing"]),
     ],
 )
-def test_the_current_block_reads_as_a_line(block: InstructionBlock, line: str) -> None:
-    assert block_line(block) == line
+def test_the_current_block_reads_as_a_line_per_channel(
+    block: InstructionBlock, lines: list[str]
+) -> None:
+    """A line per channel, a run of one colour said once: one heading-sized line was cut
+    at the pane's edge at 1280x800."""
+    assert block_lines(block) == lines
+
+
+def test_the_now_pane_lists_the_blocks_channels_at_body_size(tmp_path: Path) -> None:
+    path = tmp_path / "now.rrd"
+    with RerunSink(path, recording_id="now", scene=SCENE) as sink:
+        for topic, time_ns, event in session(2):
+            sink.record(topic, time_ns, event)
+    last = max(rows(path, "/script/block"), key=lambda row: row["tick"])
+    text = last["TextDocument:text"][0]
+    assert "#" not in text
+    assert text.splitlines() == ["**greet** · goal0/act0/blk0", "", "- MV 0.60 m/s for 1.0 s"]
 
 
 def test_rings_are_drawn_when_their_look_changes_and_moved_with_their_body(
