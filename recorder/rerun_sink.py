@@ -38,7 +38,15 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import InstructionBlock, Move, RuleAction
+from oimi.pipeline.messages import (
+    AudioOut,
+    InstructionBlock,
+    Led,
+    Move,
+    MutexCmd,
+    RuleAction,
+    RuleMessage,
+)
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
@@ -70,7 +78,10 @@ LEVELS: Final[dict[Level, str]] = {
 PANES: Final = {"script": "script", "robot": "sound", "rules": "rules", "log": "log"}
 """The text tab each text entity's first path segment goes to (``robot/audio``: Sound)."""
 RECENT_LINES: Final = 9
-"""Lines a text tab shows: the newest at the bottom of the pane at 1280x800."""
+"""Lines a text tab shows at most: the newest at the bottom of the pane at 1280x800."""
+RECENT_ROW_CHARS: Final = 72
+"""Characters in a row of a text tab at 1280x800: a longer line wraps and takes the room
+of more lines, so fewer are shown."""
 # draw order, back to front
 _GRID, _ARENA, _TRAIL, _ZONE, _BODY, _RING, _INK, _MARK = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0
 
@@ -115,6 +126,19 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="sim_time"),
     )
+
+
+def _fitting(lines: deque[str]) -> list[str]:
+    """The last of ``lines`` that fill at most RECENT_LINES rows once wrapped (the newest
+    always)."""
+    kept: list[str] = []
+    rows = 0
+    for line in reversed(lines):
+        rows += -(-len(line) // RECENT_ROW_CHARS)
+        if kept and rows > RECENT_LINES:
+            break
+        kept.append(line)
+    return kept[::-1]
 
 
 def _xy(x_m: float, y_m: float) -> list[float]:
@@ -440,7 +464,7 @@ class RerunSink:
         text log view lists lines after the time cursor too, a document shows the latest
         one up to it."""
         for pane in sorted(self._stale):
-            self._emit(f"recent/{pane}", rr.TextDocument("\n".join(self._recent[pane])))
+            self._emit(f"recent/{pane}", rr.TextDocument("\n".join(_fitting(self._recent[pane]))))
         self._stale.clear()
 
     def _emit(self, path: str, archetype: rr.AsComponents) -> None:
@@ -630,14 +654,16 @@ class RerunSink:
             parts = [f"{d.rule} (rule {d.rulecode}) fired"]
             if d.bindings:
                 parts.append(", ".join(f"{k}={v}" for k, v in d.bindings.items()))
-            parts.extend(f"{c.path}: {c.old} -> {c.new}" for c in d.changes)
+            parts.extend(
+                f"{c.path}: {value_words(c.path, c.old)} -> {value_words(c.path, c.new)}"
+                for c in d.changes
+            )
             self._say("rules/decisions", "; ".join(parts))
 
     def _chain(self, chain: RuleChainState) -> None:
-        applied = ", ".join(f"{m.id} {_DONE[m.action]} ({m.action.name})" for m in chain.applied)
-        text = f"{applied}; active: {', '.join(chain.active) or '-'}"
+        text = f"{chain_words(chain.applied)}; active: {', '.join(chain.active) or '-'}"
         if chain.locked:
-            text += " (locked)"
+            text += " (map locked)"
         self._say("rules/chain", text)
 
     def _log(self, entries: LogEntries) -> None:
@@ -714,11 +740,12 @@ def block_lines(block: InstructionBlock) -> list[str]:
     """What a block makes the robot do, in words, a line per channel (a run of one item
     said once, with its count): ``MV 0.15 m/s for 2.0 s``, ``LED yellow → dim blue ×3``,
     ``sound hello.wav``."""
-    moves = [_move_words(m) for m in block.move]
-    leds = [palette.colour_name((x.r, x.g, x.b)) if x.turnas else "off" for x in block.led]
-    sounds = [os.path.basename(a.track_path) for a in block.audioout]
-    channels = [("MV ", moves), ("LED ", leds), ("sound ", sounds)]
-    lines = [name + " → ".join(_runs(items)) for name, items in channels if items]
+    channels = [("MV ", block.move), ("LED ", block.led), ("sound ", block.audioout)]
+    lines = [
+        name + " → ".join(_runs([_channel_words(x) for x in items]))
+        for name, items in channels
+        if items
+    ]
     return lines or ["nothing"]
 
 
@@ -741,13 +768,62 @@ def _runs(items: list[str]) -> list[str]:
 
 
 _DONE: Final = {
-    RuleAction.A: "activated",
+    RuleAction.A: "added",
     RuleAction.R: "removed",
-    RuleAction.D: "held",
+    RuleAction.D: "held for later",
     RuleAction.B: "brought back",
     RuleAction.C: "recovered",
 }
-"""What an alfa/omega action did to its rule, in words (the Rules pane)."""
+"""What an alfa/omega action did to its rule, in words (thesis 4.3; the Rules pane)."""
+
+
+def chain_words(applied: tuple[RuleMessage, ...]) -> str:
+    """Alfa/omega messages in words, in order, a run of one action said once:
+    ``map locked · removed kick_starter · added avoid, greet · map unlocked``."""
+    steps: list[tuple[str, str]] = []
+    for m in applied:
+        if m.mutexcmd == MutexCmd.L:
+            steps.append(("map locked", ""))
+        steps.append((_DONE[m.action], m.id))
+        if m.mutexcmd == MutexCmd.U:
+            steps.append(("map unlocked", ""))
+    said = []
+    for done, run in itertools.groupby(steps, key=lambda step: step[0]):
+        rules = ", ".join(rule for _, rule in run if rule)
+        said.append(f"{done} {rules}" if rules else done)
+    return " · ".join(said)
+
+
+_BLOCK_CHANNELS: Final = {"move": Move, "led": Led, "audioout": AudioOut}
+MAX_VALUE_CHARS: Final = 40
+"""A changed value other than a block's channel is cut here (the pane's width)."""
+
+
+def value_words(path: str, value: str) -> str:
+    """A value a rule changed (JSON text, cut at its end by the pipeline) as a designer
+    reads it: a block's moves, LEDs or sounds in words, else the JSON, short."""
+    section, _, channel = path.rpartition(".")
+    kind = _BLOCK_CHANNELS.get(channel)
+    if section.endswith("block") and kind is not None and value.startswith("["):
+        whole = value if value.endswith("]") else value[: value.rfind("},") + 1] + "]"
+        try:
+            items = msgspec.json.decode(whole, type=list[kind])
+        except msgspec.DecodeError:
+            pass
+        else:
+            words = " → ".join(_runs([_channel_words(x) for x in items])) or "none"
+            return words if whole is value else words + " → …"
+    return value if len(value) <= MAX_VALUE_CHARS else value[: MAX_VALUE_CHARS - 1] + "…"
+
+
+def _channel_words(item: Move | Led | AudioOut) -> str:
+    match item:
+        case Move():
+            return _move_words(item)
+        case Led():
+            return palette.colour_name((item.r, item.g, item.b)) if item.turnas else "off"
+        case AudioOut():
+            return os.path.basename(item.track_path)
 
 
 def recording_id_of(metadata: RecordingMetadata, fallback: str) -> str:

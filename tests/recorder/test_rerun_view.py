@@ -9,19 +9,24 @@ import msgspec
 import pytest
 import rerun.blueprint as rrb
 from oimi.pipeline.events import (
+    Level,
+    LogEntries,
+    LogEntry,
     MotionSource,
     SafetyIntervention,
     SafetyPhase,
     SafetyZone,
     Topic,
 )
-from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
+from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move, RuleMessage
 from oimi.recorder import palette
 from oimi.recorder.rerun_sink import (
     RECENT_LINES,
     RerunSink,
     block_lines,
+    chain_words,
     default_blueprint,
+    value_words,
     zone_rings,
 )
 from oimi.recorder.scene import SafetyZones
@@ -210,8 +215,58 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
 def test_the_rules_pane_says_what_each_alfa_omega_message_did_in_words(rrd: Path) -> None:
     """One letter (``A avoid``) told a designer little: the action is said in words."""
     said = [row["TextLog:text"][0].split("  ")[-1] for row in rows(rrd, "/rules/chain")]
-    assert said[0] == "avoid activated (A); active: avoid"
-    assert said[1] == "avoid activated (A); active: avoid (locked)"
+    assert said[0] == "added avoid; active: avoid"
+    assert said[1] == "added avoid; active: avoid (map locked)"
+
+
+def _message(rule: str, action: str, mutex: str = "M") -> RuleMessage:
+    """An alfa/omega message by its letters, as a script writes them."""
+    fields = {"rulecode": 1, "id": rule, "intopic": "", "outtopic": ""}
+    return msgspec.convert(fields | {"action": ord(action), "mutexcmd": ord(mutex)}, RuleMessage)
+
+
+def test_alfa_omega_messages_read_as_words_in_order_without_letters() -> None:
+    """Thesis 4.3's letters, A/R/D/B/C and L/M/U, in words; a run of one action said once."""
+    applied = (
+        _message("kick_starter", "R", "L"),
+        _message("avoid", "A"),
+        _message("greet", "A"),
+        _message("nap", "D"),
+        _message("nap", "B"),
+        _message("kick_starter", "C", "U"),
+    )
+    assert chain_words(applied) == (
+        "map locked · removed kick_starter · added avoid, greet · held for later nap"
+        " · brought back nap · recovered kick_starter · map unlocked"
+    )
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "said"),
+    [
+        (
+            "scriptinfo.block.led",
+            '[{"r":1.0,"g":0.0,"b":0.0,"turnas":1,"wait_t":0,"duration":400},{"r":0.0,"g":0.0,"b":1.0,"tu…',
+            "red → …",
+        ),
+        (
+            "scriptinfo.block.move",
+            '[{"v_x":0.0,"v_y":0.0,"v_theta":0.6,"wait_t":0,"duration":400}]',
+            "turn 0.60 rad/s for 0.4 s",
+        ),
+        (
+            "scriptinfo.block.audioout",
+            '[{"track_path":"a/purr.wav","wait_t":0,"duration":1}]',
+            "purr.wav",
+        ),
+        ("scriptinfo.block.move", "[]", "none"),
+        ("variables.@rewarded_C", '"30000"', '"30000"'),
+        ("humans[0].attributes.note", '"' + "x" * 60 + '"', '"' + "x" * 38 + "…"),
+    ],
+)
+def test_a_rules_change_reads_compactly(path: str, value: str, said: str) -> None:
+    """The JSON of a block's channel ran past the pane's edge: it is said in words."""
+    assert value_words(path, value) == said
 
 
 def test_the_sound_pane_names_tracks_as_the_block_line_does(tmp_path: Path) -> None:
@@ -256,6 +311,20 @@ def test_the_text_tabs_show_the_lines_up_to_the_time_cursor_newest_last(tmp_path
     assert [(v.class_identifier, v.origin) for v in tabs] == [
         ("TextDocument", f"recent/{pane}") for pane in ("script", "sound", "rules", "log")
     ]
+
+
+def test_a_tab_keeps_fewer_lines_when_long_ones_wrap(tmp_path: Path) -> None:
+    """Long lines wrap: the tab keeps as many of the newest as fill its rows at 1280x800,
+    so the newest stays in sight."""
+    path = tmp_path / "wrap.rrd"
+    with RerunSink(path, recording_id="wrap", scene=SCENE) as sink:
+        for tick in range(RECENT_LINES):
+            entry = LogEntry(level=Level.INFO, source="producer", message=f"{tick} " + "x" * 150)
+            sink.record(
+                Topic.LOG, tick * 20_000_000, LogEntries(tick=tick, time_ms=0, entries=(entry,))
+            )
+    last = max(rows(path, "/recent/log"), key=lambda row: row["tick"])["TextDocument:text"][0]
+    assert [line.split()[3] for line in last.splitlines()] == ["6", "7", "8"]  # 3 rows each
 
 
 def _views(part: rrb.Container | rrb.View) -> list[rrb.View]:
