@@ -633,6 +633,7 @@ class RerunSink:
         place = (progress.activity, progress.goalid, progress.actionid, progress.blockid)
         if place != self._place:
             self._place = place
+            self._block = None  # the old place's: the new one's comes with the next commands
             self._block_document()
         for item in progress.items:
             where = f" at {item.path}" if item.path else ""

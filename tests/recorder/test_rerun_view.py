@@ -9,10 +9,13 @@ import msgspec
 import pytest
 import rerun.blueprint as rrb
 from oimi.pipeline.events import (
+    ActuatorCommands,
+    Event,
     Level,
     LogEntries,
     LogEntry,
     MotionSource,
+    ReaderProgress,
     SafetyIntervention,
     SafetyPhase,
     SafetyZone,
@@ -154,6 +157,38 @@ def test_the_now_pane_lists_the_blocks_channels_at_body_size(tmp_path: Path) -> 
     text = last["TextDocument:text"][0]
     assert "#" not in text
     assert text.splitlines() == ["**greet** · goal0/act0/blk0", "", "- MV 0.60 m/s for 1.0 s"]
+
+
+def test_the_now_pane_never_names_a_place_with_the_blocks_of_another(tmp_path: Path) -> None:
+    """The Block Reader names the new place a tick before the actuator starts its block:
+    until then the place is shown alone (it was shown with the old block's words)."""
+    red, green = (
+        InstructionBlock(led=(Led(r=r, g=g, b=0.0, turnas=1, wait_t=0, duration=1000),))
+        for r, g in ((1.0, 0.0), (0.0, 1.0))
+    )
+
+    def at(tick: int, blk: str, block: InstructionBlock | None) -> list[tuple[Topic, Event]]:
+        t = {"tick": tick, "time_ms": tick * 20}
+        place = {"activity": "play", "goalid": "goal0", "actionid": "act0", "blockid": blk}
+        commands = ActuatorCommands(**t, commands=(), block=block)
+        return [
+            (Topic.ACTUATOR_COMMANDS, commands),
+            (Topic.READER_PROGRESS, ReaderProgress(**t, **place)),
+        ]
+
+    path = tmp_path / "now.rrd"
+    with RerunSink(path, recording_id="now", scene=SCENE) as sink:
+        for topic, event in [
+            *at(0, "blk0", None),
+            *at(1, "blk0", red),
+            *at(5, "blk1", red),
+            *at(6, "blk1", green),
+        ]:
+            sink.record(topic, event.tick * 20_000_000, event)
+    shown = {row["tick"]: row["TextDocument:text"][0] for row in rows(path, "/script/block")}
+    assert shown[1].splitlines()[::2] == ["**play** · goal0/act0/blk0", "- LED red"]
+    assert shown[5] == "**play** · goal0/act0/blk1"  # the last at tick 5
+    assert shown[6].splitlines()[::2] == ["**play** · goal0/act0/blk1", "- LED green"]
 
 
 def test_rings_are_drawn_when_their_look_changes_and_moved_with_their_body(
