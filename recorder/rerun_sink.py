@@ -253,6 +253,8 @@ class RerunSink:
         self._led: tuple[float, float, float] | None = None
         self._audio: str | None = None
         self._contacts: tuple[str, ...] = ()
+        self._firing: dict[str, dict[str, str]] = {}
+        """The rules that fired at the last evaluation, with their bindings."""
         self._place: tuple[str, str, str, str] | None = None
         self._block: InstructionBlock | None = None
         self._recent = {pane: deque[str](maxlen=RECENT_LINES) for pane in PANES.values()}
@@ -649,8 +651,16 @@ class RerunSink:
         self._emit("script/block", rr.TextDocument("\n".join(lines), media_type="text/markdown"))
 
     def _decisions(self, decisions: RuleDecisions) -> None:
+        """A rule that starts firing, fires with other bindings or changes the map; one
+        that stops (a condition that holds fired at every evaluation, a flood of one line)."""
+        firing: dict[str, dict[str, str]] = {}
         for d in decisions.decisions:
             if not d.fired:
+                if d.rule in self._firing:
+                    self._say("rules/decisions", f"{d.rule} (rule {d.rulecode}) stopped firing")
+                continue
+            firing[d.rule] = d.bindings
+            if not d.changes and self._firing.get(d.rule) == d.bindings:
                 continue
             parts = [f"{d.rule} (rule {d.rulecode}) fired"]
             if d.bindings:
@@ -660,6 +670,7 @@ class RerunSink:
                 for c in d.changes
             )
             self._say("rules/decisions", "; ".join(parts))
+        self._firing = firing
 
     def _chain(self, chain: RuleChainState) -> None:
         text = f"{chain_words(chain.applied)}; active: {', '.join(chain.active) or '-'}"

@@ -14,8 +14,11 @@ from oimi.pipeline.events import (
     Level,
     LogEntries,
     LogEntry,
+    MapChange,
     MotionSource,
     ReaderProgress,
+    RuleDecision,
+    RuleDecisions,
     SafetyIntervention,
     SafetyPhase,
     SafetyZone,
@@ -252,6 +255,33 @@ def test_the_rules_pane_says_what_each_alfa_omega_message_did_in_words(rrd: Path
     said = [row["TextLog:text"][0].split("  ")[-1] for row in rows(rrd, "/rules/chain")]
     assert said[0] == "added avoid; active: avoid"
     assert said[1] == "added avoid; active: avoid (map locked)"
+
+
+def test_a_rule_firing_evaluation_after_evaluation_is_said_when_something_changes(
+    tmp_path: Path,
+) -> None:
+    """A condition that holds fired at every evaluation: the same line ten times a second
+    filled the Rules tab. A firing is said when it starts, changes its bindings or the
+    map, and when it stops."""
+    ben, ada = {"?child": "Human/ben"}, {"?child": "Human/ada"}
+    change = (MapChange(path="scriptinfo.changed", old="false", new="true"),)
+    evaluations = [(ben, ()), (ben, ()), (ben, change), (ben, ()), (ada, ()), (None, ())]
+    path = tmp_path / "rules.rrd"
+    with RerunSink(path, recording_id="rules", scene=SCENE) as sink:
+        for tick, (bindings, changes) in enumerate(evaluations):
+            fired = bindings is not None
+            decision = RuleDecision(
+                rule="lost", rulecode=4, fired=fired, bindings=bindings or {}, changes=changes
+            )
+            event = RuleDecisions(tick=tick, time_ms=tick * 20, decisions=(decision,))
+            sink.record(Topic.RULE_DECISIONS, tick * 20_000_000, event)
+    said = sorted((row["tick"], row["TextLog:text"][0]) for row in rows(path, "/rules/decisions"))
+    assert [(tick, text.split("  ")[-1]) for tick, text in said] == [
+        (0, "lost (rule 4) fired; ?child=Human/ben"),
+        (2, "lost (rule 4) fired; ?child=Human/ben; scriptinfo.changed: false -> true"),
+        (4, "lost (rule 4) fired; ?child=Human/ada"),
+        (5, "lost (rule 4) stopped firing"),
+    ]
 
 
 def _message(rule: str, action: str, mutex: str = "M") -> RuleMessage:
