@@ -103,8 +103,10 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                 rrb.TimeSeriesView(
                     name="LED colour",
                     origin="robot/led",
-                    axis_y=rrb.ScalarAxis(range=(0.0, 2.0), zoom_lock=True),
+                    axis_y=rrb.ScalarAxis(range=(0.5, 1.5), zoom_lock=True),  # one label: 1
                     plot_legend=rrb.PlotLegend(visible=False),
+                    # the robot's body colour: a white LED vanished on the plot's white
+                    background=rrb.archetypes.PlotBackground(color=palette.colour("robot")),
                 ),
                 rrb.TimeSeriesView(name="Gap to each person (m)", origin="robot/distance"),
                 rrb.TimeSeriesView(

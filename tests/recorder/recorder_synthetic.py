@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import msgspec
+import rerun.blueprint as rrb
 from oimi.pipeline.events import (
     ActivityEntry,
     ActuatorCommands,
@@ -209,3 +210,10 @@ def rows(path: Path, entity: str, *, static: bool | None = None) -> list[dict]:
         if chunk.entity_path == entity and (static is None or chunk.is_static == static):
             found += chunk.to_record_batch().to_pylist()
     return found
+
+
+def views(part: rrb.Container | rrb.View) -> list[rrb.View]:
+    """The views of a blueprint's container, depth first."""
+    if isinstance(part, rrb.View):
+        return [part]
+    return [view for child in part.contents for view in views(child)]

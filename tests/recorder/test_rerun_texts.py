@@ -8,7 +8,6 @@ from pathlib import Path
 
 import msgspec
 import pytest
-import rerun.blueprint as rrb
 from oimi.pipeline.events import (
     ActuatorCommands,
     Event,
@@ -30,7 +29,7 @@ from oimi.recorder.rerun_sink import (
     default_blueprint,
     value_words,
 )
-from recorder_synthetic import SCENE, rows, session, world_state
+from recorder_synthetic import SCENE, rows, session, views, world_state
 
 
 @pytest.mark.parametrize(
@@ -239,7 +238,7 @@ def test_the_text_tabs_show_the_lines_up_to_the_time_cursor_newest_last(tmp_path
     ]
     tabs = [
         view
-        for view in _views(default_blueprint(SCENE).root_container)
+        for view in views(default_blueprint(SCENE).root_container)
         if view.name in ("Script", "Sound", "Rules", "Log")
     ]
     assert [(v.class_identifier, v.origin) for v in tabs] == [
@@ -259,10 +258,3 @@ def test_a_tab_keeps_fewer_lines_when_long_ones_wrap(tmp_path: Path) -> None:
             )
     last = max(rows(path, "/recent/log"), key=lambda row: row["tick"])["TextDocument:text"][0]
     assert [line.split()[3] for line in last.splitlines()] == ["6", "7", "8"]  # 3 rows each
-
-
-def _views(part: rrb.Container | rrb.View) -> list[rrb.View]:
-    """The views of a blueprint's container, depth first."""
-    if isinstance(part, rrb.View):
-        return [part]
-    return [view for child in part.contents for view in _views(child)]

@@ -16,9 +16,9 @@ from oimi.pipeline.events import (
     Topic,
 )
 from oimi.recorder import palette
-from oimi.recorder.rerun_sink import RerunSink, zone_rings
+from oimi.recorder.rerun_sink import RerunSink, default_blueprint, zone_rings
 from oimi.recorder.scene import SafetyZones
-from recorder_synthetic import SCENE, rows, session, world_state
+from recorder_synthetic import SCENE, rows, session, views, world_state
 
 
 def packed(rgb: palette.RGB, alpha: int = 255) -> int:
@@ -83,6 +83,15 @@ def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path)
     assert all("Points2D:colors" not in row for row in rows(rrd, "/world/robot", static=False))
     band = rows(rrd, "/robot/led", static=False)
     assert {c for row in band for c in row.get("SeriesPoints:colors") or []} == colours
+
+
+def test_the_led_band_shows_a_white_led_and_one_axis_label() -> None:
+    """On the plot's white a white LED vanished from the band: it is drawn on the robot's
+    body colour, its axis from 0.5 to 1.5 (a label 0 sat on the first time label)."""
+    [band] = [v for v in views(default_blueprint().root_container) if v.name == "LED colour"]
+    background = band.properties["PlotBackground"].color.as_arrow_array().to_pylist()
+    assert background == [packed(palette.colour("robot"))]
+    assert band.properties["ScalarAxis"].range.as_arrow_array().to_pylist() == [[0.5, 1.5]]
 
 
 def test_rings_are_drawn_when_their_look_changes_and_moved_with_their_body(
