@@ -13,6 +13,7 @@ share the entity paths and palette; the MCAP -> RRD conversion reuses the same l
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections import deque
@@ -37,7 +38,15 @@ from oimi.pipeline.events import (
     Topic,
     WorldState,
 )
-from oimi.pipeline.messages import InstructionBlock, RuleAction
+from oimi.pipeline.messages import (
+    AudioOut,
+    InstructionBlock,
+    Led,
+    Move,
+    MutexCmd,
+    RuleAction,
+    RuleMessage,
+)
 from oimi.pipeline.operator.commands import describe
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
@@ -66,23 +75,26 @@ LEVELS: Final[dict[Level, str]] = {
     Level.WARNING: rr.TextLogLevel.WARN,
     Level.ERROR: rr.TextLogLevel.ERROR,
 }
+PANES: Final = {"script": "script", "robot": "sound", "rules": "rules", "log": "log"}
+"""The text tab each text entity's first path segment goes to (``robot/audio``: Sound)."""
+RECENT_LINES: Final = 9
+"""Lines a text tab shows at most: the newest at the bottom of the pane at 1280x800."""
+RECENT_ROW_CHARS: Final = 72
+"""Characters in a row of a text tab at 1280x800: a longer line wraps and takes the room
+of more lines, so fewer are shown."""
 # draw order, back to front
 _GRID, _ARENA, _TRAIL, _ZONE, _BODY, _RING, _INK, _MARK = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0
 
 
 def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
     """The room gets most of the screen; beside it what the robot does now, the LED band,
-    distances and speed, then the texts in tabs. Side panels collapsed, time in seconds."""
+    distances and speed, then the texts up to the time cursor in tabs. Side panels
+    collapsed, time in seconds."""
     bounds = None
     if scene is not None:
         bounds = rrb.VisualBounds2D(
             x_range=[-0.5, scene.width_m + 0.3], y_range=[-scene.height_m - 0.3, 0.5]
         )
-    hidden = [
-        rrb.encodings.TimelineColumn(name, visible=False) for name in ("sim_time", "tick")
-    ]  # each line starts with its time in seconds instead
-    texts = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["body"])
-    leveled = rrb.TextLogColumns(timeline_columns=hidden, text_log_columns=["loglevel", "body"])
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial2DView(name="Room", origin="world", visual_bounds=bounds),
@@ -91,8 +103,10 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                 rrb.TimeSeriesView(
                     name="LED colour",
                     origin="robot/led",
-                    axis_y=rrb.ScalarAxis(range=(0.0, 2.0), zoom_lock=True),
+                    axis_y=rrb.ScalarAxis(range=(0.5, 1.5), zoom_lock=True),  # one label: 1
                     plot_legend=rrb.PlotLegend(visible=False),
+                    # the robot's body colour: a white LED vanished on the plot's white
+                    background=rrb.archetypes.PlotBackground(color=palette.colour("robot")),
                 ),
                 rrb.TimeSeriesView(name="Gap to each person (m)", origin="robot/distance"),
                 rrb.TimeSeriesView(
@@ -101,12 +115,12 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                     plot_legend=rrb.PlotLegend(visible=False),
                 ),
                 rrb.Tabs(
-                    rrb.TextLogView(name="Script", origin="script/events", columns=texts),
-                    rrb.TextLogView(name="Sound", origin="robot/audio", columns=texts),
-                    rrb.TextLogView(name="Rules", origin="rules", columns=texts),
-                    rrb.TextLogView(name="Log", origin="log", columns=leveled),
+                    *(
+                        rrb.TextDocumentView(name=pane.title(), origin=f"recent/{pane}")
+                        for pane in PANES.values()
+                    )
                 ),
-                row_shares=[1.2, 0.8, 1.6, 1.2, 2.4],
+                row_shares=[1.5, 1.0, 1.4, 1.6, 2.0],
             ),
             column_shares=[3, 2],
         ),
@@ -114,6 +128,19 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="sim_time"),
     )
+
+
+def _fitting(lines: deque[str]) -> list[str]:
+    """The last of ``lines`` that fill at most RECENT_LINES rows once wrapped (the newest
+    always)."""
+    kept: list[str] = []
+    rows = 0
+    for line in reversed(lines):
+        rows += -(-len(line) // RECENT_ROW_CHARS)
+        if kept and rows > RECENT_LINES:
+            break
+        kept.append(line)
+    return kept[::-1]
 
 
 def _xy(x_m: float, y_m: float) -> list[float]:
@@ -228,8 +255,13 @@ class RerunSink:
         self._led: tuple[float, float, float] | None = None
         self._audio: str | None = None
         self._contacts: tuple[str, ...] = ()
+        self._firing: dict[str, dict[str, str]] = {}
+        """The rules that fired at the last evaluation, with their bindings."""
         self._place: tuple[str, str, str, str] | None = None
         self._block: InstructionBlock | None = None
+        self._recent = {pane: deque[str](maxlen=RECENT_LINES) for pane in PANES.values()}
+        self._stale: set[str] = set()
+        """Tabs with lines added this tick, redrawn once when the tick ends."""
         self._closed = False
         self._static()
         if scene is not None:
@@ -394,6 +426,7 @@ class RerunSink:
         if self._closed:
             raise RecordingError(f"record({topic}) after close()")
         if message.tick != self._tick:
+            self._show_recent()
             self._tick = message.tick
             self._seconds = time_ns / 1e9
             self._time_set = False
@@ -422,8 +455,21 @@ class RerunSink:
                 pass
 
     def _say(self, path: str, text: str, level: str = rr.TextLogLevel.INFO) -> None:
-        """A line of text, led by the simulated time in seconds (the views show no time column)."""
-        self._emit(path, rr.TextLog(f"{self._seconds:7.2f} s  {text}", level=level))
+        """A line of text, led by the simulated time in seconds, logged and added to its tab."""
+        stamp = f"{self._seconds:7.2f} s  "
+        self._emit(path, rr.TextLog(stamp + text, level=level))
+        pane = PANES[path.split("/")[0]]
+        flag = "" if level == rr.TextLogLevel.INFO else f"{level}  "
+        self._recent[pane].append(stamp + flag + text)
+        self._stale.add(pane)
+
+    def _show_recent(self) -> None:
+        """Each tab whose lines changed this tick, as a document of its last lines: Rerun's
+        text log view lists lines after the time cursor too, a document shows the latest
+        one up to it."""
+        for pane in sorted(self._stale):
+            self._emit(f"recent/{pane}", rr.TextDocument("\n".join(_fitting(self._recent[pane]))))
+        self._stale.clear()
 
     def _emit(self, path: str, archetype: rr.AsComponents) -> None:
         """Log now, at the current tick (the timelines are set lazily, once per tick)."""
@@ -591,6 +637,7 @@ class RerunSink:
         place = (progress.activity, progress.goalid, progress.actionid, progress.blockid)
         if place != self._place:
             self._place = place
+            self._block = None  # the old place's: the new one's comes with the next commands
             self._block_document()
         for item in progress.items:
             where = f" at {item.path}" if item.path else ""
@@ -601,25 +648,36 @@ class RerunSink:
         activity, goal, action, block = self._place or ("", "", "", "")
         where = f"{goal}/{action}/{block}" if goal else "-"
         lines = [f"**{activity or '(no activity)'}** · {where}"]
-        if self._block is not None:
-            lines += ["", f"### {block_line(self._block)}"]
+        if self._block is not None:  # body-sized lines that wrap: a heading was cut at 1280 px
+            lines += ["", *(f"- {line}" for line in block_lines(self._block))]
         self._emit("script/block", rr.TextDocument("\n".join(lines), media_type="text/markdown"))
 
     def _decisions(self, decisions: RuleDecisions) -> None:
+        """A rule that starts firing, fires with other bindings or changes the map; one
+        that stops (a condition that holds fired at every evaluation, a flood of one line)."""
+        firing: dict[str, dict[str, str]] = {}
         for d in decisions.decisions:
             if not d.fired:
+                if d.rule in self._firing:
+                    self._say("rules/decisions", f"{d.rule} (rule {d.rulecode}) stopped firing")
+                continue
+            firing[d.rule] = d.bindings
+            if not d.changes and self._firing.get(d.rule) == d.bindings:
                 continue
             parts = [f"{d.rule} (rule {d.rulecode}) fired"]
             if d.bindings:
                 parts.append(", ".join(f"{k}={v}" for k, v in d.bindings.items()))
-            parts.extend(f"{c.path}: {c.old} -> {c.new}" for c in d.changes)
+            parts.extend(
+                f"{c.path}: {value_words(c.path, c.old)} -> {value_words(c.path, c.new)}"
+                for c in d.changes
+            )
             self._say("rules/decisions", "; ".join(parts))
+        self._firing = firing
 
     def _chain(self, chain: RuleChainState) -> None:
-        applied = ", ".join(f"{m.id} {_DONE[m.action]} ({m.action.name})" for m in chain.applied)
-        text = f"{applied}; active: {', '.join(chain.active) or '-'}"
+        text = f"{chain_words(chain.applied)}; active: {', '.join(chain.active) or '-'}"
         if chain.locked:
-            text += " (locked)"
+            text += " (map locked)"
         self._say("rules/chain", text)
 
     def _log(self, entries: LogEntries) -> None:
@@ -634,6 +692,7 @@ class RerunSink:
         if self._closed:
             return
         self._closed = True
+        self._show_recent()
         self._send_columns()
         self._rec.flush()
         self._rec.disconnect()
@@ -691,34 +750,94 @@ def _box_outline(x: float, y: float, w: float, h: float, angle: float) -> list[l
     return [_xy(x + c * dx - s * dy, y + s * dx + c * dy) for dx, dy in corners]
 
 
-def block_line(block: InstructionBlock) -> str:
-    """What a block makes the robot do, in words:
-    ``MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav``."""
-    moves = []
-    for m in block.move:
-        speed = math.hypot(m.v_x, m.v_y)
-        parts = [f"MV {speed:.2f} m/s"] if speed else []
-        if m.v_theta:
-            parts.append(f"turn {m.v_theta:.2f} rad/s")
-        text = " ".join(parts) or "stand still"
-        text += f" for {m.duration / 1000:.1f} s"
-        if m.wait_t:
-            text += f" after {m.wait_t / 1000:.1f} s"
-        moves.append(text)
-    leds = [f"LED {palette.colour_name((x.r, x.g, x.b)) if x.turnas else 'off'}" for x in block.led]
-    sounds = [f"sound {os.path.basename(a.track_path)}" for a in block.audioout]
-    channels = [" then ".join(items) for items in (moves, leds, sounds) if items]
-    return " · ".join(channels) or "nothing"
+def block_lines(block: InstructionBlock) -> list[str]:
+    """What a block makes the robot do, in words, a line per channel (a run of one item
+    said once, with its count): ``MV 0.15 m/s for 2.0 s``, ``LED yellow → dim blue ×3``,
+    ``sound hello.wav``."""
+    channels = [("MV ", block.move), ("LED ", block.led), ("sound ", block.audioout)]
+    lines = [
+        name + " → ".join(_runs([_channel_words(x) for x in items]))
+        for name, items in channels
+        if items
+    ]
+    return lines or ["nothing"]
+
+
+def _move_words(move: Move) -> str:
+    speed = math.hypot(move.v_x, move.v_y)
+    parts = [f"{speed:.2f} m/s"] if speed else []
+    if move.v_theta:
+        parts.append(f"turn {move.v_theta:.2f} rad/s")
+    text = " ".join(parts) or "stand still"
+    text += f" for {move.duration / 1000:.1f} s"
+    if move.wait_t:
+        text += f" after {move.wait_t / 1000:.1f} s"
+    return text
+
+
+def _runs(items: list[str]) -> list[str]:
+    """Each run of equal items once, with its length when more than one."""
+    runs = [(item, len(list(group))) for item, group in itertools.groupby(items)]
+    return [item if n == 1 else f"{item} ×{n}" for item, n in runs]
 
 
 _DONE: Final = {
-    RuleAction.A: "activated",
+    RuleAction.A: "added",
     RuleAction.R: "removed",
-    RuleAction.D: "held",
+    RuleAction.D: "held for later",
     RuleAction.B: "brought back",
     RuleAction.C: "recovered",
 }
-"""What an alfa/omega action did to its rule, in words (the Rules pane)."""
+"""What an alfa/omega action did to its rule, in words (thesis 4.3; the Rules pane)."""
+
+
+def chain_words(applied: tuple[RuleMessage, ...]) -> str:
+    """Alfa/omega messages in words, in order, a run of one action said once:
+    ``map locked · removed kick_starter · added avoid, greet · map unlocked``."""
+    steps: list[tuple[str, str]] = []
+    for m in applied:
+        if m.mutexcmd == MutexCmd.L:
+            steps.append(("map locked", ""))
+        steps.append((_DONE[m.action], m.id))
+        if m.mutexcmd == MutexCmd.U:
+            steps.append(("map unlocked", ""))
+    said = []
+    for done, run in itertools.groupby(steps, key=lambda step: step[0]):
+        rules = ", ".join(rule for _, rule in run if rule)
+        said.append(f"{done} {rules}" if rules else done)
+    return " · ".join(said)
+
+
+_BLOCK_CHANNELS: Final = {"move": Move, "led": Led, "audioout": AudioOut}
+MAX_VALUE_CHARS: Final = 40
+"""A changed value other than a block's channel is cut here (the pane's width)."""
+
+
+def value_words(path: str, value: str) -> str:
+    """A value a rule changed (JSON text, cut at its end by the pipeline) as a designer
+    reads it: a block's moves, LEDs or sounds in words, else the JSON, short."""
+    section, _, channel = path.rpartition(".")
+    kind = _BLOCK_CHANNELS.get(channel)
+    if section.endswith("block") and kind is not None and value.startswith("["):
+        whole = value if value.endswith("]") else value[: value.rfind("},") + 1] + "]"
+        try:
+            items = msgspec.json.decode(whole, type=list[kind])
+        except msgspec.DecodeError:
+            pass
+        else:
+            words = " → ".join(_runs([_channel_words(x) for x in items])) or "none"
+            return words if whole is value else words + " → …"
+    return value if len(value) <= MAX_VALUE_CHARS else value[: MAX_VALUE_CHARS - 1] + "…"
+
+
+def _channel_words(item: Move | Led | AudioOut) -> str:
+    match item:
+        case Move():
+            return _move_words(item)
+        case Led():
+            return palette.colour_name((item.r, item.g, item.b)) if item.turnas else "off"
+        case AudioOut():
+            return os.path.basename(item.track_path)
 
 
 def recording_id_of(metadata: RecordingMetadata, fallback: str) -> str:

@@ -162,7 +162,8 @@ def screenshots(recording: Path, folder: Path, at: float | None = None) -> list[
                     page, lambda: any("ReadMessages" in r for r in traffic.requests), seconds=90
                 )
                 page.wait_for_timeout(10_000)  # let the software renderer draw the recording
-                if at is not None:  # click the collapsed time panel's bar
+                if at is not None:  # pause (playback ran on), click the collapsed time bar
+                    page.keyboard.press("Space")
                     left, right = 290, width - 205
                     page.mouse.click(left + at * (right - left), height - 14)
                 page.wait_for_timeout(8_000)

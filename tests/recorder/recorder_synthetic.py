@@ -1,8 +1,11 @@
-"""Synthetic events of every topic, for the recorder's tests."""
+"""Synthetic events of every topic, for the recorder's tests, and reading an ``.rrd`` back."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import msgspec
+import rerun.blueprint as rrb
 from oimi.pipeline.events import (
     ActivityEntry,
     ActuatorCommands,
@@ -46,6 +49,7 @@ from oimi.pipeline.messages import (
 )
 from oimi.pipeline.operator.commands import Add
 from oimi.recorder.scene import ObstacleGeometry, SceneGeometry
+from rerun.chunk import RrdReader
 
 TICK_NS = 20_000_000
 SCENE = SceneGeometry(
@@ -197,3 +201,19 @@ def session(ticks: int = 6) -> list[tuple[Topic, int, Event]]:
         for tick in range(ticks)
         for topic, event in tick_events(tick)
     ]
+
+
+def rows(path: Path, entity: str, *, static: bool | None = None) -> list[dict]:
+    """The rows of ``entity`` in a ``.rrd`` (static ones, others, or both)."""
+    found = []
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == entity and (static is None or chunk.is_static == static):
+            found += chunk.to_record_batch().to_pylist()
+    return found
+
+
+def views(part: rrb.Container | rrb.View) -> list[rrb.View]:
+    """The views of a blueprint's container, depth first."""
+    if isinstance(part, rrb.View):
+        return [part]
+    return [view for child in part.contents for view in views(child)]

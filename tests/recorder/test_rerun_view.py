@@ -1,5 +1,6 @@
 """What the Rerun view draws for people: colours from the one palette (the same as the web
-console's), the block in words, safety zones that light up, contact marks, text with seconds."""
+console's), safety zones that light up, contact marks, people who leave and come back (the
+texts: test_rerun_texts.py)."""
 
 from __future__ import annotations
 
@@ -14,25 +15,15 @@ from oimi.pipeline.events import (
     SafetyZone,
     Topic,
 )
-from oimi.pipeline.messages import AudioOut, InstructionBlock, Led, Move
 from oimi.recorder import palette
-from oimi.recorder.rerun_sink import RerunSink, block_line, zone_rings
+from oimi.recorder.rerun_sink import RerunSink, default_blueprint, zone_rings
 from oimi.recorder.scene import SafetyZones
-from recorder_synthetic import SCENE, session, world_state
-from rerun.chunk import RrdReader
+from recorder_synthetic import SCENE, rows, session, views, world_state
 
 
 def packed(rgb: palette.RGB, alpha: int = 255) -> int:
     r, g, b = rgb
     return (r << 24) | (g << 16) | (b << 8) | alpha
-
-
-def rows(path: Path, entity: str, *, static: bool | None = None) -> list[dict]:
-    found = []
-    for chunk in RrdReader(path).stream().to_chunks():
-        if chunk.entity_path == entity and (static is None or chunk.is_static == static):
-            found += chunk.to_record_batch().to_pylist()
-    return found
 
 
 @pytest.fixture(scope="module")
@@ -94,32 +85,13 @@ def test_the_robot_keeps_its_body_colour_and_the_led_goes_to_its_ring(rrd: Path)
     assert {c for row in band for c in row.get("SeriesPoints:colors") or []} == colours
 
 
-@pytest.mark.parametrize(
-    ("block", "line"),
-    [
-        (
-            InstructionBlock(
-                move=(Move(v_x=0.15, v_y=0.0, v_theta=0.0, wait_t=0, duration=2000),),
-                led=(Led(r=1.0, g=1.0, b=0.0, turnas=1, wait_t=0, duration=2000),),
-                audioout=(AudioOut(track_path="audio/hello.wav", wait_t=0, duration=900),),
-            ),
-            "MV 0.15 m/s for 2.0 s · LED yellow · sound hello.wav",
-        ),
-        (
-            InstructionBlock(
-                move=(
-                    Move(v_x=0.0, v_y=0.0, v_theta=0.5, wait_t=500, duration=1000),
-                    Move(v_x=0.0, v_y=0.0, v_theta=0.0, wait_t=0, duration=1000),
-                ),
-                led=(Led(r=1.0, g=1.0, b=1.0, turnas=0, wait_t=0, duration=0),),
-            ),
-            "turn 0.50 rad/s for 1.0 s after 0.5 s then stand still for 1.0 s · LED off",
-        ),
-        (InstructionBlock(), "nothing"),
-    ],
-)
-def test_the_current_block_reads_as_a_line(block: InstructionBlock, line: str) -> None:
-    assert block_line(block) == line
+def test_the_led_band_shows_a_white_led_and_one_axis_label() -> None:
+    """On the plot's white a white LED vanished from the band: it is drawn on the robot's
+    body colour, its axis from 0.5 to 1.5 (a label 0 sat on the first time label)."""
+    [band] = [v for v in views(default_blueprint().root_container) if v.name == "LED colour"]
+    background = band.properties["PlotBackground"].color.as_arrow_array().to_pylist()
+    assert background == [packed(palette.colour("robot"))]
+    assert band.properties["ScalarAxis"].range.as_arrow_array().to_pylist() == [[0.5, 1.5]]
 
 
 def test_rings_are_drawn_when_their_look_changes_and_moved_with_their_body(
@@ -176,27 +148,6 @@ def test_contact_is_marked_in_the_room_and_logged_with_its_time(tmp_path: Path) 
         "   0.06 s  contact: robot touches child1",
         "   0.16 s  contact with child1 ended",
     ]
-
-
-def test_the_rules_pane_says_what_each_alfa_omega_message_did_in_words(rrd: Path) -> None:
-    """One letter (``A avoid``) told a designer little: the action is said in words."""
-    said = [row["TextLog:text"][0].split("  ")[-1] for row in rows(rrd, "/rules/chain")]
-    assert said[0] == "avoid activated (A); active: avoid"
-    assert said[1] == "avoid activated (A); active: avoid (locked)"
-
-
-def test_the_sound_pane_names_tracks_as_the_block_line_does(tmp_path: Path) -> None:
-    """A track given as a path is named by its file, in the Sound pane as on the block's
-    line (the pane once said ``sound sounds/cheer.wav`` beside a line's ``cheer.wav``)."""
-    path = tmp_path / "sound.rrd"
-    tracks = ["", "sounds/cheer.wav", "sounds/cheer.wav", "bell", ""]
-    with RerunSink(path, recording_id="sound", scene=SCENE, world_every_n_ticks=1) as sink:
-        for tick, track in enumerate(tracks):
-            state = msgspec.structs.replace(world_state(tick), audio=track)
-            sink.record(Topic.WORLD_STATE, tick * 20_000_000, state)
-    said = [row["TextLog:text"][0] for row in rows(path, "/robot/audio")]
-    expected = ["sound off", "sound cheer.wav", "sound bell", "sound off"]
-    assert [text.split("  ")[-1] for text in said] == expected
 
 
 def test_a_person_who_left_the_room_is_cleared_and_drawn_anew_on_return(tmp_path: Path) -> None:
