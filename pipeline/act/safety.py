@@ -414,9 +414,10 @@ class SafetySupervisor:
     ) -> list[tuple[str, Entity, int]]:
         """The kept echoes that are not a human the map tracks. An echo is that human when
         their readings place them closer than both readings' errors and the walk between
-        their times allow, and no other echo is that close to the human: each body makes
-        one echo, so of two echoes near one child at least one is another body (a child
-        beside them that the camera does not see), and both are kept."""
+        their times allow, and no other echo is within that human's gate: a ring that
+        reports each body once (the simulated one) makes two only for two bodies (a child
+        beside them the camera does not see), and both are kept. A real ring merges and
+        splits echoes (docs/actuator-and-joystick.md)."""
         near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
         for i, (key, _, _) in enumerate(kept):
             for j in self._near(self._anchors[key], seen, slipped):
