@@ -48,6 +48,7 @@ from oimi.pipeline.messages import (
     RuleMessage,
 )
 from oimi.pipeline.operator.commands import describe
+from oimi.pipeline.texts import clipped
 from oimi.recorder import palette
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
@@ -819,15 +820,16 @@ def value_words(path: str, value: str) -> str:
     section, _, channel = path.rpartition(".")
     kind = _BLOCK_CHANNELS.get(channel)
     if section.endswith("block") and kind is not None and value.startswith("["):
-        whole = value if value.endswith("]") else value[: value.rfind("},") + 1] + "]"
+        cut = not value.endswith("]")  # the whole items before the cut are said
+        whole = value[: value.rfind("},") + 1] + "]" if cut else value
         try:
             items = msgspec.json.decode(whole, type=list[kind])
         except msgspec.DecodeError:
             pass
         else:
             words = " → ".join(_runs([_channel_words(x) for x in items])) or "none"
-            return words if whole is value else words + " → …"
-    return value if len(value) <= MAX_VALUE_CHARS else value[: MAX_VALUE_CHARS - 1] + "…"
+            return words + " → …" if cut else words
+    return clipped(value, MAX_VALUE_CHARS)
 
 
 def _channel_words(item: Move | Led | AudioOut) -> str:

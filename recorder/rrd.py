@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import warnings
 
+from oimi.pipeline.texts import clipped
 from oimi.recorder.errors import RecordingError
 
 REASON_CHARS = 200
@@ -28,9 +29,9 @@ def check_rrd(path: str | os.PathLike[str]) -> int:
             for _ in reader.stream().to_chunks():
                 chunks += 1
     except (RuntimeError, ValueError, OSError) as error:
-        reason = str(error).removeprefix(f"Failed to read RRD file at {name}: ")
-        if len(reason) > REASON_CHARS:
-            reason = reason[: REASON_CHARS - 1] + "…"
+        reason = clipped(
+            str(error).removeprefix(f"Failed to read RRD file at {name}: "), REASON_CHARS
+        )
         raise RecordingError(
             f"damaged or not a Rerun recording ({reason}); {chunks} chunks read before it",
             source=name,

@@ -18,6 +18,7 @@ import msgspec
 from oimi.pipeline.events import Event, Topic, encode
 from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.sink import NS_PER_MS
+from oimi.pipeline.texts import clipped
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import RecordedMessage, Recording
 from oimi.recorder.world_sampling import recorded_sampling
@@ -106,12 +107,11 @@ NONE_TEXT: Final = "<none>"
 def value_text(value: Any) -> str:
     """A value as compact JSON, cut to ``VALUE_CHARS``."""
     text = "<absent>" if value is ABSENT else msgspec.json.encode(value).decode()
-    return text if len(text) <= VALUE_CHARS else text[: VALUE_CHARS - 1] + "…"
+    return clipped(text, VALUE_CHARS)
 
 
 def _payload_text(payload: bytes) -> str:
-    text = payload.decode("utf-8", errors="replace")
-    return text if len(text) <= VALUE_CHARS else text[: VALUE_CHARS - 1] + "…"
+    return clipped(payload.decode("utf-8", errors="replace"), VALUE_CHARS)
 
 
 # --------------------------------------------------------------------- comparator

@@ -38,8 +38,8 @@ still says it is on), and a camera only while its frames do (``frametime`` withi
 ``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
 unless a fresh reading of a tracked human explains them (one each); one no longer reported
 is gone once every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated
-with an old reading, or that a ring now down may have made, is kept, stale. While a sonar is down or
-repeats an old echo, linear motion stays inside the camera's view (``camera_fov_rad``).
+with an old reading, or that a ring now down may have made, is kept, stale. While a sonar
+is down or repeats an old echo, linear motion stays inside the camera's view.
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -412,12 +412,12 @@ class SafetySupervisor:
     def _unexplained(
         self, kept: list[tuple[str, Entity, int]], seen: list[_Anchor], slipped: bool
     ) -> list[tuple[str, Entity, int]]:
-        """The kept echoes that are not a human the map tracks. An echo is that human when
-        their readings place them closer than both readings' errors and the walk between
-        their times allow, and no other echo is within that human's gate: a ring that
-        reports each body once (the simulated one) makes two only for two bodies (a child
-        beside them the camera does not see), and both are kept. A real ring merges and
-        splits echoes (docs/actuator-and-joystick.md)."""
+        """The kept echoes that are not a human the map tracks: an echo is, when it is the
+        one echo in that human's gate (:meth:`_near`). A ring reporting each body once (the
+        simulated one) makes two there only for two bodies, and both are kept; a real ring
+        merges and splits echoes (docs/actuator-and-joystick.md)."""
+        if not seen:
+            return kept
         near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
         for i, (key, _, _) in enumerate(kept):
             for j in self._near(self._anchors[key], seen, slipped):
@@ -426,9 +426,9 @@ class SafetySupervisor:
         return [echo for i, echo in enumerate(kept) if i not in explained]
 
     def _near(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> list[int]:
-        """The tracked humans (indices in ``seen``) whose reading an echo may be. The
-        distance accepted is at most ``human_radius_m``; ``slipped``: less the drift since
-        the echo (placed that far off, it may be another body)."""
+        """The tracked humans (indices in ``seen``) whose reading an echo may be: nearer than
+        both readings' errors and the walk between their times, at most ``human_radius_m``
+        (``slipped``: less the drift since the echo, placed that far off)."""
         config = self.config
         _, at_ms, x, y, since = echo
         largest = config.human_radius_m

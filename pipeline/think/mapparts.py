@@ -19,6 +19,7 @@ import msgspec
 from oimi.pipeline.events import MapChange
 from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.messages import WorldMap
+from oimi.pipeline.texts import clipped
 from oimi.pipeline.think.condition_runtime import STORE_READS
 
 MAX_CHANGE_TEXT: Final = 120
@@ -217,5 +218,4 @@ _json: Final = msgspec.json.Encoder().encode
 
 
 def _cut(text: bytes) -> str:
-    cut = text.decode()
-    return cut if len(cut) <= MAX_CHANGE_TEXT else cut[: MAX_CHANGE_TEXT - 1] + "…"
+    return clipped(text.decode(), MAX_CHANGE_TEXT)

@@ -20,6 +20,7 @@ from typing import Final, NamedTuple, Protocol
 
 from oimi.pipeline.act.limits import capped
 from oimi.pipeline.errors import FAILURES, failure
+from oimi.pipeline.texts import clipped
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.schema import (
     Approach,
@@ -336,8 +337,7 @@ def _raised(error: BaseException) -> str:
 
 def _shown(value: object) -> str:
     """``value`` for a message: without memory addresses, cut to :data:`SHOWN` characters."""
-    text = _ADDRESS.sub("", repr(value))
-    return text if len(text) <= SHOWN else text[: SHOWN - 1] + "…"
+    return clipped(_ADDRESS.sub("", repr(value)), SHOWN)
 
 
 def _defined_at(method: object) -> str:
