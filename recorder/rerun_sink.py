@@ -121,7 +121,8 @@ def default_blueprint(scene: SceneGeometry | None = None) -> rrb.Blueprint:
                         for pane in PANES.values()
                     )
                 ),
-                row_shares=[1.5, 1.0, 1.4, 1.6, 2.0],
+                # at 1280x800 a plot much shorter than 1.6 shows only its 0 label
+                row_shares=[1.4, 0.8, 1.6, 1.6, 1.9],
             ),
             column_shares=[3, 2],
         ),
