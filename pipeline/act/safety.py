@@ -31,8 +31,9 @@ may reach while the base brakes from it (a cone, wider with the speed).
 
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
-``slow_speed_mps``; no sensor on: none. A sensor is on only while its status keeps coming
-(``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
+``slow_speed_mps`` (a human the camera lost: only until every ring has scanned since, then
+their echo stands in for them); no sensor on: none. A sensor is on only while its status
+keeps coming (``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
 still says it is on), and a camera only while its frames do (``frametime`` within
 ``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
@@ -114,12 +115,8 @@ _SLOW: Final = SafetyZone.SLOW
 """(Module names: a member read through its enum class takes a slow path, for each human.)"""
 EPISODE_GAP_MS: Final = 500
 """An intervention episode ends after this long without a limited tick."""
-_SEVERITY: Final = {
-    SafetyZone.BLIND: 1,
-    SafetyZone.STALE: 1,
-    SafetyZone.SLOW: 2,
-    SafetyZone.STOP: 3,
-}
+_BLIND, _STALE = SafetyZone.BLIND, SafetyZone.STALE
+_SEVERITY: Final = {_BLIND: 1, _STALE: 1, _SLOW: 2, _STOP: 3}
 
 
 class SafetySupervisor:
@@ -290,17 +287,6 @@ class SafetySupervisor:
         assert echo_hold_ms is not None  # filled
         placed: list[tuple[str, Entity, int]] = []  # what limits the robot, and its age
         kept: list[tuple[str, Entity, int]] = []  # the echoes kept, and their age
-        seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
-        for human in world_map.humans:
-            if not human.poses:
-                stale = True
-                continue
-            age_ms = self._age(human.id, human, now_ms)
-            placed.append((human.id, human, age_ms))
-            if age_ms > config.max_data_age_ms:
-                stale = True
-            else:
-                seen.append(self._anchors[human.id])
         for key, echo in echoes:
             age_ms = self._age(key, echo, now_ms)
             if age_ms > config.max_data_age_ms:
@@ -315,6 +301,19 @@ class SafetySupervisor:
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
+        seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
+        for human in world_map.humans:
+            if not human.poses:
+                stale = True
+                continue
+            age_ms = self._age(human.id, human, now_ms)
+            if age_ms <= config.max_data_age_ms:
+                seen.append(self._anchors[human.id])
+            elif ring_down or scanning_since <= heard.get(("Human", human.id), _NEVER):
+                stale = True  # the camera lost them, and no ring has looked all round since
+            else:  # every ring has scanned since: their echo, wherever they walk, says it
+                continue
+            placed.append((human.id, human, age_ms))
         placed += self._unexplained(kept, seen, ring_down)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
