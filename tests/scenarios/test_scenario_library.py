@@ -65,6 +65,7 @@ def test_library_covers_every_part_of_the_thesis() -> None:
         "safety_script_without_rule",
         "safety_joystick_at_child",
         "safety_ring_fault",
+        "safety_child_behind",
     }
     assert wanted <= set(LIBRARY)
 
@@ -129,6 +130,26 @@ def test_the_joystick_at_a_child_is_slowed_brought_to_rest_and_drives_away_at_fu
     away = [states[t].robot.vx_mps for t in range(375, 475)]
     assert min(away) == pytest.approx(-0.5)
     assert gap(474) > gap(375) + 0.5
+
+
+def test_a_child_the_camera_lost_behind_the_robot_is_watched_by_the_ring_not_its_old_row() -> None:
+    memory = MemorySink()
+    run(LIBRARY["safety_child_behind"], memory)
+    states = {s.tick: s for s in memory.on(Topic.WORLD_STATE)}
+
+    def gap(tick: int) -> float:
+        robot, child = states[tick].robot, states[tick].humans[0]
+        return math.hypot(child.x_m - robot.x_m, child.y_m - robot.y_m) - 0.55
+
+    # Turned about (1 s to 3.1 s): the child is behind the robot, out of the camera's view;
+    # driving away (5 s to 7 s) reaches full speed (their row once held it at 0.2 m/s)
+    assert abs(abs(states[250].robot.theta_rad) - math.pi) < 0.1
+    away = [math.hypot(states[t].robot.vx_mps, states[t].robot.vy_mps) for t in range(250, 350)]
+    assert max(away) == pytest.approx(0.5, abs=2e-3)
+    # Reversing at them (7 s to 13 s): the echo caps the closing speed in the slow zone
+    slowed = [t for t in range(350, 650) if gap(t) < 0.5]
+    assert slowed and max(states[t].robot.vx_mps for t in slowed) <= 0.2 + 1e-9
+    assert min(gap(t) for t in range(350, 700)) > 0.1
 
 
 def test_joystick_moves_the_robot_only_with_the_safety_lock() -> None:
