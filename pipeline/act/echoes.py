@@ -10,13 +10,14 @@ What else must hold depends on the ring (``sonar_beam_rad``):
 - a ring whose sonars merge what their beam holds (``sonar_beam_rad`` > 0; every real
   ring): a child beside the one the camera sees, in the same beam, makes no echo of their
   own. An echo is taken for a tracked human only where the camera's frame that placed them
-  saw all the beam that made it may hold (the coverage rule): its bearing, in that frame,
-  within the camera's half view less a whole beam (an echo may lie anywhere in its beam,
-  or at its axis on a real ring) and the angles a body's disc subtends at the echo's
-  range, twice (the echo's body may only reach into the beam, and so may another's), the
-  second grown by the robot's move and a walk between both readings. Any other body that
-  beam may hold is then in the camera's view, and tracked itself. Anywhere else, every
-  echo is kept. One body across two beams makes two echoes in one gate: both are the child.
+  saw all the beam that made it (the coverage rule): its bearing, in that frame, within
+  the camera's half view less a whole beam (an echo may lie anywhere in its beam, or at
+  its axis on a real ring), the angle the echo's body subtends at its range (its disc may
+  only reach into the beam) and the angle of the robot's move and a walk between both
+  readings at that range. A body the ring hides reaches no beam but those of nearer
+  bodies: when the echoes of all of them are dropped, all their beams lay in the view, so
+  its centre did, and the camera tracks it itself. Anywhere else every echo is kept. One
+  body across two beams makes two echoes in one gate: both are that child.
 - a ring that reports every body apart (0: the simulator's ideal ring): an echo is a
   tracked human's only when it is the one echo in that human's gate (two there are two
   bodies: one may be a child beside them, outside the camera's view, ``make soak
@@ -150,7 +151,7 @@ class EchoSorter:
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
         spread = self._beam_rad + math.asin(body / rho)
-        spread += math.asin(min(1.0, (body + moved + walked) / rho))
+        spread += math.asin(min(1.0, (moved + walked) / rho))
         if slipped:
             spread += min(self._reckoning.drift(echo.since).heading_rad, math.pi)
         bearing = math.atan2(d_y, d_x) - h_theta
