@@ -37,9 +37,10 @@ robot is only the sonar ring's echo (an obstacle that is not fixed, 5 scans a se
 3 m all around), which the supervisor keeps at the same distances. The ring is drawn too:
 the ideal one (every body apart) or one of 8, 12 or 16 sonars, each reporting the nearest
 body its beam reaches (``sonar_beams``). Such a ring cannot report a person hidden behind
-or beside nearer bodies in every beam they reach: while neither the ring's latest scan nor
-the camera's latest frame reports someone, (2) skips them (no sensor can see them; on the
-ideal ring nobody within its range is ever hidden).
+or beside nearer bodies in every beam they reach: while that holds (on the truth) and the
+camera does not look at them, (2) skips them (no sensor can see them; on the ideal ring
+nobody within its range is ever hidden), and until the robot, told at the ring's next
+scan, has braked from its top speed.
 
 With sensors failing (the ring goes offline, freezes or falls silent, and either may
 fail again or come back), the same properties hold while the pad drives the
@@ -82,6 +83,10 @@ RING_M = 3.0
 FRONT_FOV_RAD = 2.2
 """The front camera's view (the scenarios' default)."""
 PUSH_TICKS = 25
+REVEAL_TICKS = 10 + 1 + PUSH_TICKS
+"""Ticks after a human was last hidden from every sensor that (2) skips them: the ring's
+next scan (5 a second), a tick, and the braking of a 0.5 m/s base (a child the ring
+reveals inside the stop zone is one who walked in)."""
 """Ticks after a contact that (2) and (3) skip: 0.5 s, braking a 0.5 m/s push at 1 m/s²."""
 
 unit = st.floats(-1.0, 1.0, allow_nan=False).map(lambda v: round(v, 3))
@@ -436,6 +441,7 @@ def assert_safe(memory: MemorySink, all_round: bool, beams: int = 0) -> None:
     """The three properties of the module's docstring, on a session's ground truth."""
     states: list[WorldState] = memory.on(Topic.WORLD_STATE)  # type: ignore[assignment]
     pushed_until = -1
+    hidden_at: dict[str, int] = {}  # when each human was last hidden from every sensor
     speeds = {}
     fastest = {}  # the most each recorded speed may have been (cut towards zero)
     for state in states:
@@ -451,11 +457,13 @@ def assert_safe(memory: MemorySink, all_round: bool, beams: int = 0) -> None:
             continue
         if state.tick <= pushed_until:
             continue
-        unseen = hidden(state, all_round, beams)
+        for unseen in hidden(state, all_round, beams):
+            hidden_at[unseen] = state.tick
         for h in state.humans:
             dx, dy = h.x_m - robot.x_m, h.y_m - robot.y_m
             centre = math.hypot(dx, dy)
-            if centre - RADII_M < STOP_DISTANCE_M and h.id in unseen:
+            revealed = state.tick - hidden_at.get(h.id, -REVEAL_TICKS - 1) <= REVEAL_TICKS
+            if centre - RADII_M < STOP_DISTANCE_M and revealed:
                 event("a human no sensor can see inside the stop zone")
             elif centre - RADII_M < STOP_DISTANCE_M:
                 event("a human inside the stop zone" + ("" if all_round else ", front camera"))
