@@ -24,8 +24,8 @@ What else must hold depends on the ring (``sonar_beam_rad``):
   SEED=35``); an echo alone in one human's gate is dropped even when another human's gate
   holds two (that human's own echo is then missing).
 
-Neither can report a body hidden behind nearer ones in every beam it reaches: a real
-ring never sees it (docs/actuator-and-joystick.md). No clock, no IO.
+No ring reports a body hidden behind nearer ones in every beam it reaches, and no echo
+logic finds it (docs/actuator-and-joystick.md). No clock, no IO.
 """
 
 from __future__ import annotations
