@@ -689,13 +689,15 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     if outside(rx, ry, robot.radius_m):
         yield ("robot", "x_m"), f"the robot's start ({rx}, {ry}) is outside the arena"
 
-    room = MAX_ENTITIES - len(scenario.humans)  # the ring reports each as an obstacle
+    beams = scenario.sensors.sonar_beams  # a real ring may report a human in every beam
+    room = MAX_ENTITIES - len(scenario.humans) * max(beams, 1)  # each echo an obstacle
     if len(world.obstacles) > room:
+        where = f" in each of its {beams} beams" if beams else ""
         yield (
             ("world", "obstacles", max(room, 0)),
             f"{counted(len(world.obstacles), 'obstacle')} and"
             f" {counted(len(scenario.humans), 'human')}: the sonar ring reports each as an"
-            f" obstacle, more than the map holds ({MAX_ENTITIES})",
+            f" obstacle{where}, more than the map holds ({MAX_ENTITIES})",
         )
     if len(world.objects) > MAX_ENTITIES:
         yield (

@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
-from oimi.scenarios.schema import Scenario, unit_of
+from oimi.scenarios.schema import Scenario, SensorSpec, unit_of
 
 NOISE_SIGMAS: Final = 3.0
 """How many standard deviations of the sensors' noise the sensing error covers."""
@@ -133,19 +133,27 @@ def scans_to_see(dropout: float) -> float:
 NEVER_BELOW: Final = {
     name: value
     for name, value in ASSUMED.items()
-    if name not in ("robot_radius_m", "camera_fov_rad")
+    if name not in ("robot_radius_m", "camera_fov_rad", "sonar_beam_rad")
 }
 """Below the supervisor's own assumptions, one left out is not taken even when the scenario
-allows it (the robot's radius and the camera's view aside: they are the robot's own)."""
+allows it (the robot's radius, the camera's view and the ring's beams aside: they are the
+robot's own)."""
+
+
+def beam_rad(sensors: SensorSpec) -> float:
+    """How wide one sonar's beam of the scenario's ring is, rad (0: the ideal ring, which
+    reports every body apart)."""
+    return math.tau / sensors.sonar_beams if sensors.sonar_beams else 0.0
 
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario
-    (the camera's field of view: its camera's)."""
+    (the camera's field of view: its camera's; a sonar's beam: its ring's)."""
     implied = needs(scenario)
     return scenario.robot.safety.filled(
         **{name: _left_out(name, implied) for name in implied},
         camera_fov_rad=scenario.sensors.fov_rad,
+        sonar_beam_rad=beam_rad(scenario.sensors),
     )
 
 
@@ -168,6 +176,15 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
             f"{safety.camera_fov_rad!r} is wider than the camera's fov_rad {fov_rad!r}: with"
             " the sonar ring down the supervisor would let the robot drive where nothing"
             " looks (left out, it is taken from the scenario)",
+        )
+    beam = beam_rad(scenario.sensors)
+    if safety.sonar_beam_rad is not None and safety.sonar_beam_rad < beam:
+        yield (
+            ("robot", "safety", "sonar_beam_rad"),
+            f"{safety.sonar_beam_rad!r} is narrower than a sonar's beam of the ring"
+            f" ({beam!r} rad: sonar_beams {scenario.sensors.sonar_beams!r}): the supervisor"
+            " would take a child merged into a tracked child's echo for that child (left"
+            " out, it is taken from the scenario)",
         )
     for name, need in needs(scenario).items():
         if not math.isfinite(need.least):
@@ -194,8 +211,19 @@ PEOPLE: Final = ("human_radius_m", "human_speed_mps")
 def unknown_people(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     """Each assumption about people the scenario sets below the supervisor's own
     (:data:`~pipeline.act.safety_config.ASSUMED`), as (path, message): refusals for a real
-    robot (``oimi bridge``), whose people the scenario's humans do not describe."""
+    robot (``oimi bridge``), whose people the scenario's humans do not describe; and an
+    ideal sonar ring (``sonar_beams`` 0, no ``sonar_beam_rad``): a real one merges the
+    bodies in a beam into one echo, which the ideal ring's rule would take for a tracked
+    child (``pipeline.act.echoes``)."""
     safety = scenario.robot.safety
+    if not scenario.sensors.sonar_beams and safety.sonar_beam_rad is None:
+        yield (
+            ("sensors", "sonar_beams"),
+            "0 is an ideal ring (every body reported apart): a real robot's sonars merge"
+            " the bodies in one beam into one echo; set sonar_beams to its sonars (or"
+            " [robot.safety] sonar_beam_rad to one's beam; the supervisor's own is"
+            f" {ASSUMED['sonar_beam_rad']:.4g} rad)",
+        )
     for name in PEOPLE:
         value = getattr(safety, name)
         if value is not None and value < ASSUMED[name]:

@@ -77,6 +77,9 @@ Mass = Annotated[float, Meta(ge=MIN_MASS_KG, le=MAX_MASS_KG)]
 Radius = Annotated[float, Meta(ge=MIN_SIZE_M, le=MAX_ROOM_M)]
 """The radius of a body that moves: a robot, a human, an object."""
 DurationMs = Annotated[int, Meta(ge=0, le=int(MAX_SESSION_S * 1000))]
+MAX_SONAR_BEAMS: Final = 360
+"""Most sonars a ring holds (one a degree)."""
+SonarBeams = Annotated[int, Meta(ge=0, le=MAX_SONAR_BEAMS)]
 
 UNITS: Final = (
     ("_radps2", "rad/s²"),
@@ -250,6 +253,12 @@ class SensorSpec(Spec, kw_only=True):
     """Sonar range, all around the robot, m."""
     sonar_scan_hz: ScanRate = 5
     """Sonar scans per second (reported as ``scanfrequency``)."""
+    sonar_beams: SonarBeams = 0
+    """How many sonars the ring has, evenly spaced (the first straight ahead), each
+    reporting the nearest body its beam (``2 pi / sonar_beams`` wide) reaches, as a real
+    ring does: two bodies in one beam make one echo, one across two beams two, and one
+    behind a nearer body in every beam it reaches none; 0: an ideal ring that reports
+    every body apart, once, at its centre (``scenarios.simulation.sensors``)."""
     status_period_s: SessionTime = 1.0
     """How often the robot's status (speed, battery, elapsed time) and each sensor's
     ``isonline`` are reported, s (the safety supervisor takes a sensor whose status stops

@@ -37,7 +37,8 @@ keeps coming (``max_status_age_ms``; three quarters of it late: slow) and a sona
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
 still says it is on), and a camera only while its frames do (``frametime`` within
 ``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
-unless a fresh reading of a tracked human explains them (one each); one no longer reported
+unless a fresh reading of a tracked human explains them (``pipeline/act/echoes.py``: where
+the camera saw all the beam that made one, or one each on an ideal ring); one no longer reported
 is gone once every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated
 with an old reading, or that a ring now down may have made, is kept, stale. While a sonar
 is down or repeats an old echo, linear motion stays inside the camera's view.
@@ -52,8 +53,9 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Final, NamedTuple
 
+from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
 from oimi.pipeline.act.limits import RobotLimits, Velocity
-from oimi.pipeline.act.reckoning import DeadReckoning, Placed
+from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.act.separation import (
     Constraint,
@@ -95,21 +97,6 @@ class Supervised(NamedTuple):
     event: SafetyIntervention | None = None
 
 
-class _Anchor(NamedTuple):
-    """A reading placed in the odometry frame."""
-
-    stamp_ms: int
-    """Its ``positionchangetime`` (a new one is a new reading)."""
-    at_ms: int
-    """When it was taken: its stamp, but no later than it came (a sensor whose clock is
-    ahead, frozen since, repeats a reading that would otherwise look fresh once the
-    session's clock reached its stamp)."""
-    x: float
-    y: float
-    since: Placed
-    """The reckoning then (its drift since widens the margin while a sonar is down)."""
-
-
 _STOP: Final = SafetyZone.STOP
 _SLOW: Final = SafetyZone.SLOW
 """(Module names: a member read through its enum class takes a slow path, for each human.)"""
@@ -144,11 +131,11 @@ class SafetySupervisor:
             push_mps=config.human_speed_mps,  # type: ignore[arg-type]  # filled
         )
         """The robot's pose in its own start frame, and how far it may have slipped."""
-        self._anchors: dict[str, _Anchor] = {}
+        self._anchors: dict[str, Anchor] = {}
         """Human id (``Obstacle/<id>`` for an echo) -> its last reading in the odometry
         frame."""
-        self._echo_keys: dict[str, str] = {}
-        """An echo's key by its obstacle id (made once)."""
+        self._echoes = EchoSorter(config, self._reckoning)
+        """Names the echoes, and tells which a tracked human explains."""
         self._held: dict[str, None] = {}
         """Humans under a protective stop: it holds until they are halfway out of the slow
         zone, so that the margin's saw-tooth between camera frames does not let the robot
@@ -184,7 +171,7 @@ class SafetySupervisor:
                 anchor = anchors.get(human.id)
                 if anchor is None or anchor[0] != human.positionchangetime:
                     self._anchor(human.id, human, now_ms)
-        echoes = self._echoes(world_map)
+        echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
             if anchor is None or anchor[0] != echo.positionchangetime:
@@ -301,7 +288,7 @@ class SafetySupervisor:
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
-        seen: list[_Anchor] = []  # fresh humans' anchors: what an echo may be
+        seen: list[Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             if not human.poses:
                 stale = True
@@ -314,7 +301,7 @@ class SafetySupervisor:
             else:  # every ring has scanned since: their echo, wherever they walk, says it
                 continue
             placed.append((human.id, human, age_ms))
-        placed += self._unexplained(kept, seen, ring_down)
+        placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
@@ -375,7 +362,7 @@ class SafetySupervisor:
         is farther than ``clear_m`` (:meth:`_clear_m`) and under no protective stop."""
         config = self.config
         anchor = self._anchors[key]
-        x, y = self._estimate(anchor)
+        x, y = estimate(anchor, self._reckoning.pose)
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
@@ -408,41 +395,6 @@ class SafetySupervisor:
             cap = min(cap, config.slow_speed_mps)
         return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
 
-    def _unexplained(
-        self, kept: list[tuple[str, Entity, int]], seen: list[_Anchor], slipped: bool
-    ) -> list[tuple[str, Entity, int]]:
-        """The kept echoes that are not a human the map tracks: an echo is, when it is the
-        one echo in that human's gate (:meth:`_near`). A ring reporting each body once (the
-        simulated one) makes two there only for two bodies, and both are kept; a real ring
-        merges and splits echoes (docs/actuator-and-joystick.md)."""
-        if not seen:
-            return kept
-        near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
-        for i, (key, _, _) in enumerate(kept):
-            for j in self._near(self._anchors[key], seen, slipped):
-                near[j].append(i)
-        explained = {echoes[0] for echoes in near if len(echoes) == 1}
-        return [echo for i, echo in enumerate(kept) if i not in explained]
-
-    def _near(self, echo: _Anchor, seen: list[_Anchor], slipped: bool) -> list[int]:
-        """The tracked humans (indices in ``seen``) whose reading an echo may be: nearer than
-        both readings' errors and the walk between their times, at most ``human_radius_m``
-        (``slipped``: less the drift since the echo, placed that far off)."""
-        config = self.config
-        _, at_ms, x, y, since = echo
-        largest = config.human_radius_m
-        if slipped:
-            drift = self._reckoning.drift(since)
-            e_x, e_y = self._estimate(echo)
-            largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
-        found = []
-        for j, (_, human_ms, hx, hy, _) in enumerate(seen):
-            walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000
-            gate = min(2 * config.sensing_error_m + walked, largest)
-            if math.hypot(x - hx, y - hy) <= gate:
-                found.append(j)
-        return found
-
     def _anchor(self, key: str, human: Entity, now_ms: int) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it
         was taken (looked for every tick, so that a reading is placed while that pose is
@@ -452,33 +404,13 @@ class SafetySupervisor:
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
-        self._anchors[key] = _Anchor(
+        self._anchors[key] = Anchor(
             stamp_ms,
             at_ms,
             px + human.positionrho * math.cos(bearing),
             py + human.positionrho * math.sin(bearing),
             since,
         )
-
-    def _echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
-        """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
-        (their anchors and holds are kept apart from the humans')."""
-        keys = self._echo_keys
-        return [
-            (
-                keys.get(obstacle.id) or keys.setdefault(obstacle.id, f"Obstacle/{obstacle.id}"),
-                obstacle,
-            )
-            for obstacle in world_map.obstacles
-            if not obstacle.isfixed and obstacle.poses
-        ]
-
-    def _estimate(self, anchor: _Anchor) -> tuple[float, float]:
-        """A reading's position in the robot's current body frame."""
-        x, y, theta = self._reckoning.pose
-        dx, dy = anchor.x - x, anchor.y - y
-        cos, sin = math.cos(theta), math.sin(theta)
-        return (cos * dx + sin * dy, -sin * dx + cos * dy)
 
 
 def _online(

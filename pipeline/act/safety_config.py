@@ -23,6 +23,8 @@ ASSUMED: Final[dict[str, float]] = {
     "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
     "max_scan_age_ms": 500,  # unless a scenario's ring scans slower: two of its scans
     "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
+    "sonar_beam_rad": math.pi / 3,  # a pipeline without a scenario, or a real robot's
+    # ring (oimi bridge): wide, cheap sonars (60 degrees)
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -92,6 +94,15 @@ class SafetyConfig(Message):
     saw nobody still says it is on, and would otherwise pass for one that sees an empty
     room, ms; None: the longer of 500 and two of a scenario's camera frames (a scenario may
     not set it below that)."""
+    sonar_beam_rad: float | None = None
+    """How wide one sonar's beam of the ring is, rad: a sonar reports the nearest body in
+    its beam, so a child beside one the camera tracks may be merged into that child's echo.
+    An echo is taken for a tracked human only where the camera's frame saw all that its
+    beam may hold (:mod:`~pipeline.act.echoes`); 0: a ring that reports every body apart
+    (the simulator's ideal ring), where an echo is a tracked human's only when it is the
+    one echo near them; None: the scenario's ring's (``2 pi / sonar_beams``, 0 for the
+    ideal ring; pi / 3 without a scenario and on a real robot, ``oimi bridge``; a scenario
+    may not set it below its ring's)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

@@ -5,7 +5,14 @@ sonar ring sees every body within ``sonar_range_m`` all around: the room's
 obstacles (``isfixed``) and, as anonymous obstacles that are not fixed, the people
 (``Obstacle/echo-N``, N the person's place in the scenario; a real ring cannot tell a
 child from a chair, and the safety supervisor keeps its distance from such echoes,
-behind the robot too). Each entity's pose
+behind the robot too). The ideal ring (``sonar_beams`` 0) reports every body apart, once,
+at its centre. A ring of ``sonar_beams`` sonars, evenly spaced from straight ahead, reports
+what each sonar's beam reaches first: the body with the nearest surface whose disc reaches
+into the beam (furniture: its centre), at that body's centre (a real sonar gives only its
+range: the bearing is its beam's, not modelled). Two people in one beam make one echo,
+the nearer's; one whose disc reaches two beams, nearest in both, makes two (the one in the
+beam holding their centre ``echo-N``, the other ``echo-N.sK``, K the sonar's index); one
+behind nearer bodies in every beam they reach makes none (occlusion). Each entity's pose
 is reported relative to the robot (``positionrho`` m from its centre,
 ``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
 seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
@@ -129,15 +136,18 @@ class Sensors:
         """objectids whose once-only attributes were sent (membership only, never iterated)."""
         self._furniture = [("Obstacle", o.id, o.x_m, o.y_m) for o in scenario.world.obstacles]
         """The bodies the sonar sees besides people (furniture does not move)."""
-        furniture = {o.id for o in scenario.world.obstacles}
+        self._fixed = furniture = frozenset(o.id for o in scenario.world.obstacles)
+        """The ids of the obstacles that are fixed (every other obstacle is an echo)."""
         self._echoes: dict[str, str] = {}
-        """Person id -> the id of the sonar's echo of them (``echo-N``, unlike any obstacle's)."""
+        """Person id -> the id of the sonar's echo of them (``echo-N``: unlike any obstacle's,
+        and no obstacle's begins as one of a beam's, ``echo-N.sK``, does)."""
         for n, human in enumerate(scenario.humans):
             ident = f"echo-{n}"
-            while ident in furniture:
+            while ident in furniture or any(f.startswith(f"{ident}.s") for f in furniture):
                 ident += "_"
             self._echoes[human.id] = ident
-        self._echo_ids = frozenset(self._echoes.values())
+        self._radii = {human.id: human.radius_m for human in scenario.humans}
+        """Person id -> their radius, m (a beam reaches a person's disc)."""
 
     # --------------------------------------------------------------- inputs
 
@@ -184,10 +194,14 @@ class Sensors:
                     self._read(self.camera, seen, pose, time_ms, config.range_m, config.fov_rad)
                 )
             if sonar:
-                echoes = self._echoes
-                bodies = [*self._furniture]
-                bodies += [("Obstacle", echoes[h], x, y) for h, x, y in world.human_positions()]
                 range_m = self.config.sonar_range_m
+                people = world.human_positions()
+                if self.config.sonar_beams:
+                    bodies = self._beams(people, pose, range_m)
+                else:
+                    echoes = self._echoes
+                    bodies = [*self._furniture]
+                    bodies += [("Obstacle", echoes[h], x, y) for h, x, y in people]
                 updates.extend(self._read(self.sonar, bodies, pose, time_ms, range_m, math.tau))
         if self._status.due(time_ms):
             updates.extend(self._robot_status(world, time_ms))
@@ -266,9 +280,22 @@ class Sensors:
         sensor.last = reading
         return reading
 
+    def _beams(
+        self,
+        people: list[tuple[str, float, float]],
+        pose: tuple[float, float, float],
+        range_m: float,
+    ) -> list[tuple[str, str, float, float]]:
+        """What a ring of ``sonar_beams`` sonars reports (:func:`beam_echoes`)."""
+        bodies = [(o[1], o[2], o[3], 0.0, True) for o in self._furniture]
+        echoes, radii = self._echoes, self._radii
+        bodies += [(echoes[h], x, y, radii[h], False) for h, x, y in people]
+        found = beam_echoes(bodies, pose, self.config.sonar_beams, range_m)
+        return [("Obstacle", name, x, y) for name, x, y in found]
+
     def _first_sight(self, cls: str, ident: str, objectid: str) -> list[_Update]:
         if cls == "Obstacle":
-            fixed = ident not in self._echo_ids
+            fixed = ident in self._fixed
             return [(objectid, "isfixed", _REPLACE, TRUE if fixed else FALSE)]
         if cls == "Object":
             spec = next(o for o in self.scenario.world.objects if o.id == ident)
@@ -339,6 +366,40 @@ class Sensors:
         """A sensor's ``isonline`` as its mode says."""
         online = FALSE if sensor.mode is FaultMode.OFFLINE else TRUE
         return (sensor.objectid, "isonline", _REPLACE, online)
+
+
+Body = tuple[str, float, float, float, bool]
+"""A body the ring may report: its echo's id, centre (m, m), radius (m), whether fixed."""
+
+
+def beam_echoes(
+    bodies: list[Body], pose: tuple[float, float, float], beams: int, range_m: float
+) -> list[tuple[str, float, float]]:
+    """What a ring of ``beams`` sonars at ``pose`` reports of ``bodies`` (the module's
+    docstring): each sonar's nearest body, surface to surface (the earlier of ``bodies`` on
+    a tie), as (id, x, y), in the sonars' order; none beyond ``range_m`` (centre to centre,
+    as the ideal ring). A fixed body is reported only by the sonar whose beam holds its
+    centre; another by every sonar its disc reaches, ``<id>.s<K>`` but in that one."""
+    width = math.tau / beams
+    x, y, theta = pose
+    nearest: list[tuple[float, int, tuple[str, float, float]] | None] = [None] * beams
+    for order, (ident, bx, by, radius, fixed) in enumerate(bodies):
+        dx, dy = bx - x, by - y
+        rho = math.hypot(dx, dy)
+        if rho > range_m:
+            continue
+        bearing = math.atan2(dy, dx) - theta
+        centre = math.floor(bearing / width + 0.5) % beams
+        reach = math.asin(min(1.0, radius / rho)) if rho > 0.0 else math.pi
+        spread = 0 if fixed else min(math.ceil(reach / width + 0.5), beams // 2)
+        surface = rho - radius
+        for k in sorted({(centre + j) % beams for j in range(-spread, spread + 1)}):
+            if k != centre and abs(wrap_angle(bearing - k * width)) > width / 2 + reach:
+                continue  # its disc does not reach into this beam
+            best = nearest[k]
+            if best is None or (surface, order) < best[:2]:
+                nearest[k] = (surface, order, (ident if k == centre else f"{ident}.s{k}", bx, by))
+    return [best[2] for best in nearest if best is not None]
 
 
 def _period_ms(rate_hz: float) -> float:

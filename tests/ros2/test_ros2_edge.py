@@ -78,7 +78,7 @@ def test_a_bad_domain_id_is_refused_before_any_traffic(monkeypatch, capsys):
 
 def test_sim_warns_of_a_sonar_ring_too_short_for_the_robot(monkeypatch, capsys, tmp_path):
     short = tmp_path / "short.toml"
-    short.write_text(ROOM.read_text() + "\n[sensors]\nsonar_range_m = 0.4\n")
+    short.write_text(ROOM.read_text().replace("[sensors]\n", "[sensors]\nsonar_range_m = 0.4\n"))
     shutil.copytree(ROOM.parent / "activities", tmp_path / "activities")
     monkeypatch.setenv("ROS_DOMAIN_ID", "999")  # stops it before any traffic
     assert main(["sim", "--ros2", str(short), "--duration-s", "1"]) == 2

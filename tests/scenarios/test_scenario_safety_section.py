@@ -22,7 +22,8 @@ def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
     config = pipeline_config(loaded.scenario)
-    assert config.safety == SafetyConfig(robot_radius_m=0.35).filled(camera_fov_rad=2.2)
+    ideal = {"camera_fov_rad": 2.2, "sonar_beam_rad": 0.0}  # the scenario's camera and ring
+    assert config.safety == SafetyConfig(robot_radius_m=0.35).filled(**ideal)
 
 
 def test_the_section_sets_the_zones() -> None:
@@ -268,15 +269,16 @@ def test_a_real_robots_scenario_may_not_assume_less_of_people_than_the_superviso
     """Simulated humans justify a smaller or slower person; a real robot's (``oimi bridge``)
     people are not the scenario's: a child pushing at more than the 0 m/s set here would
     go uncounted while the ring is down."""
-    text = b'name = "x"\n[robot.safety]\nhuman_speed_mps = 0.0\nhuman_radius_m = 0.2\n'
+    ring = b'name = "x"\n[sensors]\nsonar_beams = 12\n'  # a real ring (test_sensors_ring.py)
+    text = ring + b"[robot.safety]\nhuman_speed_mps = 0.0\nhuman_radius_m = 0.2\n"
     loaded = parse_scenario(text, source="s.toml")  # a simulation with nobody in it: allowed
     with pytest.raises(ScenarioError, match=r"below the supervisor's own 1\.0 m/s") as caught:
         check_real_people(loaded)
-    assert str(caught.value).startswith("s.toml:3:1: robot.safety.human_speed_mps (m/s): 0.0")
+    assert str(caught.value).startswith("s.toml:5:1: robot.safety.human_speed_mps (m/s): 0.0")
     assert [str(e) for e in caught.value.also] == [
-        "s.toml:4:1: robot.safety.human_radius_m (m): 0.2 is below the supervisor's own"
+        "s.toml:6:1: robot.safety.human_radius_m (m): 0.2 is below the supervisor's own"
         " 0.25 m: a real robot's people are not the scenario's, and a child may be larger or"
         " faster (left out, it is the larger of that and the scenario's humans')"
     ]
-    check_real_people(parse_scenario(b'name = "x"\n[robot.safety]\nhuman_speed_mps = 1.5\n'))
-    check_real_people(parse_scenario(b'name = "x"\n'))  # left out: the supervisor's own
+    check_real_people(parse_scenario(ring + b"[robot.safety]\nhuman_speed_mps = 1.5\n"))
+    check_real_people(parse_scenario(ring))  # left out: the supervisor's own

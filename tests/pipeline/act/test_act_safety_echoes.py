@@ -14,6 +14,11 @@ from oimi.pipeline.events import SafetyZone
 from oimi.pipeline.messages import Camera, Sonar, WorldMap
 from supervision import LIMITS, TICK_MS, centre_at, echo, live, room, seen, supervise
 
+IDEAL = SafetyConfig(robot_radius_m=0.3, sonar_beam_rad=0.0)
+"""A ring that reports every body apart, once (the simulator's ideal ring): an echo is a
+tracked human's only when it is the one echo in their gate (``pipeline/act/echoes.py``;
+a ring whose beams merge: ``test_act_safety_beams.py``)."""
+
 ESCAPE_MPS = 1.0 - math.sqrt(1.0 - 2 * (0.6 - 0.52))
 """Straight away from an echo 0.6 m behind whose reading is 500 ms old or more (its disc
 0.52 m wide): as fast as the disc, grown by the child's walk while the base brakes
@@ -162,25 +167,29 @@ def test_a_sonar_heard_late_keeps_motion_where_the_camera_looks() -> None:
 
 
 def test_the_echo_of_a_tracked_human_is_that_human_and_no_other() -> None:
-    """An echo where a fresh reading places a human is that human (its own limit binds,
-    though the echo reads 3 cm closer); one farther than a human radius from them is
-    another body, kept at its own distance."""
+    """On the ideal ring, an echo where a fresh reading places a human is that human (its
+    own limit binds, though the echo reads 3 cm closer); one farther than a human radius
+    from them is another body, kept at its own distance."""
     child = seen(centre_at(0.3), math.pi / 2)
     same = room(child)
     same.obstacles.append(echo(centre_at(0.3) - 0.03, math.pi / 2))
-    assert supervise(Velocity(0.0, 0.5, 0.0), same)[0].human == "child"
+    ideal = SafetySupervisor(IDEAL, LIMITS, tick_ms=TICK_MS)
+    assert supervise(Velocity(0.0, 0.5, 0.0), same, supervisor=ideal)[0].human == "child"
     other = room(child)
     other.obstacles.append(echo(centre_at(0.05), math.pi / 2 + 0.3))  # 0.34 m from the child
-    verdict, _ = supervise(Velocity(0.0, 0.5, 0.0), other)
+    ideal = SafetySupervisor(IDEAL, LIMITS, tick_ms=TICK_MS)
+    verdict, _ = supervise(Velocity(0.0, 0.5, 0.0), other, supervisor=ideal)
     assert verdict.human == "Obstacle/echo-0"
     assert verdict.zone is SafetyZone.STOP  # 5 cm from the robot, surface to surface
 
 
 def test_two_echoes_near_one_tracked_child_are_two_bodies() -> None:
-    """Each body makes one echo: of two echoes where a child's reading allows (the ring's
-    readings 150 ms older than the camera's, so 0.19 m around the child), one is another
-    body the camera does not see, 15 cm nearer the robot. Both were taken for the child
-    and dropped (``make soak SEED=35``: the robot crept at a child's unseen neighbour)."""
+    """The ideal ring makes one echo a body: of two echoes where a child's reading allows
+    (the ring's readings 150 ms older than the camera's, so 0.19 m around the child), one
+    is another body the camera does not see, 15 cm nearer the robot. Both were taken for
+    the child and dropped (``make soak SEED=35``: the robot crept at a child's unseen
+    neighbour). (A ring whose beams merge counts nothing: one body across two beams makes
+    two echoes there, and two bodies in one beam one: ``test_act_safety_beams.py``.)"""
     child = seen(centre_at(0.3), math.pi / 2, at_ms=300)
     near = room(child)
     near.sonars.append(Sonar(id="ring", isonline=True))
@@ -189,14 +198,16 @@ def test_two_echoes_near_one_tracked_child_are_two_bodies() -> None:
         echo(centre_at(0.3) - 0.15, math.pi / 2, at_ms=150), id="echo-1"
     )
     near.obstacles += [own, other]
-    verdict, _ = supervise(Velocity(0.0, 0.3, 0.0), near, now_ms=300)
+    ideal = SafetySupervisor(IDEAL, LIMITS, tick_ms=TICK_MS)
+    verdict, _ = supervise(Velocity(0.0, 0.3, 0.0), near, now_ms=300, supervisor=ideal)
     assert verdict.human == "Obstacle/echo-1"
     assert verdict.zone is SafetyZone.STOP
     assert verdict.velocity.v_y <= 0.0
     alone = room(child)  # its own echo alone is the child: the camera's reading decides
     alone.sonars.append(Sonar(id="ring", isonline=True))
     alone.obstacles.append(own)
-    verdict, _ = supervise(Velocity(0.0, 0.3, 0.0), alone, now_ms=300)
+    ideal = SafetySupervisor(IDEAL, LIMITS, tick_ms=TICK_MS)
+    verdict, _ = supervise(Velocity(0.0, 0.3, 0.0), alone, now_ms=300, supervisor=ideal)
     assert verdict.human == "child" and verdict.zone is SafetyZone.SLOW
 
 

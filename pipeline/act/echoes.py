@@ -1,0 +1,159 @@
+"""The sonar ring's echoes, for the safety supervisor (:mod:`~pipeline.act.safety`):
+which of them are bodies of their own, and which a human the camera tracks.
+
+The ring reports bodies as anonymous echoes (obstacles that are not fixed); the supervisor
+keeps each at a human's distances, unless a fresh reading of a tracked human explains it:
+the echo lies in that human's gate (closer than both readings' errors and the walk
+between their times, never farther than ``human_radius_m``), and then the camera decides.
+What else must hold depends on the ring (``sonar_beam_rad``):
+
+- a ring whose sonars merge what their beam holds (``sonar_beam_rad`` > 0; every real
+  ring): a child beside the one the camera sees, in the same beam, makes no echo of their
+  own. An echo is taken for a tracked human only where the camera's frame that placed them
+  saw all the beam that made it (the coverage rule): its bearing, in that frame, within
+  the camera's half view less a whole beam (an echo may lie anywhere in its beam, or at
+  its axis on a real ring), the angle the echo's body subtends at its range (its disc may
+  only reach into the beam) and the angle of the robot's move and a walk between both
+  readings at that range. A body the ring hides reaches no beam but those of nearer
+  bodies: when the echoes of all of them are dropped, all their beams lay in the view, so
+  its centre did, and the camera tracks it itself. Anywhere else every echo is kept. One
+  body across two beams makes two echoes in one gate: both are that child.
+- a ring that reports every body apart (0: the simulator's ideal ring): an echo is a
+  tracked human's only when it is the one echo in that human's gate (two there are two
+  bodies: one may be a child beside them, outside the camera's view, ``make soak
+  SEED=35``); an echo alone in one human's gate is dropped even when another human's gate
+  holds two (that human's own echo is then missing).
+
+No ring reports a body hidden behind nearer ones in every beam it reaches, and no echo
+logic finds it (docs/actuator-and-joystick.md). No clock, no IO.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from oimi.pipeline.act.reckoning import DeadReckoning, Placed
+from oimi.pipeline.act.safety_config import SafetyConfig
+from oimi.pipeline.messages import Entity, WorldMap
+
+
+class Anchor(NamedTuple):
+    """A reading placed in the odometry frame."""
+
+    stamp_ms: int
+    """Its ``positionchangetime`` (a new one is a new reading)."""
+    at_ms: int
+    """When it was taken: its stamp, but no later than it came (a sensor whose clock is
+    ahead, frozen since, repeats a reading that would otherwise look fresh once the
+    session's clock reached its stamp)."""
+    x: float
+    y: float
+    since: Placed
+    """The reckoning then (its drift since widens the margin while a sonar is down)."""
+
+
+def estimate(anchor: Anchor, pose: tuple[float, float, float]) -> tuple[float, float]:
+    """A reading's position in the body frame of a robot at ``pose`` (odometry frame)."""
+    x, y, theta = pose
+    dx, dy = anchor.x - x, anchor.y - y
+    cos, sin = math.cos(theta), math.sin(theta)
+    return (cos * dx + sin * dy, -sin * dx + cos * dy)
+
+
+Kept = tuple[str, Entity, int]
+"""An echo kept: its key, its reading and its age, ms."""
+
+
+class EchoSorter:
+    """Names the map's echoes and tells which of them a tracked human explains."""
+
+    def __init__(self, config: SafetyConfig, reckoning: DeadReckoning) -> None:
+        self._config = config
+        """The supervisor's configuration (filled)."""
+        self._reckoning = reckoning
+        self._keys: dict[str, str] = {}
+        """An echo's key by its obstacle id (made once)."""
+        self._beam_rad: float = config.sonar_beam_rad  # type: ignore[assignment]  # filled
+        """One sonar's beam (0: the ring reports every body apart)."""
+        self._half_view: float = config.camera_fov_rad / 2  # type: ignore[operator]  # filled
+        self._body_m: float = config.human_radius_m + config.sensing_error_m  # type: ignore[operator]
+        """How far a body's edge may lie from the centre a reading gives."""
+
+    def echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
+        """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
+        (their anchors and holds are kept apart from the humans')."""
+        keys = self._keys
+        return [
+            (
+                keys.get(obstacle.id) or keys.setdefault(obstacle.id, f"Obstacle/{obstacle.id}"),
+                obstacle,
+            )
+            for obstacle in world_map.obstacles
+            if not obstacle.isfixed and obstacle.poses
+        ]
+
+    def unexplained(
+        self,
+        kept: list[Kept],
+        seen: list[Anchor],
+        anchors: dict[str, Anchor],
+        slipped: bool,
+    ) -> list[Kept]:
+        """The kept echoes that are not a human the map tracks (``seen``: the fresh
+        humans' anchors; ``anchors``: every reading's, by key; ``slipped``: the reckoning
+        may have slipped since, a ring down): the module's docstring."""
+        if not seen:
+            return kept
+        merging = self._beam_rad > 0.0
+        near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
+        for i, (key, _, _) in enumerate(kept):
+            echo = anchors[key]
+            for j in self._near(echo, seen, slipped):
+                if not merging or self._covers(echo, seen[j], slipped):
+                    near[j].append(i)
+        if merging:
+            explained = {i for echoes in near for i in echoes}
+        else:
+            explained = {echoes[0] for echoes in near if len(echoes) == 1}
+        return [echo for i, echo in enumerate(kept) if i not in explained]
+
+    def _near(self, echo: Anchor, seen: list[Anchor], slipped: bool) -> list[int]:
+        """The tracked humans (indices in ``seen``) whose reading an echo may be: nearer than
+        both readings' errors and the walk between their times, at most ``human_radius_m``
+        (``slipped``: less the drift since the echo, placed that far off)."""
+        config = self._config
+        _, at_ms, x, y, since = echo
+        largest: float = config.human_radius_m  # type: ignore[assignment]  # filled
+        if slipped:
+            drift = self._reckoning.drift(since)
+            e_x, e_y = estimate(echo, self._reckoning.pose)
+            largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
+        found = []
+        for j, (_, human_ms, hx, hy, _) in enumerate(seen):
+            walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000  # type: ignore[operator]
+            gate = min(2 * config.sensing_error_m + walked, largest)  # type: ignore[operator]
+            if math.hypot(x - hx, y - hy) <= gate:
+                found.append(j)
+        return found
+
+    def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
+        """Whether the camera's frame that placed ``human`` saw all that the beam which
+        made ``echo`` may hold (the coverage rule: the module's docstring; ``slipped``:
+        the heading the reckoning may have slipped since the echo counts against it)."""
+        e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
+        h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
+        d_x, d_y = echo.x - e_x, echo.y - e_y
+        rho = math.hypot(d_x, d_y)
+        body = self._body_m
+        if rho <= body:
+            return False  # a body's disc reaches all round the robot
+        moved = math.hypot(e_x - h_x, e_y - h_y)
+        walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
+        spread = self._beam_rad + math.asin(body / rho)
+        spread += math.asin(min(1.0, (moved + walked) / rho))
+        if slipped:
+            spread += min(self._reckoning.drift(echo.since).heading_rad, math.pi)
+        bearing = math.atan2(d_y, d_x) - h_theta
+        off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
+        return off + spread <= self._half_view
