@@ -83,11 +83,11 @@ RING_M = 3.0
 FRONT_FOV_RAD = 2.2
 """The front camera's view (the scenarios' default)."""
 PUSH_TICKS = 25
+"""Ticks after a contact that (2) and (3) skip: 0.5 s, braking a 0.5 m/s push at 1 m/s²."""
 REVEAL_TICKS = 10 + 1 + PUSH_TICKS
 """Ticks after a human was last hidden from every sensor that (2) skips them: the ring's
 next scan (5 a second), a tick, and the braking of a 0.5 m/s base (a child the ring
 reveals inside the stop zone is one who walked in)."""
-"""Ticks after a contact that (2) and (3) skip: 0.5 s, braking a 0.5 m/s push at 1 m/s²."""
 
 unit = st.floats(-1.0, 1.0, allow_nan=False).map(lambda v: round(v, 3))
 spot = st.tuples(st.floats(4.0, 8.0), st.floats(4.0, 8.0)).map(
