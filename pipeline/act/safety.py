@@ -31,8 +31,8 @@ may reach while the base brakes from it (a cone, wider with the speed).
 
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
-``slow_speed_mps`` (a human the camera lost: only until every ring has scanned since, then
-their echo stands in for them); no sensor on: none. A sensor is on only while its status
+``slow_speed_mps`` (a human the camera stopped reporting, on a ring that reports every body
+apart: only until it has scanned since, then their echo stands in for them); no sensor on: none. A sensor is on only while its status
 keeps coming (``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
 heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
 still says it is on), and a camera only while its frames do (``frametime`` within
@@ -288,6 +288,9 @@ class SafetySupervisor:
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
+        # A human the camera stopped reporting is the ring's once it has scanned since, if
+        # it reports every body apart (a merging ring may hide them behind nearer bodies)
+        since_ms = _NEVER if ring_down or config.sonar_beam_rad else scanning_since
         seen: list[Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             if not human.poses:
@@ -296,10 +299,11 @@ class SafetySupervisor:
             age_ms = self._age(human.id, human, now_ms)
             if age_ms <= config.max_data_age_ms:
                 seen.append(self._anchors[human.id])
-            elif ring_down or scanning_since <= heard.get(("Human", human.id), _NEVER):
-                stale = True  # the camera lost them, and no ring has looked all round since
-            else:  # every ring has scanned since: their echo, wherever they walk, says it
-                continue
+            else:
+                reported_ms = heard.get(("Human", human.id), _NEVER)
+                if since_ms > reported_ms and now_ms - reported_ms > config.max_data_age_ms:
+                    continue  # lost: their echo says where they are, wherever they walk
+                stale = True
             placed.append((human.id, human, age_ms))
         placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
