@@ -32,16 +32,17 @@ may reach while the base brakes from it (a cone, wider with the speed).
 Sensing: a camera offline (or none), every sonar down, or a human's reading older than
 ``max_data_age_ms`` (or from more than a tick ahead) caps linear motion at
 ``slow_speed_mps`` (a human the camera stopped reporting, on a ring that reports every body
-apart: only until it has scanned since, then their echo stands in for them); no sensor on: none. A sensor is on only while its status
-keeps coming (``max_status_age_ms``; three quarters of it late: slow) and a sonar only while its
-heartbeat does (``scantime`` within ``max_scan_age_ms``: a ring frozen on an empty room
-still says it is on), and a camera only while its frames do (``frametime`` within
-``max_frame_age_ms``). The ring's echoes (obstacles not fixed) are kept as anonymous humans
-unless a fresh reading of a tracked human explains them (``pipeline/act/echoes.py``: where
-the camera saw all the beam that made one, or one each on an ideal ring); one no longer reported
-is gone once every sonar has scanned since and ``echo_hold_ms`` have passed; one repeated
-with an old reading, or that a ring now down may have made, is kept, stale. While a sonar
-is down or repeats an old echo, linear motion stays inside the camera's view.
+apart: only until it has scanned since, then their echo stands in for them); no sensor on:
+none. A sensor is on only while its status keeps coming (``max_status_age_ms``; three
+quarters of it late: slow) and a sonar only while its heartbeat does (``scantime`` within
+``max_scan_age_ms``: a ring frozen on an empty room still says it is on), and a camera only
+while its frames do (``frametime`` within ``max_frame_age_ms``). The ring's echoes
+(obstacles not fixed) are kept as anonymous humans unless a fresh reading of a tracked human
+explains them (``pipeline/act/echoes.py``: where the camera saw all the beam that made one,
+or one each on an ideal ring); one no longer reported is gone once every sonar has scanned
+since and ``echo_hold_ms`` have passed; one repeated with an old reading, or that a ring now
+down may have made, is kept, stale. While a sonar is down or repeats an old echo, linear
+motion stays inside the camera's view.
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
