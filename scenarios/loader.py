@@ -343,8 +343,8 @@ def parse_scenario(
 
 def check_real_people(loaded: LoadedScenario) -> None:
     """Refuse (``ScenarioError``, placed in the file) a scenario that assumes less of people
-    than the safety supervisor does, for a session with a real robot and real people
-    (``scenarios.safety.unknown_people``)."""
+    than the safety supervisor does, or an ideal sonar ring, for a session with a real
+    robot and real people (``scenarios.safety.unknown_people``)."""
     locator = TomlLocator(loaded.raw.decode("utf-8"))
     errors = [
         _located(Invalid(where, what), str(loaded.source), locator)

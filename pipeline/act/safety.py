@@ -103,8 +103,12 @@ _SLOW: Final = SafetyZone.SLOW
 """(Module names: a member read through its enum class takes a slow path, for each human.)"""
 EPISODE_GAP_MS: Final = 500
 """An intervention episode ends after this long without a limited tick."""
-_BLIND, _STALE = SafetyZone.BLIND, SafetyZone.STALE
-_SEVERITY: Final = {_BLIND: 1, _STALE: 1, _SLOW: 2, _STOP: 3}
+_SEVERITY: Final = {
+    SafetyZone.BLIND: 1,
+    SafetyZone.STALE: 1,
+    SafetyZone.SLOW: 2,
+    SafetyZone.STOP: 3,
+}
 
 
 class SafetySupervisor:
@@ -281,17 +285,17 @@ class SafetySupervisor:
                 reported_ms = heard.get(("Obstacle", echo.id), _NEVER)
                 if now_ms - reported_ms <= config.max_data_age_ms:
                     stale = repeating = True  # an old reading repeated: a ring frozen, lagging
+                elif _passed_over(scanning_since, reported_ms, now_ms, echo_hold_ms):
+                    continue  # every ring said it was on since, and went on without it: gone
                 elif scanning_since is None:
                     stale = True  # a ring down may have made it
-                elif scanning_since > reported_ms and now_ms - reported_ms > echo_hold_ms:
-                    continue  # every ring said it was on since, and went on without it: gone
             kept.append((key, echo, age_ms))
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
         ring_down = scanning_since is None or repeating
         # A human the camera stopped reporting is the ring's once it has scanned since, if
         # it reports every body apart (a merging ring may hide them behind nearer bodies)
-        since_ms = _NEVER if ring_down or config.sonar_beam_rad else scanning_since
+        apart_since = None if ring_down or config.sonar_beam_rad else scanning_since
         seen: list[Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             if not human.poses:
@@ -302,7 +306,7 @@ class SafetySupervisor:
                 seen.append(self._anchors[human.id])
             else:
                 reported_ms = heard.get(("Human", human.id), _NEVER)
-                if since_ms > reported_ms and now_ms - reported_ms > config.max_data_age_ms:
+                if _passed_over(apart_since, reported_ms, now_ms, config.max_data_age_ms):
                     continue  # lost: their echo says where they are, wherever they walk
                 stale = True
             placed.append((human.id, human, age_ms))
@@ -428,6 +432,13 @@ def _online(
     or later (one heard from before, or never, is offline: its link is dead), ms."""
     times = (heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline)
     return [at_ms for at_ms in times if at_ms >= since_ms]
+
+
+def _passed_over(since_ms: float | None, reported_ms: float, now_ms: int, after_ms: int) -> bool:
+    """Whether the ring went on without a body last reported at ``reported_ms``: every
+    sonar has scanned since (``since_ms``; None: a ring is down, or may hide it) and
+    ``after_ms`` have passed."""
+    return since_ms is not None and since_ms > reported_ms and now_ms - reported_ms > after_ms
 
 
 def _late(heard_ms: list[int], now_ms: int, max_age_ms: int) -> bool:

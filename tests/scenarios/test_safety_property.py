@@ -462,8 +462,8 @@ def assert_safe(memory: MemorySink, all_round: bool, beams: int = 0) -> None:
         for h in state.humans:
             dx, dy = h.x_m - robot.x_m, h.y_m - robot.y_m
             centre = math.hypot(dx, dy)
-            revealed = state.tick - hidden_at.get(h.id, -REVEAL_TICKS - 1) <= REVEAL_TICKS
-            if centre - RADII_M < STOP_DISTANCE_M and revealed:
+            hidden_lately = state.tick - hidden_at.get(h.id, -REVEAL_TICKS - 1) <= REVEAL_TICKS
+            if centre - RADII_M < STOP_DISTANCE_M and hidden_lately:
                 event("a human no sensor can see inside the stop zone")
             elif centre - RADII_M < STOP_DISTANCE_M:
                 event("a human inside the stop zone" + ("" if all_round else ", front camera"))

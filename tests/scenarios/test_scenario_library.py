@@ -4,11 +4,12 @@ what each scenario is meant to show (a sibling run without the safety part fails
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import msgspec
 import pytest
-from oimi.pipeline.events import ActuatorCommands, Topic
+from oimi.pipeline.events import ActuatorCommands, Topic, WorldState
 from oimi.pipeline.messages import AudioCommand
 from oimi.pipeline.operator.generators import GreetingGenerator
 from oimi.pipeline.operator.generators.greeting import BLIND_STEPS, REACH_M, STEP_MS
@@ -110,15 +111,22 @@ def test_a_script_removing_child_too_close_is_still_stopped_by_the_supervisor(
     assert any(f.startswith("child_too_close was removed") for f in failures(kept))
 
 
-def test_the_joystick_at_a_child_is_slowed_brought_to_rest_and_drives_away_at_full_speed() -> None:
+def with_one_child(name: str) -> tuple[dict[int, WorldState], Callable[[int], float]]:
+    """A library scenario's world states by tick, and the surface gap between the robot and
+    its one child (radii 0.3 and 0.25 m) at a tick."""
     memory = MemorySink()
-    run(LIBRARY["safety_joystick_at_child"], memory)
-    states = {s.tick: s for s in memory.on(Topic.WORLD_STATE)}
+    run(LIBRARY[name], memory)
+    states: dict[int, WorldState] = {s.tick: s for s in memory.on(Topic.WORLD_STATE)}  # type: ignore[misc]
 
     def gap(tick: int) -> float:
         robot, child = states[tick].robot, states[tick].humans[0]
         return math.hypot(child.x_m - robot.x_m, child.y_m - robot.y_m) - 0.55
 
+    return states, gap
+
+
+def test_the_joystick_at_a_child_is_slowed_brought_to_rest_and_drives_away_at_full_speed() -> None:
+    states, gap = with_one_child("safety_joystick_at_child")
     slowed = [t for t in range(50, 350) if gap(t) < 0.5]
     assert slowed and max(states[t].robot.vx_mps for t in slowed) <= 0.2 + 1e-9
     # The stick still fully forward (6.0 s to 7.0 s): the robot creeps in ever more slowly
@@ -133,14 +141,7 @@ def test_the_joystick_at_a_child_is_slowed_brought_to_rest_and_drives_away_at_fu
 
 
 def test_a_child_the_camera_lost_behind_the_robot_is_watched_by_the_ring_not_its_old_row() -> None:
-    memory = MemorySink()
-    run(LIBRARY["safety_child_behind"], memory)
-    states = {s.tick: s for s in memory.on(Topic.WORLD_STATE)}
-
-    def gap(tick: int) -> float:
-        robot, child = states[tick].robot, states[tick].humans[0]
-        return math.hypot(child.x_m - robot.x_m, child.y_m - robot.y_m) - 0.55
-
+    states, gap = with_one_child("safety_child_behind")
     # Turned about (1 s to 3.1 s): the child is behind the robot, out of the camera's view;
     # driving away (5 s to 7 s) reaches full speed (their row once held it at 0.2 m/s)
     assert abs(abs(states[250].robot.theta_rad) - math.pi) < 0.1
