@@ -19,6 +19,7 @@ from pathlib import Path
 import msgspec
 
 from oimi import jsonout
+from oimi.cmd_check import report_warnings
 from oimi.cmd_run import print_result
 from oimi.extension_args import extensions_of
 from oimi.live_options import add_foxglove_argument
@@ -110,6 +111,7 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
         extensions=tuple(extensions_of(args)),
         overwrite=args.overwrite,
     )
+    report_warnings(driven.warnings)
     for note in driven.notes:
         print(f"note: {note}", file=sys.stderr)
     print(f"rosbag2 {args.recording}: {driven.ticks} ticks driven")
@@ -126,6 +128,7 @@ def _drive_rosbag(args: argparse.Namespace) -> int:
             "recording": str(args.recording),
             "ticks": driven.ticks,
             "notes": driven.notes,
+            "warnings": [str(warning) for warning in driven.warnings],
             **jsonout.result_summary(driven.result),
             "not_judged": [{"name": name, "why": NOT_JUDGED} for name in driven.not_judged],
             "output": str(driven.output),

@@ -15,6 +15,7 @@ from oimi.replay.compare import Comparison, format_report
 from oimi.replay.expectations import judgeable
 from oimi.replay.redrive import redrive
 from oimi.replay.rerun import rerun_recording
+from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
 
 
@@ -77,6 +78,9 @@ class Driven(NamedTuple):
     output: Path
     not_judged: list[str]
     """The expectations about people (``ABOUT_PEOPLE``), by name: a bag cannot judge them."""
+    warnings: tuple[ScenarioError, ...]
+    """The scenario's own warnings, and what it gets wrong of a real robot's people and
+    sonar ring (``oimi bridge`` refuses those): the bag's readings came from one."""
 
 
 def drive_rosbag(
@@ -93,11 +97,12 @@ def drive_rosbag(
     only with ``overwrite``). Needs the ``ros2`` extra.
     The expectations about people are set apart, not judged: a bag has no people."""
     from oimi.ros2.bag import replay_rosbag
-    from oimi.scenarios.loader import load_scenario
+    from oimi.scenarios.loader import load_scenario, real_people_problems
 
     output = output or Path("out") / f"{bag.name}-replay.mcap"
     loaded = load_scenario(scenario, extensions=extensions)
     result, ticks, notes = replay_rosbag(bag, loaded, output=output, seed=seed, overwrite=overwrite)
     judged, not_judged = judgeable(loaded.scenario.expect, result.verdicts)
     result = msgspec.structs.replace(result, verdicts=judged)
-    return Driven(result, ticks, list(notes), output, not_judged)
+    warnings = (*loaded.warnings, *real_people_problems(loaded))
+    return Driven(result, ticks, list(notes), output, not_judged, warnings)

@@ -344,14 +344,22 @@ def parse_scenario(
 def check_real_people(loaded: LoadedScenario) -> None:
     """Refuse (``ScenarioError``, placed in the file) a scenario that assumes less of people
     than the safety supervisor does, or an ideal sonar ring, for a session with a real
-    robot and real people (``scenarios.safety.unknown_people``)."""
+    robot and real people (:func:`real_people_problems`)."""
+    errors = real_people_problems(loaded)
+    if errors:
+        raise _first_of(list(errors))
+
+
+def real_people_problems(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
+    """What the scenario gets wrong of a real robot's people and sonar ring
+    (``scenarios.safety.unknown_people``), placed in the file, in its order: refusals for
+    ``oimi bridge``, warnings for a rosbag2 driven through it (a bag's readings are real)."""
     locator = TomlLocator(loaded.raw.decode("utf-8"))
     errors = [
         _located(Invalid(where, what), str(loaded.source), locator)
         for where, what in unknown_people(loaded.scenario)
     ]
-    if errors:
-        raise _first_of(sorted(errors, key=lambda error: (error.line, error.column)))
+    return tuple(sorted(errors, key=lambda error: (error.line, error.column)))
 
 
 def _first_of(errors: list[ScenarioError]) -> ScenarioError:

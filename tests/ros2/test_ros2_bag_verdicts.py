@@ -95,3 +95,20 @@ def test_the_drives_recording_says_so_is_judged_alike_and_not_rerun(bag, tmp_pat
     assert main(["replay", str(out), "--mode", "rerun"]) == 2
     assert "a recording driven over a rosbag2" in capsys.readouterr().err
     assert main(["replay", str(out)]) == 0, "it redrives"
+
+
+def test_a_scenario_the_bridge_refuses_is_warned_of_not_refused(bag, tmp_path, capsys):
+    """A bag's readings came from a real ring: an ideal one (greeting's) is said, with
+    where, and the drive goes on; a scenario with the robot's ring is not."""
+    code, printed, summary = replay(bag, GREETING, tmp_path / "again.mcap", capsys)
+    assert code == 0
+    ideal = [w for w in summary["warnings"] if "is an ideal ring" in w]
+    assert len(ideal) == 1 and ideal[0].startswith(f"{GREETING}:")
+    assert f"{ideal[0]} (warning)" in printed
+    ringed = tmp_path / "greeting_ring.toml"
+    text = GREETING.read_text()
+    assert "[sensors]" not in text  # the ideal ring by default
+    ringed.write_text(f"{text}\n[sensors]\nsonar_beams = 12\n")
+    code, printed, summary = replay(bag, ringed, tmp_path / "ringed.mcap", capsys)
+    assert not any("ideal ring" in w for w in summary["warnings"])
+    assert "ideal ring" not in printed
