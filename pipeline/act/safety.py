@@ -42,7 +42,8 @@ explains them (``pipeline/act/echoes.py``: where the camera saw all the beam tha
 or one each on an ideal ring); one no longer reported is gone once every sonar has scanned
 since and ``echo_hold_ms`` have passed; one repeated with an old reading, or that a ring now
 down may have made, is kept, stale. While a sonar is down or repeats an old echo, linear
-motion stays inside the camera's view.
+motion stays inside the camera's view, narrowed so that a child centred just outside it
+beyond the slow zone is not driven into the stop zone (``separation.body_view``).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -60,6 +61,7 @@ from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
 from oimi.pipeline.act.separation import (
     Constraint,
+    body_view,
     braking_cap,
     clear_gap,
     followed_meeting,
@@ -149,6 +151,15 @@ class SafetySupervisor:
         """The intervention episode under way: its worst zone, that zone's human, the source."""
         self._limited_ms = 0
         """When the supervisor last changed a velocity."""
+        radii = config.robot_radius_m + config.human_radius_m + config.sensing_error_m  # type: ignore[operator]  # filled
+        self._looking_rad = body_view(
+            config.camera_fov_rad / 2,  # type: ignore[operator]  # filled
+            radii + config.stop_distance_m,
+            radii + config.slow_distance_m,
+        )
+        """While the ring is down: how far from straight ahead the robot may drive, rad (a
+        child centred outside the camera's view beyond the slow zone stays out of the stop
+        zone; negative: nowhere)."""
 
     def supervise(
         self,
@@ -327,7 +338,7 @@ class SafetySupervisor:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
             if constraint is not None:
                 constraints.append(constraint)
-        half_view = config.camera_fov_rad / 2 if sonars and ring_down else math.pi
+        half_view = self._looking_rad if sonars and ring_down else math.pi
         looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking

@@ -72,9 +72,11 @@ class SafetyConfig(Message):
     camera_fov_rad: float | None = None
     """The front camera's horizontal field of view, rad, centred ahead. While a sonar of
     the ring is down (offline, silent or late) nothing sees beside or behind the robot, so
-    linear motion stays inside this cone: it drives only where a working sensor looks;
-    None: the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not
-    set it above its camera's; 2 pi or more: it sees all around)."""
+    linear motion stays inside this cone, narrowed so that a child centred just outside
+    it beyond the slow zone stays out of the stop zone (``separation.body_view``): it
+    drives only where a working sensor looks (a view of 1.35 rad or less: nowhere); None:
+    the scenario's camera's ``fov_rad`` (1.0 without a scenario; a scenario may not set it
+    above its camera's; 2 pi or more: it sees all around)."""
     odometry_error: float = 0.05
     """Largest error of the robot's measured motion (``RobotStatus speed``: its odometry's
     mean velocity over a report's interval), as a fraction of the distance (or turn) it

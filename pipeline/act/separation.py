@@ -281,11 +281,30 @@ def nearer(a: Constraint | None, b: Constraint | None) -> Constraint | None:
     return a
 
 
+def body_view(half_view: float, reach_m: float, beyond_m: float) -> float:
+    """The half angle (rad, from straight ahead) of the directions in which a robot may
+    drive, its view ``half_view`` rad either side of straight ahead, without coming within
+    ``reach_m`` (centre to centre) of a body centred outside that view more than
+    ``beyond_m`` from it (``reach_m <= beyond_m``). A camera sees a body's centre, not its
+    disc: driving straight at ``b`` rad inside an edge, the robot's centre passes a point
+    just outside it, ``D`` away, at ``D sin b``; that is ``reach_m`` or more for every ``D``
+    from ``beyond_m`` on when ``sin b >= reach_m / beyond_m`` (and a point farther round
+    is passed farther off, or lies behind). A body nearer than ``beyond_m`` beside the
+    robot no straight drive can be sure to miss (right beside it, none can). Negative: no
+    direction (a view too narrow); pi: a view all round (``half_view >= pi``)."""
+    if half_view >= math.pi:
+        return math.pi
+    return half_view - math.asin(min(reach_m / beyond_m, 1.0))
+
+
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:
     """(v_x, v_y) (body frame) when it points within ``half_view`` rad of straight ahead,
-    else its projection onto the nearer edge of that cone (none when it points away)."""
+    else its projection onto the nearer edge of that cone (none when it points away, or
+    when ``half_view`` is negative: no direction)."""
     if half_view >= math.pi or abs(math.atan2(v_y, v_x)) <= half_view + _ANGLE_TOLERANCE:
         return v_x, v_y
+    if half_view < 0.0:
+        return 0.0, 0.0
     e_x, e_y = math.cos(half_view), math.copysign(math.sin(half_view), v_y)
     along = v_x * e_x + v_y * e_y
     return (along * e_x, along * e_y) if along > 0.0 else (0.0, 0.0)

@@ -14,6 +14,9 @@ TICK_MS = 20
 LIMITS = RobotLimits()
 # robot 0.3 + human 0.25 + margin (0.02 sensing + 1 m/s * one tick of age = 0.04)
 CONFIG = SafetyConfig(robot_radius_m=0.3)
+FRONT = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2.2)
+"""The scenarios' front camera (2.2 rad): with a sonar down, the robot drives within 24
+degrees of straight ahead (1 rad, the default: nowhere)."""
 MARGIN_M = 0.02 + 1.0 * TICK_MS / 1000
 RADII_M = 0.3 + 0.25
 
@@ -55,10 +58,11 @@ def supervise(  # every sensor heard from, scanned and framing at now_ms unless 
     framed: dict[str, int] | None = None,
     source: MotionSource = MotionSource.SCRIPT,
     supervisor: SafetySupervisor | None = None,
+    config: SafetyConfig = CONFIG,
 ):
     """The supervisor's verdict; ``scanned`` and ``framed``: each sonar's and camera's
-    latest heartbeat by id (``MapProducer.beats``)."""
-    supervisor = supervisor or SafetySupervisor(CONFIG, LIMITS, tick_ms=TICK_MS)
+    latest heartbeat by id (``MapProducer.beats``); ``config``: a new supervisor's."""
+    supervisor = supervisor or SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
     if scanned is None:
         scanned = {s.id: now_ms for s in world_map.sonars}
     if framed is None:

@@ -12,7 +12,7 @@ from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.events import SafetyZone
 from oimi.pipeline.messages import Camera, Sonar, WorldMap
-from supervision import LIMITS, TICK_MS, centre_at, echo, live, room, seen, supervise
+from supervision import FRONT, LIMITS, TICK_MS, centre_at, echo, live, room, seen, supervise
 
 IDEAL = SafetyConfig(robot_radius_m=0.3, sonar_beam_rad=0.0)
 """A ring that reports every body apart, once (the simulator's ideal ring): an echo is a
@@ -109,7 +109,7 @@ def test_a_ring_repeating_an_old_echo_counts_as_down() -> None:
     heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
     back, _ = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert back.velocity[:2] == (0.0, 0.0) and back.zone is SafetyZone.BLIND
-    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard, config=FRONT)
     assert ahead.velocity == pytest.approx((0.2, 0.0, 0.0)) and ahead.zone is SafetyZone.STALE
     heard[("Obstacle", "echo-0")] = 0  # no longer repeated, the ring scanning: it left
     assert supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)[0].zone is None
@@ -140,17 +140,20 @@ def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> Non
 
 def test_a_sonar_offline_keeps_motion_slow_and_where_the_camera_looks() -> None:
     """Nothing sees beside or behind the robot: ahead, the slow speed; sideways, the part
-    along the camera's view's nearer edge (1 rad wide, assumed without a scenario); back,
-    none. Turning stays allowed."""
+    along the nearer edge of the camera's view (2.2 rad, the scenarios') narrowed so that a
+    child centred just outside it, beyond the slow zone, stays out of the stop zone
+    (``test_act_safety_view.py``); back, none. Turning stays allowed."""
     world_map = room(seen(4.0))
     world_map.sonars.append(Sonar(id="ring", isonline=False))
-    verdict, event = supervise(Velocity(0.5, 0.0, 0.3), world_map)
+    verdict, event = supervise(Velocity(0.5, 0.0, 0.3), world_map, config=FRONT)
     assert verdict.velocity == pytest.approx((0.2, 0.0, 0.3))
     assert event is not None and event.zone is SafetyZone.BLIND
-    verdict, _ = supervise(Velocity(0.0, -0.5, 0.0), world_map)
-    edge = (math.cos(0.5), -math.sin(0.5))
-    assert verdict.velocity == pytest.approx((*(0.2 * math.sin(0.5) * e for e in edge), 0.0))
-    assert supervise(Velocity(-0.5, 0.1, 0.3), world_map)[0].velocity == (0.0, 0.0, 0.3)
+    verdict, _ = supervise(Velocity(0.0, -0.5, 0.0), world_map, config=FRONT)
+    half = 1.1 - math.asin((0.55 + 0.02 + 0.1) / (0.55 + 0.02 + 0.5))  # 0.42 rad: 24 degrees
+    edge = (math.cos(half), -math.sin(half))
+    assert verdict.velocity == pytest.approx((*(0.2 * math.sin(half) * e for e in edge), 0.0))
+    back = supervise(Velocity(-0.5, 0.1, 0.3), world_map, config=FRONT)[0]
+    assert back.velocity == (0.0, 0.0, 0.3)
     world_map.sonars[0].isonline = True
     assert supervise(Velocity(0.0, 0.5, 0.0), world_map)[0].velocity == (0.0, 0.5, 0.0)
     assert supervise(Velocity(-0.5, 0.0, 0.0), world_map)[0].velocity == (-0.5, 0.0, 0.0)

@@ -1,0 +1,90 @@
+"""The safety supervisor with a sonar down: the robot drives only where the camera looks,
+and "where it looks" counts a child's body, not their centre. The camera reports a child
+whose centre is in its view; one centred just outside it is a disc that reaches into it,
+and a robot driving along the view's edge drives into them (the review of e563091, M2: a
+child 2 degrees outside the 2.2 rad view, never reported, driven into at the slow speed)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.safety_config import SafetyConfig
+from oimi.pipeline.events import SafetyZone
+from oimi.pipeline.messages import Sonar
+from supervision import FRONT, room, supervise
+
+STOP_REACH_M = 0.3 + 0.25 + 0.02 + 0.1
+"""Centre to centre, the stop zone's edge on a fresh reading: both radii, the sensing error
+and the stop distance."""
+SLOW_REACH_M = 0.3 + 0.25 + 0.02 + 0.5
+"""The same for the slow zone's edge."""
+
+
+def ring_down(config: SafetyConfig, request: Velocity) -> tuple[float, float]:
+    """What the supervisor lets through of ``request`` in an empty room (nobody in the
+    camera's view) with the ring offline."""
+    world_map = room()
+    world_map.sonars.append(Sonar(id="ring", isonline=False))
+    verdict, _ = supervise(request, world_map, config=config)
+    return verdict.velocity.v_x, verdict.velocity.v_y
+
+
+def passes_at(v_x: float, v_y: float, x: float, y: float) -> float:
+    """How near the robot's centre, driving straight on at (v_x, v_y), comes to (x, y)."""
+    speed = math.hypot(v_x, v_y)
+    along = (x * v_x + y * v_y) / speed
+    if along <= 0.0:
+        return math.hypot(x, y)
+    return abs(x * v_y - y * v_x) / speed
+
+
+def test_a_drive_along_the_view_keeps_off_a_child_just_outside_it() -> None:
+    """The review's session (M2): a child standing 1.13 m away, 2 degrees outside the
+    2.2 rad view, never reported (the ring's one scan missed them, then it fell silent);
+    the pad asks for their bearing. Projected onto the view's edge, the drive passed their
+    centre at 4 cm, into them at 0.2 m/s; onto the narrowed edge, at 0.75 m."""
+    child = (0.481, 1.024)
+    assert abs(math.atan2(child[1], child[0])) > 1.1  # outside the view
+    v_x, v_y = ring_down(FRONT, Velocity(0.426, 0.905, 0.0))
+    assert math.hypot(v_x, v_y) == pytest.approx(0.2 * math.cos(1.131 - 0.42), abs=0.01)
+    assert passes_at(v_x, v_y, *child) >= STOP_REACH_M
+
+
+@pytest.mark.parametrize("fov_rad", [2.2, 3.0, 5.0])
+def test_with_the_ring_down_no_drive_reaches_a_body_outside_the_view_beyond_the_slow_zone(
+    fov_rad,
+) -> None:
+    """Whatever is asked (every 5 degrees round), the drive let through passes every
+    point just outside either edge of the view, from the slow zone's edge out to 5 m, no
+    nearer than the stop zone's edge: a child centred there, standing, is never driven
+    into the stop zone, though the camera never reports them."""
+    config = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=fov_rad)
+    outside = [
+        (d * math.cos(side * (fov_rad / 2 + 1e-6)), d * math.sin(side * (fov_rad / 2 + 1e-6)))
+        for side in (-1, 1)
+        for d in (SLOW_REACH_M + 0.05 * k for k in range(80))
+    ]
+    moved = 0
+    for degrees in range(0, 360, 5):
+        angle = math.radians(degrees)
+        v_x, v_y = ring_down(config, Velocity(0.5 * math.cos(angle), 0.5 * math.sin(angle), 0.0))
+        if v_x == v_y == 0.0:
+            continue
+        moved += 1
+        assert min(passes_at(v_x, v_y, x, y) for x, y in outside) >= STOP_REACH_M - 1e-9
+    assert moved > 10
+
+
+def test_a_narrow_camera_with_the_ring_down_lets_no_linear_motion_through() -> None:
+    """A 1 rad camera (the supervisor's assumption without a scenario): even straight
+    ahead, a child 30 degrees off it and 1.3 m away, centred outside the view, would be
+    driven into. With the ring down the robot may only turn (blind)."""
+    assert passes_at(1.0, 0.0, 1.3 * math.cos(0.52), 1.3 * math.sin(0.52)) < STOP_REACH_M
+    world_map = room()
+    world_map.sonars.append(Sonar(id="ring", isonline=False))
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.4), world_map)
+    assert verdict.velocity == (0.0, 0.0, 0.4) and verdict.zone is SafetyZone.BLIND
+    world_map.sonars[0].isonline = True  # the ring back: it sees beside the robot again
+    assert supervise(Velocity(0.5, 0.0, 0.4), world_map)[0].velocity == (0.5, 0.0, 0.4)
