@@ -46,9 +46,11 @@ class SafetyConfig(Message):
     max_data_age_ms: int | None = None
     """A human's position older than this (or a camera offline) is stale: slow-zone speed;
     the walk a reading's margin covers is capped at this age, ms; None: the longer of 500 and
-    a scenario's slower sensor's period (a camera frame or a sonar scan) and a tick (a
-    scenario may not set it below that: readings would age past it between two reports,
-    their margins short of the walk)."""
+    a scenario's slower sensor's period (a camera frame or a sonar scan) and a tick, or as
+    many periods as its sensors may miss a body on in a row with its
+    ``dropout_probability`` (as ``echo_hold_ms``'s scans), and a tick (a scenario may not
+    set it below that: readings would age past it between two reports, their margins short
+    of the walk)."""
     human_speed_mps: float | None = None
     """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
     m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario

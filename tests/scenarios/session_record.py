@@ -1,12 +1,13 @@
 """What the safety property (``test_safety_property.py``) reads of a session's record
-besides the world's true state: how far a recorded velocity may be from the true one, and
-which humans the sensors reported when."""
+besides the world's true state: how far a recorded velocity may be from the true one,
+which humans the sensors reported when, and how far the supervisor's margin covers a walk."""
 
 from __future__ import annotations
 
 import json
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 from oimi.pipeline.events import Topic
 from oimi.pipeline.sink import MemorySink
@@ -14,6 +15,15 @@ from oimi.scenarios.simulation.bodies import STATE_DECIMALS
 
 TICK_MS = 20
 """The scenarios' tick."""
+
+
+class Ran(NamedTuple):
+    """A trial's session: what it recorded, and how far a human may walk from where a
+    report placed them that the supervisor's margin covers (``human_speed_mps`` for
+    ``max_data_age_ms``: longer where the sensors drop readings)."""
+
+    memory: MemorySink
+    walk_covered_m: float
 
 
 def least_closing(vx: float, vy: float, ux: float, uy: float) -> float:

@@ -20,7 +20,7 @@ def test_a_drive_along_the_view_does_not_reach_a_child_centred_just_outside_it()
     pad = (245, -0.905, 0.426, 0.0, ("LB",))  # v_x 0.426, v_y 0.905: 65 degrees left
     child = ((6.481, 7.024), [], 0.0)
     offline = (0.0, "sonar", "offline")
-    memory = run_session(Trial([pad], [], [child], 0.0, False, faults=[offline]))
+    memory = run_session(Trial([pad], [], [child], 0.0, False, faults=[offline])).memory
     reported = {
         change.objectid
         for update in memory.on(Topic.SENSOR_UPDATES)

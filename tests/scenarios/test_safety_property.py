@@ -44,13 +44,15 @@ scan, has braked from its top speed.
 
 Sensors may drop readings (``dropout_probability``, drawn: mostly none, else 0.1 to 0.4,
 the camera's and the ring's alike). A human no sensor has reported yet, or who has walked
-more than ``WALK_COVERED_M`` (on the truth) from where the latest report placed them, is
-one the supervisor knows nothing of (the margin of a reading stops growing at
-``max_data_age_ms``): (2) skips them, and for ``SIGHT_TICKS`` after the report that places
-them again. (With the ring down the robot drives only where the camera looks, narrowed
-so that a child centred outside the view beyond the slow zone, never reported, is kept
-out of the stop zone: ``test_safety_edge.py``.) Without dropout, every human is reported
-at the ring's first scan unless hidden, and again whenever it or the camera sees them.
+farther (on the truth) from where the latest report placed them than the supervisor's
+margin covers (``Ran.walk_covered_m``: a reading's margin stops growing at
+``max_data_age_ms``, which a scenario that drops readings lengthens to the reports its
+sensors may miss), is one the supervisor knows nothing of: (2) skips them, and for
+``SIGHT_TICKS`` after the report that places them again. (With the ring down the robot
+drives only where the camera looks, narrowed so that a child centred outside the view
+beyond the slow zone, never reported, is kept out of the stop zone:
+``test_safety_edge.py``.) Without dropout, every human is reported at the ring's first
+scan unless hidden, and again whenever it or the camera sees them.
 
 With sensors failing (the ring goes offline, freezes or falls silent, and either may
 fail again or come back), the same properties hold while the pad drives the
@@ -88,7 +90,7 @@ from tests.scenarios.found_trials import (
     WALKED_UNSEEN_495,
 )
 from tests.scenarios.hostile_rules import TAMPERING
-from tests.scenarios.session_record import least_closing, reports
+from tests.scenarios.session_record import Ran, least_closing, reports
 
 TICK_MS = 20
 DURATION_S = 5.0
@@ -109,10 +111,6 @@ REVEAL_TICKS = 10 + 1 + PUSH_TICKS
 """Ticks after a human was last hidden from every sensor that (2) skips them: the ring's
 next scan (5 a second), a tick, and the braking of a 0.5 m/s base (a child the ring
 reveals inside the stop zone is one who walked in)."""
-WALK_COVERED_M = 0.5
-"""How far a human may walk from where a sensor last placed them that the supervisor's
-margin covers: ``human_speed_mps`` for ``max_data_age_ms`` (1 m/s, 500 ms; a reading older
-than that caps the speed, its margin no longer grows)."""
 SIGHT_TICKS = 1 + PUSH_TICKS
 """Ticks after a report places a human no sensor had reported (or not since they walked
 off) that (2) still skips them: the tick it reaches the supervisor, and the braking of a
@@ -264,18 +262,20 @@ def script_text(moves, tamper: int | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_session(trial: Trial) -> MemorySink:
+def run_session(trial: Trial) -> Ran:
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder)
         (root / "activities").mkdir()
         (root / "activities" / "moves.txt").write_text(script_text(trial.moves, trial.tamper))
         (root / "tamper.py").write_text(TAMPERING)
         (root / "property.toml").write_text(scenario_text(trial))
-        session = Session(load_scenario(root / "property.toml"))
+        loaded = load_scenario(root / "property.toml")
+        session = Session(loaded)
         memory = MemorySink()
         session.sink.add(memory)
         session.run()
-    return memory
+    safety = session.pipeline.config.safety
+    return Ran(memory, safety.human_speed_mps * safety.max_data_age_ms / 1000)  # type: ignore[operator]
 
 
 def examples(count: int) -> settings:
@@ -419,8 +419,9 @@ def hidden(state: WorldState, all_round: bool, beams: int) -> set[str]:
     }
 
 
-def assert_safe(memory: MemorySink, all_round: bool, beams: int = 0) -> None:
+def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
     """The three properties of the module's docstring, on a session's ground truth."""
+    memory = ran.memory
     states: list[WorldState] = memory.on(Topic.WORLD_STATE)  # type: ignore[assignment]
     pushed_until = -1
     hidden_at: dict[str, int] = {}  # when each human was last hidden from every sensor
@@ -438,7 +439,7 @@ def assert_safe(memory: MemorySink, all_round: bool, beams: int = 0) -> None:
         for name, taken in placed.get(state.tick, ()):
             anchors[name] = truth.get(taken, now)[name]
         for name, at in now.items():
-            if name not in anchors or math.dist(anchors[name], at) > WALK_COVERED_M:
+            if name not in anchors or math.dist(anchors[name], at) > ran.walk_covered_m:
                 unreported_at[name] = state.tick
         step = 10.0**-STATE_DECIMALS
         fastest[state.tick] = math.hypot(abs(robot.vx_mps) + step, abs(robot.vy_mps) + step)
