@@ -41,7 +41,8 @@ def write_results(
     compiled_modules: int,
 ) -> None:
     """``out`` as JSON: the settings, the machine (``compiled_modules``: how many hot modules
-    ran compiled), the headline ratio and every case."""
+    ran compiled), the headline ratio (the medians', and the lowest and highest of the
+    repetitions, each run beside the reference loop run after it) and every case."""
     by_name = {case.name: case for case in cases}
     run = by_name.get("run + MCAP")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -59,6 +60,8 @@ def write_results(
             "ticks_per_s": run.value if run else None,
             "reference_loop_ticks_per_s": run.against_value if run else None,
             "ratio": run.ratio if run else None,
+            "ratio_lowest": run.extra.get("ratio_lowest") if run else None,
+            "ratio_highest": run.extra.get("ratio_highest") if run else None,
         },
         "cases": [msgspec.to_builtins(case) for case in cases],
     }

@@ -160,6 +160,7 @@ def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list
         (task_floor, ticks, folder, rerun),
     )
     rate = ticks / median([r["seconds"] for r in runs])
+    pairs = [ref.seconds / run["seconds"] for run, ref in zip(runs, references, strict=True)]
     name = "run + MCAP + Rerun" if rerun else "run + MCAP"
     minutes = ticks * TICK_S / 60
     last = runs[-1]
@@ -175,6 +176,8 @@ def bench_run(ticks: int, repetitions: int, folder: str, *, rerun: bool) -> list
         else ">= 0.8 of the reference loop and >= 13,000 ticks/s",
         extra={
             "speed_up_x": rate * TICK_S,
+            "ratio_lowest": min(pairs),  # each repetition's run over its reference loop's
+            "ratio_highest": max(pairs),
             "peak_memory_mb": max(r["peak_memory_mb"] for r in runs),
             "messages_per_tick": last["messages"] / ticks,
             "mcap_mb_per_min": last["mcap_bytes"] / 1e6 / minutes,
