@@ -375,6 +375,7 @@ class SafetySupervisor:
         distance = math.hypot(x, y)
         seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
+        margin += self._echoes.arc_m(human)  # an echo: its disc covers its beam's arc
         if slipped:  # the base may have slipped since: the reading placed that far off
             drift = self._reckoning.drift(anchor.since)
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
