@@ -10,21 +10,20 @@ What else must hold depends on the ring (``sonar_beam_rad``):
 - a ring whose sonars merge what their beam holds (``sonar_beam_rad`` > 0; every real
   ring): a sonar gives a range, not a bearing, so an echo is an arc: what made it lies at
   its range within half a beam of its bearing (its beam's axis), on a body's surface or at
-  its centre. The supervisor grows the echo's margin by the chord that covers the arc
-  (:meth:`EchoSorter.arc_m`), and a human's gate is measured to the arc, a body's radius
-  wider (capped at two radii, not one): a gate is only a necessary condition for an echo to
-  be that human's, and what makes dropping one sound is what follows. A child beside the
-  one the camera sees, in the same beam, makes no echo of their own. An echo is taken for
-  a tracked human only where the camera's frame that placed them saw all the beam that
-  made it (the coverage rule): its bearing, in that frame, within the camera's half view
-  less a whole beam (half a beam either side of its axis, and a whole one covers a driver
-  that places an echo anywhere in its beam), the angle the echo's body subtends at its
-  range (its disc may only reach into the beam) and the angle of the robot's move and a
-  walk between both readings at that range. A body the ring hides reaches no beam but
-  those of nearer bodies: when the echoes of all of them are dropped, all their beams lay
-  in the view, so its centre did, and the camera tracks it itself. Anywhere else every
-  echo is kept. One body across two beams makes two echoes in one gate: both are that
-  child.
+  its centre. The supervisor grows the echo's disc to cover the arc (:meth:`EchoSorter.arc_m`)
+  and takes its distance from the arc itself (:meth:`EchoSorter.off_arc`), and a human's
+  gate is measured to the arc, a body's radius wider (capped at two radii, not one): a
+  gate is only a necessary condition for an echo to be that human's, and what makes
+  dropping one sound is what follows. A child beside the one the camera sees, in the same
+  beam, makes no echo of their own. An echo is taken for a tracked human only where the
+  camera's frame that placed them saw all the beam that made it (the coverage rule): its
+  bearing, in that frame, within the camera's half view less half a beam (the beam about
+  its axis), the angle the echo's body subtends at its range (its disc may only reach into
+  the beam) and the angle of the robot's move and a walk between both readings at that
+  range. A body the ring hides reaches no beam but those of nearer bodies: when the echoes
+  of all of them are dropped, all their beams lay in the view, so its centre did, and the
+  camera tracks it itself. Anywhere else every echo is kept. One body across two beams
+  makes two echoes in one gate: both are that child.
 - a ring that reports every body apart (0: the simulator's ideal ring): an echo is a
   tracked human's only when it is the one echo in that human's gate (two there are two
   bodies: one may be a child beside them, outside the camera's view, ``make soak
@@ -146,14 +145,15 @@ class EchoSorter:
         for j, (_, human_ms, hx, hy, _) in enumerate(seen):
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000  # type: ignore[operator]
             gate = min(2 * config.sensing_error_m + walked + surface, largest)  # type: ignore[operator]
-            off = self._off_arc(echo, hx, hy) if surface else math.hypot(x - hx, y - hy)
+            off = self.off_arc(echo, hx, hy) if surface else math.hypot(x - hx, y - hy)
             if off <= gate:
                 found.append(j)
         return found
 
-    def _off_arc(self, echo: Anchor, x: float, y: float) -> float:
-        """How far (x, y) (odometry frame) lies from the echo's arc: the points at its range
-        within half a beam of its bearing, from where the robot was when it was taken."""
+    def off_arc(self, echo: Anchor, x: float, y: float) -> float:
+        """How far (x, y) (odometry frame: a human's centre, or the robot's) lies from the
+        echo's arc: the points at its range within half a beam of its bearing, from where
+        the robot was when it was taken."""
         p_x, p_y, _ = echo.since.pose
         e_x, e_y, d_x, d_y = echo.x - p_x, echo.y - p_y, x - p_x, y - p_y
         rho, far = math.hypot(e_x, e_y), math.hypot(d_x, d_y)
@@ -185,7 +185,7 @@ class EchoSorter:
             return False  # a body's disc reaches all round the robot
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
-        spread = self._beam_rad + math.asin(body / rho)
+        spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
         spread += math.asin(min(1.0, (moved + walked) / rho))
         if slipped:
             spread += min(self._reckoning.drift(echo.since).heading_rad, math.pi)

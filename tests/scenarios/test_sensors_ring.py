@@ -194,13 +194,14 @@ def test_a_ring_that_may_report_each_child_in_every_beam_must_fit_the_map() -> N
 
 
 def test_a_ring_whose_echoes_are_arcs_must_reach_farther() -> None:
-    """An echo's margin grows by its arc's chord (0.261 of its range with 12 sonars): the
-    1.625 m the ideal ring needs (test_scenario_safety_section.py) become 2.199 m."""
+    """A drive across may close on an echo's arc by its way (a tick at 0.5 m/s and braking
+    at 1 m/s2: 0.135 m) times ``2 sin(beam / 4)`` (0.26 with 12 sonars): the 1.625 m the
+    ideal ring needs (test_scenario_safety_section.py) become 1.66 m."""
     text = 'name = "x"\n[sensors]\nsonar_beams = 12\nsonar_range_m = {}\n'
-    (warning,) = parse_scenario(text.format(2.19).encode(), source="s.toml").warnings
+    (warning,) = parse_scenario(text.format(1.65).encode(), source="s.toml").warnings
     assert str(warning).startswith(
-        "s.toml:4:1: sensors.sonar_range_m (m): the sonar ring reaches 2.19 m, less than the"
-        " 2.199 m in which"
+        "s.toml:4:1: sensors.sonar_range_m (m): the sonar ring reaches 1.65 m, less than the"
+        " 1.66 m in which"
     )
-    assert "; an echo's arc takes 0.261 of the ring's reach (sonar_beam_rad))" in str(warning)
-    assert parse_scenario(text.format(2.2).encode()).warnings == ()
+    assert ", and 0.035 m it may close on an echo's arc (sonar_beam_rad)):" in str(warning)
+    assert parse_scenario(text.format(1.67).encode()).warnings == ()

@@ -100,3 +100,16 @@ def test_an_echos_arc_is_the_chord_of_half_a_beam_at_its_range() -> None:
 
 def polar(rho: float, bearing: float) -> tuple[float, float]:
     return (rho * math.cos(bearing), rho * math.sin(bearing))
+
+
+def test_an_echos_distance_is_its_arcs_less_what_a_drive_across_may_close() -> None:
+    """An echo 1 m ahead: every point of its arc lies 1 m away, not the disc's 1 m less its
+    chord (0.26 m: across the line of sight, not along it). What the braking bound does not
+    count is what a drive moving across that line may close on a point of the arc off it:
+    its way at the top speed (a tick and braking: 0.135 m) times the sine of the angle the
+    disc spans (0.26): 3.5 cm. The echo's surface distance is 1 - 0.55 - 0.04 - 0.035."""
+    way = 0.5 * (TICK_MS / 1000 + 0.5 / 2)
+    expected = 1.0 - 0.55 - 0.04 - way * 2 * math.sin(BEAM / 4)
+    verdict, _ = supervise(towards(0.0, 0.5), ringed(echoes=[echo(1.0, 0.0)]), supervisor=real())
+    assert verdict.zone is SafetyZone.SLOW and verdict.human == "Obstacle/echo-0"
+    assert verdict.surface_distance_m == pytest.approx(expected, abs=1e-4)
