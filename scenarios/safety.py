@@ -251,7 +251,9 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     have closed in by their speeds times that delay; then the robot brakes, at
     ``max_accel_mps2`` (no base stops at once), while
     the person walks on. The ring must reach farther than all that, plus both radii, the
-    stop distance and the sensing error."""
+    stop distance and the sensing error; on a ring whose beams merge (``sonar_beam_rad``
+    > 0), and by what a drive across may close on an echo's arc (the robot's way, a tick
+    and braking, times ``2 sin(beam / 4)``: ``SafetySupervisor._across``)."""
     sensors, robot = scenario.sensors, scenario.robot
     config = supervisor_config(scenario)
     assert config.human_speed_mps is not None and config.sensing_error_m is not None
@@ -263,6 +265,10 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     braking_m = speed**2 / (2 * accel) + walk * speed / accel
     bodies_m = config.robot_radius_m + config.human_radius_m
     least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m + braking_m
+    assert config.sonar_beam_rad is not None
+    way_m = speed * (1 / scenario.tick_hz + speed / (2 * accel))
+    arc_m = way_m * 2 * math.sin(min(config.sonar_beam_rad, math.tau) / 4)
+    least += arc_m
     if sensors.sonar_range_m < least:
         yield (
             ("sensors", "sonar_range_m"),
@@ -273,9 +279,15 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             f" {config.sensing_error_m!r}, and {round(closing_m, 3)!r} m closed in"
             f" {_scans_text(scans, sensors.dropout_probability)} and a tick at max_speed_mps"
             f" {speed!r} and human_speed_mps {walk!r}, and {round(braking_m, 3)!r} m while"
-            f" it brakes at max_accel_mps2 {accel!r}): the robot may touch someone it has"
-            " not seen",
+            f" it brakes at max_accel_mps2 {accel!r}{_arc_text(arc_m)}): the robot may touch"
+            " someone it has not seen",
         )
+
+
+def _arc_text(arc_m: float) -> str:
+    if not arc_m:
+        return ""
+    return f", and {round(arc_m, 3)!r} m it may close on an echo's arc (sonar_beam_rad)"
 
 
 def _scans_text(scans: float, dropout: float) -> str:

@@ -255,10 +255,11 @@ class SensorSpec(Spec, kw_only=True):
     """Sonar scans per second (reported as ``scanfrequency``)."""
     sonar_beams: SonarBeams = 0
     """How many sonars the ring has, evenly spaced (the first straight ahead), each
-    reporting the nearest body its beam (``2 pi / sonar_beams`` wide) reaches, as a real
-    ring does: two bodies in one beam make one echo, one across two beams two, and one
-    behind a nearer body in every beam it reaches none; 0: an ideal ring that reports
-    every body apart, once, at its centre (``scenarios.simulation.sensors``)."""
+    reporting the range to the nearest surface its beam (``2 pi / sonar_beams`` wide)
+    reaches, on its axis, as a real ring does: two bodies in one beam make one echo, one
+    across two beams two, and one behind a nearer body in every beam it reaches none; 0: an
+    ideal ring that reports every body apart, once, at its centre
+    (``scenarios.simulation.sensors``)."""
     status_period_s: SessionTime = 1.0
     """How often the robot's status (speed, battery, elapsed time) and each sensor's
     ``isonline`` are reported, s (the safety supervisor takes a sensor whose status stops

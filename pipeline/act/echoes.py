@@ -8,16 +8,22 @@ between their times, never farther than ``human_radius_m``), and then the camera
 What else must hold depends on the ring (``sonar_beam_rad``):
 
 - a ring whose sonars merge what their beam holds (``sonar_beam_rad`` > 0; every real
-  ring): a child beside the one the camera sees, in the same beam, makes no echo of their
-  own. An echo is taken for a tracked human only where the camera's frame that placed them
-  saw all the beam that made it (the coverage rule): its bearing, in that frame, within
-  the camera's half view less a whole beam (an echo may lie anywhere in its beam, or at
-  its axis on a real ring), the angle the echo's body subtends at its range (its disc may
-  only reach into the beam) and the angle of the robot's move and a walk between both
-  readings at that range. A body the ring hides reaches no beam but those of nearer
-  bodies: when the echoes of all of them are dropped, all their beams lay in the view, so
-  its centre did, and the camera tracks it itself. Anywhere else every echo is kept. One
-  body across two beams makes two echoes in one gate: both are that child.
+  ring): a sonar gives a range, not a bearing, so an echo is an arc: what made it lies at
+  its range within half a beam of its bearing (its beam's axis), on a body's surface or at
+  its centre. The supervisor grows the echo's disc to cover the arc (:meth:`EchoSorter.arc_m`)
+  and takes its distance from the arc itself (:meth:`EchoSorter.off_arc`), and a human's
+  gate is measured to the arc, a body's radius wider (capped at two radii, not one): a
+  gate is only a necessary condition for an echo to be that human's, and what makes
+  dropping one sound is what follows. A child beside the one the camera sees, in the same
+  beam, makes no echo of their own. An echo is taken for a tracked human only where the
+  camera's frame that placed them saw all the beam that made it (the coverage rule): its
+  bearing, in that frame, within the camera's half view less half a beam (the beam about
+  its axis), the angle the echo's body subtends at its range (its disc may only reach into
+  the beam) and the angle of the robot's move and a walk between both readings at that
+  range. A body the ring hides reaches no beam but those of nearer bodies: when the echoes
+  of all of them are dropped, all their beams lay in the view, so its centre did, and the
+  camera tracks it itself. Anywhere else every echo is kept. One body across two beams
+  makes two echoes in one gate: both are that child.
 - a ring that reports every body apart (0: the simulator's ideal ring): an echo is a
   tracked human's only when it is the one echo in that human's gate (two there are two
   bodies: one may be a child beside them, outside the camera's view, ``make soak
@@ -35,7 +41,7 @@ from typing import NamedTuple
 
 from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig
-from oimi.pipeline.messages import Entity, WorldMap
+from oimi.pipeline.messages import Entity, Obstacle, WorldMap
 
 
 class Anchor(NamedTuple):
@@ -79,6 +85,8 @@ class EchoSorter:
         self._half_view: float = config.camera_fov_rad / 2  # type: ignore[operator]  # filled
         self._body_m: float = config.human_radius_m + config.sensing_error_m  # type: ignore[operator]
         """How far a body's edge may lie from the centre a reading gives."""
+        self._arc_sine = math.sin(min(self._beam_rad, math.tau) / 4)
+        """``sin(beam / 4)``: an echo's arc's chord over twice its range (:meth:`arc_m`)."""
 
     def echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
         """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
@@ -121,10 +129,14 @@ class EchoSorter:
     def _near(self, echo: Anchor, seen: list[Anchor], slipped: bool) -> list[int]:
         """The tracked humans (indices in ``seen``) whose reading an echo may be: nearer than
         both readings' errors and the walk between their times, at most ``human_radius_m``
-        (``slipped``: less the drift since the echo, placed that far off)."""
+        (``slipped``: less the drift since the echo, placed that far off). On a merging ring
+        the echo is an arc (:meth:`arc_m`) on the body's surface: the human's centre is
+        measured to the arc, and may lie a body's radius more from it."""
         config = self._config
         _, at_ms, x, y, since = echo
-        largest: float = config.human_radius_m  # type: ignore[assignment]  # filled
+        radius: float = config.human_radius_m  # type: ignore[assignment]  # filled
+        surface = radius if self._beam_rad > 0.0 else 0.0  # the echo's body beyond it
+        largest = radius + surface
         if slipped:
             drift = self._reckoning.drift(since)
             e_x, e_y = estimate(echo, self._reckoning.pose)
@@ -132,10 +144,33 @@ class EchoSorter:
         found = []
         for j, (_, human_ms, hx, hy, _) in enumerate(seen):
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000  # type: ignore[operator]
-            gate = min(2 * config.sensing_error_m + walked, largest)  # type: ignore[operator]
-            if math.hypot(x - hx, y - hy) <= gate:
+            gate = min(2 * config.sensing_error_m + walked + surface, largest)  # type: ignore[operator]
+            off = self.off_arc(echo, hx, hy) if surface else math.hypot(x - hx, y - hy)
+            if off <= gate:
                 found.append(j)
         return found
+
+    def off_arc(self, echo: Anchor, x: float, y: float) -> float:
+        """How far (x, y) (odometry frame: a human's centre, or the robot's) lies from the
+        echo's arc: the points at its range within half a beam of its bearing, from where
+        the robot was when it was taken."""
+        p_x, p_y, _ = echo.since.pose
+        e_x, e_y, d_x, d_y = echo.x - p_x, echo.y - p_y, x - p_x, y - p_y
+        rho, far = math.hypot(e_x, e_y), math.hypot(d_x, d_y)
+        apart = abs(math.remainder(math.atan2(d_y, d_x) - math.atan2(e_y, e_x), math.tau))
+        beyond = max(apart - self._beam_rad / 2, 0.0)  # from the arc's nearer end
+        return math.sqrt(max(rho * rho + far * far - 2 * rho * far * math.cos(beyond), 0.0))
+
+    def arc_m(self, reading: Entity) -> float:
+        """How far what made a reading may lie from where it places it, beyond its errors: 0
+        for a human (the camera gives a bearing); for an echo of a merging ring, the chord
+        of half a beam at its range, ``2 rho sin(beam / 4)`` (a sonar gives a range, not a
+        bearing: whatever it heard lies at that range within half a beam of its axis, where
+        a driver places it, and no farther from that point than this). The supervisor grows
+        the echo's margin by it, its centre kept at the range: docs/actuator-and-joystick.md."""
+        if self._beam_rad == 0.0 or not isinstance(reading, Obstacle):
+            return 0.0
+        return 2 * max(reading.positionrho, 0.0) * self._arc_sine
 
     def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which
@@ -150,7 +185,7 @@ class EchoSorter:
             return False  # a body's disc reaches all round the robot
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
-        spread = self._beam_rad + math.asin(body / rho)
+        spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
         spread += math.asin(min(1.0, (moved + walked) / rho))
         if slipped:
             spread += min(self._reckoning.drift(echo.since).heading_rad, math.pi)

@@ -390,6 +390,11 @@ class SafetySupervisor:
             drift = self._reckoning.drift(anchor.since)
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
+        arc = self._echoes.arc_m(human)  # a merging ring's echo: what made it lies on an arc
+        if arc:  # its disc covers the arc; its distance is the arc's, less :meth:`_across`
+            nearest = self._across(anchor, distance, arc) + surface - distance
+            surface = max(surface - arc, nearest)
+            margin += arc  # (the cone of that disc points away from every point of the arc)
         held = self._held
         if surface <= config.stop_distance_m:
             held[key] = None
@@ -414,6 +419,19 @@ class SafetySupervisor:
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
         return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
+
+    def _across(self, anchor: Anchor, distance: float, arc: float) -> float:
+        """How near an echo's arc (``arc`` its chord, its centre ``distance`` away) lies to
+        the robot, less what a drive may close on a point of it by moving across the line to
+        its centre: the constraint bounds the closing part along that line, and a point of
+        the arc lies at most ``asin(arc / distance)`` off it, so a drive closes on it by at
+        most its way (a tick at the top speed, then braking) times that sine more
+        (docs/actuator-and-joystick.md; the actuator caps every request at the top speed)."""
+        x, y, _ = self._reckoning.pose
+        top = max(self._limits.max_speed_mps, self._reckoning.speed)
+        way = top * (self._dt_s + top / (2 * self._limits.max_accel_mps2))
+        sine = arc / distance if distance > arc else 1.0
+        return self._echoes.off_arc(anchor, x, y) - way * sine
 
     def _anchor(self, key: str, human: Entity, now_ms: int) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it

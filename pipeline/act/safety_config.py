@@ -100,9 +100,11 @@ class SafetyConfig(Message):
     not set it below that)."""
     sonar_beam_rad: float | None = None
     """How wide one sonar's beam of the ring is, rad: a sonar reports the nearest body in
-    its beam, so a child beside one the camera tracks may be merged into that child's echo.
-    An echo is taken for a tracked human only where the camera's frame saw all that its
-    beam may hold (:mod:`~pipeline.act.echoes`); 0: a ring that reports every body apart
+    its beam, so a child beside one the camera tracks may be merged into that child's echo,
+    and gives a range, not a bearing: an echo is an arc, what made it anywhere within half a
+    beam of its bearing (its margin grows to cover it). An echo is taken for a tracked human
+    only where the camera's frame saw all that its beam may hold
+    (:mod:`~pipeline.act.echoes`); 0: a ring that reports every body apart
     (the simulator's ideal ring), where an echo is a tracked human's only when it is the
     one echo near them; None: the scenario's ring's (``2 pi / sonar_beams``, 0 for the
     ideal ring; pi / 3 without a scenario and on a real robot, ``oimi bridge``; a scenario

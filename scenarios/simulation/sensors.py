@@ -6,14 +6,17 @@ obstacles (``isfixed``) and, as anonymous obstacles that are not fixed, the peop
 (``Obstacle/echo-N``, N the person's place in the scenario; a real ring cannot tell a
 child from a chair, and the safety supervisor keeps its distance from such echoes,
 behind the robot too). The ideal ring (``sonar_beams`` 0) reports every body apart, once,
-at its centre. A ring of ``sonar_beams`` sonars, evenly spaced from straight ahead, reports
-what each sonar's beam reaches first: the body with the nearest surface whose disc reaches
-into the beam (furniture: its centre), at that body's centre (a real sonar gives only its
-range: the bearing is its beam's, not modelled). Two people in one beam make one echo,
-the nearer's; one whose disc reaches two beams, nearest in both, makes two (the one in the
-beam holding their centre ``echo-N``, the other ``echo-N.sK``, K the sonar's index); one
-behind nearer bodies in every beam they reach makes none (occlusion). Each entity's pose
-is reported relative to the robot (``positionrho`` m from its centre,
+at its centre. A ring of ``sonar_beams`` sonars, evenly spaced from straight ahead, is a
+real one: a sonar gives a range, not a bearing. Each reports the distance from the robot's
+centre to the nearest surface its beam reaches (the nearest point of each disc within its
+beam's sector: a disc that only reaches in counts where it does), placed on the beam's
+axis, up to half a beam from the body; within ``sonar_range_m``. Furniture is a point at
+its centre, seen only by the sonar whose beam holds it (the supervisor never limits a
+fixed body: all it does to the ring is hide what lies behind it there). Two people in one
+beam make one echo, the nearer's; one whose disc reaches two beams, nearest in both, makes
+two (the one in the beam holding their centre ``echo-N``, the other ``echo-N.sK``, K the
+sonar's index); one behind nearer bodies in every beam they reach makes none (occlusion).
+Each entity's pose is reported relative to the robot (``positionrho`` m from its centre,
 ``positiontheta`` rad from its heading, counter-clockwise, in (-pi, pi]), with
 seeded gaussian noise and dropouts, at the sensor's rate; ``tracking`` follows an
 entity while it stays in view; ``isfixed``, ``istarget``, ``category`` come once,
@@ -376,30 +379,57 @@ def beam_echoes(
     bodies: list[Body], pose: tuple[float, float, float], beams: int, range_m: float
 ) -> list[tuple[str, float, float]]:
     """What a ring of ``beams`` sonars at ``pose`` reports of ``bodies`` (the module's
-    docstring): each sonar's nearest body, surface to surface (the earlier of ``bodies`` on
-    a tie), as (id, x, y), in the sonars' order; none beyond ``range_m`` (centre to centre,
-    as the ideal ring). A fixed body is reported only by the sonar whose beam holds its
-    centre; another by every sonar its disc reaches, ``<id>.s<K>`` but in that one."""
+    docstring), as (id, x, y), in the sonars' order: each sonar's nearest surface within
+    ``range_m`` (the earlier of ``bodies`` on a tie), placed on its beam's axis at that
+    surface's distance from the robot's centre. A fixed body is a point at its centre,
+    reported only by the sonar whose beam holds it; another is reported by every sonar its
+    disc reaches, ``<id>.s<K>`` but in that one."""
     width = math.tau / beams
     x, y, theta = pose
-    nearest: list[tuple[float, int, tuple[str, float, float]] | None] = [None] * beams
+    nearest: list[tuple[float, int, str] | None] = [None] * beams
     for order, (ident, bx, by, radius, fixed) in enumerate(bodies):
         dx, dy = bx - x, by - y
         rho = math.hypot(dx, dy)
-        if rho > range_m:
-            continue
+        if rho - radius > range_m:
+            continue  # its nearest surface is out of range in every beam
         bearing = math.atan2(dy, dx) - theta
         centre = math.floor(bearing / width + 0.5) % beams
-        reach = math.asin(min(1.0, radius / rho)) if rho > 0.0 else math.pi
+        reach = math.asin(radius / rho) if rho > radius else math.pi
         spread = 0 if fixed else min(math.ceil(reach / width + 0.5), beams // 2)
-        surface = rho - radius
         for k in sorted({(centre + j) % beams for j in range(-spread, spread + 1)}):
-            if k != centre and abs(wrap_angle(bearing - k * width)) > width / 2 + reach:
-                continue  # its disc does not reach into this beam
+            outside = abs(wrap_angle(bearing - k * width)) - width / 2
+            surface = in_sector(rho, min(outside, 0.0) if k == centre else outside, radius)
+            if surface is None or surface > range_m:
+                continue  # its disc does not reach into this beam (or only out of range)
             best = nearest[k]
             if best is None or (surface, order) < best[:2]:
-                nearest[k] = (surface, order, (ident if k == centre else f"{ident}.s{k}", bx, by))
-    return [best[2] for best in nearest if best is not None]
+                nearest[k] = (surface, order, ident if k == centre else f"{ident}.s{k}")
+    found = []
+    for k, best in enumerate(nearest):
+        if best is not None:
+            surface, _, name = best
+            axis = theta + k * width
+            found.append((name, x + surface * math.cos(axis), y + surface * math.sin(axis)))
+    return found
+
+
+def in_sector(rho: float, outside: float, radius: float) -> float | None:
+    """The distance from a sonar's apex to the nearest point of a disc (centre ``rho`` m
+    away, ``radius``) within its beam's sector, the disc's centre ``outside`` rad beyond
+    the sector's nearer edge (none or less: within it); None: the disc does not reach in.
+    Within, the disc's nearest point (``rho - radius``, none if the disc holds the apex);
+    beyond, where the nearer edge enters the disc (the sector, at most half a turn wide,
+    is convex: its point nearest the apex lies on that edge)."""
+    if rho <= radius:
+        return 0.0  # the disc holds the sonar's apex, the robot's centre
+    if outside <= 0.0:
+        return rho - radius
+    if outside >= math.pi / 2:
+        return None  # the edge points away from the disc's side: it reaches no point of it
+    off = rho * math.sin(outside)  # the disc's centre from the edge's line
+    if off > radius:
+        return None
+    return rho * math.cos(outside) - math.sqrt(radius * radius - off * off)
 
 
 def _period_ms(rate_hz: float) -> float:

@@ -36,7 +36,7 @@ or is the default front camera (2.2 rad, 5 m): then a human beside or behind the
 robot is only the sonar ring's echo (an obstacle that is not fixed, 5 scans a second,
 3 m all around), which the supervisor keeps at the same distances. The ring is drawn too:
 the ideal one (every body apart) or one of 8, 12 or 16 sonars, each reporting the nearest
-body its beam reaches (``sonar_beams``). Such a ring cannot report a person hidden behind
+surface its beam reaches, on its axis (``sonar_beams``). It cannot report a person hidden behind
 or beside nearer bodies in every beam they reach: while that holds (on the truth) and the
 camera does not look at them, (2) skips them (no sensor can see them; on the ideal ring
 nobody within its range is ever hidden), and until the robot, told at the ring's next

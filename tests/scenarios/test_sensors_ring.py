@@ -59,23 +59,53 @@ def test_the_ideal_ring_reports_every_body_apart_at_its_centre() -> None:
 
 
 def test_two_children_in_one_beam_make_one_echo_the_nearers() -> None:
-    """12 sonars, 30 degrees each: the one ahead reaches the child 1 m away first; the one
-    2 m away, 4 degrees off, is in the same beam and no other: the ring does not report
-    them (``make soak SEED=35``'s pair, on a real ring)."""
-    assert echoes(room(12, at(1.0, 0), at(2.0, 4))) == {"Obstacle/echo-0": pytest.approx((1.0, 0))}
-    assert echoes(room(12, at(2.0, 4), at(1.0, 0))) == {"Obstacle/echo-1": pytest.approx((1.0, 0))}
+    """12 sonars, 30 degrees each: the one ahead reaches the child 1 m away first (their
+    surface, 0.75 m); the one 2 m away, 4 degrees off, is in the same beam and no other:
+    the ring does not report them (``make soak SEED=35``'s pair, on a real ring)."""
+    assert echoes(room(12, at(1.0, 0), at(2.0, 4))) == {"Obstacle/echo-0": pytest.approx((0.75, 0))}
+    assert echoes(room(12, at(2.0, 4), at(1.0, 0))) == {"Obstacle/echo-1": pytest.approx((0.75, 0))}
 
 
-def test_a_child_across_two_beams_makes_two_echoes_at_their_centre() -> None:
+def entry(rho: float, off_deg: float, radius: float = 0.25) -> float:
+    """Where a ray enters a disc ``rho`` m away, ``off_deg`` from the ray: the nearer root
+    of ``t**2 - 2 t rho cos(off) + rho**2 - radius**2``."""
+    along = rho * math.cos(math.radians(off_deg))
+    return along - math.sqrt(along * along - rho * rho + radius * radius)
+
+
+def test_a_sonar_reports_the_nearest_surface_in_its_beam_on_its_axis() -> None:
+    """A real sonar gives a range, not a bearing. A child 1 m away, 10 degrees left: the
+    sonar ahead reports their surface (0.75 m) on its axis, 10 degrees from them; their disc
+    (14.5 degrees each side) reaches 5 degrees into the next beam (15 to 45 degrees), which
+    reports where its edge enters the disc, on its axis (30 degrees). The ideal ring
+    reports their centre."""
+    assert echoes(room(12, at(1.0, 10))) == {
+        "Obstacle/echo-0": pytest.approx((0.75, 0.0), abs=1e-4),
+        "Obstacle/echo-0.s1": pytest.approx((entry(1.0, 5), math.radians(30)), abs=1e-4),
+    }
+    assert echoes(room(0, at(1.0, 10))) == {
+        "Obstacle/echo-0": pytest.approx((1.0, math.radians(10)), abs=1e-4)
+    }
+
+
+def test_a_child_across_two_beams_makes_two_echoes_on_their_axes() -> None:
     """0.7 m away at 14 degrees, a child's disc (0.25 m: 21 degrees each side) reaches the
-    sonar ahead and the next (30 degrees): two echoes, the second named for its sonar."""
+    sonar ahead and the next (30 degrees): two echoes, the second named for its sonar, each
+    at the nearest surface in its beam (the disc's own nearest point ahead; where the beam's
+    edge, 1 degree off the centre, enters it in the next)."""
     two = echoes(room(12, at(0.7, 14)))
-    assert set(two) == {"Obstacle/echo-0", "Obstacle/echo-0.s1"}
-    assert (
-        two["Obstacle/echo-0"]
-        == two["Obstacle/echo-0.s1"]
-        == pytest.approx((0.7, math.radians(14)), abs=1e-4)
-    )
+    assert two == {
+        "Obstacle/echo-0": pytest.approx((0.45, 0.0), abs=1e-4),
+        "Obstacle/echo-0.s1": pytest.approx((entry(0.7, 1), math.radians(30)), abs=1e-4),
+    }
+
+
+def test_a_ring_reports_a_surface_within_its_range() -> None:
+    """A ring reaching 1 m: a child 1.1 m away (their surface at 0.85 m) is heard by a real
+    ring, not by the ideal one (centre to centre)."""
+    near = "sonar_range_m = 1.0"
+    assert echoes(room(12, at(1.1, 0), extra=near)) == {"Obstacle/echo-0": pytest.approx((0.85, 0))}
+    assert echoes(room(0, at(1.1, 0), extra=near)) == {}
 
 
 def test_a_child_behind_a_nearer_one_in_every_beam_they_reach_is_not_reported() -> None:
@@ -85,11 +115,16 @@ def test_a_child_behind_a_nearer_one_in_every_beam_they_reach_is_not_reported() 
 
 
 def test_furniture_hides_a_child_behind_it_and_is_reported_once_fixed() -> None:
+    """Furniture is a point at its centre, reported by the sonar whose beam holds it, on its
+    axis: the supervisor never limits it, so all it does to the ring is hide what lies
+    farther in that beam."""
     shelf = '[[world.obstacles]]\nid = "shelf"\nx_m = 3.0\ny_m = 3.5\nradius_m = 0.2\n'
     text = room(12, at(2.0, 90)) + shelf
-    assert set(echoes(text)) == {"Obstacle/shelf"}
+    assert echoes(text) == {"Obstacle/shelf": pytest.approx((1.0, math.pi / 2), abs=1e-4)}
     aside = echoes(room(12, at(2.0, 80)) + shelf)  # hidden from the sonar at 90 degrees,
     assert set(aside) == {"Obstacle/shelf", "Obstacle/echo-0.s2"}  # not from the one at 60
+    off = '[[world.obstacles]]\nid = "shelf"\nx_m = 3.1736\ny_m = 3.4848\nradius_m = 0.2\n'
+    assert echoes(room(12) + off) == {"Obstacle/shelf": pytest.approx((1.0, math.pi / 2), abs=1e-4)}
 
 
 def test_a_beams_echo_id_is_never_an_obstacle_id() -> None:
@@ -156,3 +191,17 @@ def test_a_ring_that_may_report_each_child_in_every_beam_must_fit_the_map() -> N
     parse_scenario(text.encode())  # 3 x 341 echoes and a shelf: 1024, the map's room
     with pytest.raises(ScenarioError, match="in each of its 341 beams, more than the map"):
         parse_scenario((text + shelf.format("b")).encode())
+
+
+def test_a_ring_whose_echoes_are_arcs_must_reach_farther() -> None:
+    """A drive across may close on an echo's arc by its way (a tick at 0.5 m/s and braking
+    at 1 m/s2: 0.135 m) times ``2 sin(beam / 4)`` (0.26 with 12 sonars): the 1.625 m the
+    ideal ring needs (test_scenario_safety_section.py) become 1.66 m."""
+    text = 'name = "x"\n[sensors]\nsonar_beams = 12\nsonar_range_m = {}\n'
+    (warning,) = parse_scenario(text.format(1.65).encode(), source="s.toml").warnings
+    assert str(warning).startswith(
+        "s.toml:4:1: sensors.sonar_range_m (m): the sonar ring reaches 1.65 m, less than the"
+        " 1.66 m in which"
+    )
+    assert ", and 0.035 m it may close on an echo's arc (sonar_beam_rad)):" in str(warning)
+    assert parse_scenario(text.format(1.67).encode()).warnings == ()

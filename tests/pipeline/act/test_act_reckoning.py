@@ -236,13 +236,20 @@ def test_a_report_that_cannot_be_right_loses_the_reckoning_finitely(forward: flo
 
 
 def _pushed(
-    seconds: int, measured: float, *, ring: bool = False, echoed: bool = False, away_m: float = 1.0
+    seconds: int,
+    measured: float,
+    *,
+    ring: bool = False,
+    echoed: bool = False,
+    away_m: float = 1.0,
+    config: SafetyConfig | None = None,
 ):
     """A child seen once, ``away_m`` to the left (then never again: stale; the ring's echo
     of them, kept, if ``echoed``); the robot driven 0.2 m/s forward for ``seconds``, told a
     mean speed of ``measured`` each second; a sonar ring on and scanning (that sees no
     echo) if ``ring``."""
-    supervisor = SafetySupervisor(SafetyConfig(robot_radius_m=0.3), LIMITS, tick_ms=TICK_MS)
+    config = config or SafetyConfig(robot_radius_m=0.3)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
     left = math.pi / 2
     remembered = {"obstacles": [echo(away_m, left)]} if echoed else {"humans": [seen(away_m, left)]}
     sonars = [Sonar(id="ring", isonline=True)] if ring else []
@@ -292,7 +299,8 @@ def test_a_kept_echo_is_not_taken_for_another_child_once_the_base_slipped() -> N
     may be anyone), so driving left, towards where the first child truly is, is still held
     back (it was taken for the second child and dropped: the robot drove into the first;
     found by an adversarial review)."""
-    supervisor, world_map = _pushed(8, 0.0, echoed=True, away_m=1.5)
+    ideal = SafetyConfig(robot_radius_m=0.3, sonar_beam_rad=0.0)  # its echo a point, and
+    supervisor, world_map = _pushed(8, 0.0, echoed=True, away_m=1.5, config=ideal)  # gated
     x, y, theta = supervisor.reckoned_pose  # where the reckoning has it: 0.6 m on
     assert math.hypot(x, y) > 0.5
     rho, bearing = math.hypot(-x, 1.5 - y), math.atan2(1.5 - y, -x) - theta  # at the echo

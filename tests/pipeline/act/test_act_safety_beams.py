@@ -17,8 +17,8 @@ from supervision import LIMITS, TICK_MS, centre_at, echo, room, seen, supervise
 NARROW = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2.2, sonar_beam_rad=math.tau / 36)
 """36 sonars of 10 degrees, the scenarios' camera (2.2 rad). At 0.76 m (an echo 3 cm
 nearer than a child 0.2 m away, surface to surface: the echo, kept, binds) a body's disc
-subtends 0.36 rad: an echo taken with the camera's frame is a tracked child's within
-1.1 - 0.17 - 0.36 = 0.57 rad of straight ahead."""
+subtends 0.36 rad: an echo (on its beam's axis) taken with the camera's frame is a tracked
+child's within 1.1 - 0.09 - 0.36 = 0.65 rad of straight ahead (half a beam each side)."""
 
 
 def ringed(*humans, echoes=(), now_ms: int = 0) -> WorldMap:
@@ -54,10 +54,10 @@ def test_an_echo_whose_beam_reaches_past_the_cameras_view_is_kept() -> None:
     verdict, _ = supervise(towards(0.7), ringed(child, echoes=[merged]), supervisor=narrow())
     assert verdict.human == "Obstacle/echo-0"
     wider = msgspec.structs.replace(NARROW, sonar_beam_rad=math.tau / 8)  # 45 degrees
-    child = seen(centre_at(0.2), 0.2)  # even at 0.2 rad: a beam's 0.79 and a disc's 0.36
-    own = echo(centre_at(0.2) - 0.03, 0.2)
+    child = seen(centre_at(0.2), 0.4)  # even at 0.4 rad: half a beam's 0.39, a disc's 0.36
+    own = echo(centre_at(0.2) - 0.03, 0.4)
     supervisor = SafetySupervisor(wider, LIMITS, tick_ms=TICK_MS)
-    verdict, _ = supervise(towards(0.2), ringed(child, echoes=[own]), supervisor=supervisor)
+    verdict, _ = supervise(towards(0.4), ringed(child, echoes=[own]), supervisor=supervisor)
     assert verdict.human == "Obstacle/echo-0"
 
 

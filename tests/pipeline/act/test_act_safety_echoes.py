@@ -19,6 +19,21 @@ IDEAL = SafetyConfig(robot_radius_m=0.3, sonar_beam_rad=0.0)
 tracked human's only when it is the one echo in their gate (``pipeline/act/echoes.py``;
 a ring whose beams merge: ``test_act_safety_beams.py``)."""
 
+
+IDEAL_FRONT = msgspec.structs.replace(IDEAL, camera_fov_rad=FRONT.camera_fov_rad)
+"""The ideal ring and the scenarios' 2.2 rad camera (with a sonar down, the robot drives
+within 24 degrees of straight ahead)."""
+
+
+def ideal(velocity: Velocity, world_map: WorldMap, **given):
+    """``supervise`` by a new supervisor of :data:`IDEAL`: its echo is a point (on a ring
+    whose beams merge an echo is an arc, its margin wider: ``test_act_safety_arc.py``), so
+    the tests of how long an echo is kept use it."""
+    return supervise(
+        velocity, world_map, supervisor=SafetySupervisor(IDEAL, LIMITS, tick_ms=TICK_MS), **given
+    )
+
+
 ESCAPE_MPS = 1.0 - math.sqrt(1.0 - 2 * (0.6 - 0.52))
 """Straight away from an echo 0.6 m behind whose reading is 500 ms old or more (its disc
 0.52 m wide): as fast as the disc, grown by the child's walk while the base brakes
@@ -28,11 +43,11 @@ ESCAPE_MPS = 1.0 - math.sqrt(1.0 - 2 * (0.6 - 0.52))
 def test_an_echo_behind_the_robot_is_kept_at_a_humans_distance() -> None:
     """The front camera never saw the child behind: the sonar's echo of them stops the robot."""
     close = WorldMap(cameras=[Camera(id="front", isonline=True)], obstacles=[echo(0.6)])
-    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), close)
+    verdict, event = ideal(Velocity(-0.5, 0.0, 0.0), close)
     assert verdict.velocity[:2] == (0.0, 0.0)
     assert verdict.zone is SafetyZone.STOP
     assert event is not None and event.human == "Obstacle/echo-0"
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), close)
+    away, _ = ideal(Velocity(0.5, 0.0, 0.0), close)
     assert away.velocity == (0.5, 0.0, 0.0)
 
 
@@ -56,12 +71,12 @@ def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_
     behind.sonars.append(Sonar(id="ring", isonline=True))
     behind.obstacles.append(echo(0.6, at_ms=0))
     heard = {("Camera", "front"): 600, ("Sonar", "ring"): 40, ("Obstacle", "echo-0"): 50}
-    verdict, _ = supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
+    verdict, _ = ideal(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
+    away, _ = ideal(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
     assert away.velocity == pytest.approx((ESCAPE_MPS, 0.0, 0.0))
     heard[("Sonar", "ring")] = 580  # it has said it is on since, but a ring misses bodies
-    assert supervise(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is (
+    assert ideal(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is (
         SafetyZone.STOP
     )
     hold_ms = SafetyConfig().filled().echo_hold_ms
@@ -71,9 +86,9 @@ def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_
     later.sonars.append(Sonar(id="ring", isonline=True))
     later.obstacles.append(echo(0.6, at_ms=0))
     heard = live(later, now_ms) | {("Obstacle", "echo-0"): 50}
-    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is None
+    assert ideal(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is None
     heard[("Obstacle", "echo-0")] = 100  # reported 50 ms later: held a tick longer
-    assert supervise(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is (
+    assert ideal(Velocity(-0.5, 0.0, 0.0), later, now_ms=now_ms, heard=heard)[0].zone is (
         SafetyZone.STOP
     )
 
@@ -86,15 +101,15 @@ def test_an_echo_still_reported_with_an_old_reading_is_kept_as_stale() -> None:
     frozen = room(seen(4.0, at_ms=600))
     frozen.obstacles.append(echo(0.6, at_ms=0))
     heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
-    verdict, event = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    verdict, event = ideal(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
     assert event is not None and event.human == "Obstacle/echo-0"
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    away, _ = ideal(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert away.velocity == pytest.approx((ESCAPE_MPS, 0.0, 0.0))
     assert away.zone is SafetyZone.STOP
     farther = room(seen(4.0, at_ms=600))
     farther.obstacles.append(echo(1.6, at_ms=0))  # a metre farther: only the cap
-    away, _ = supervise(Velocity(0.5, 0.0, 0.0), farther, now_ms=600, heard=heard)
+    away, _ = ideal(Velocity(0.5, 0.0, 0.0), farther, now_ms=600, heard=heard)
     assert away.velocity == pytest.approx((0.2, 0.0, 0.0)) and away.zone is SafetyZone.STALE
 
 
@@ -107,12 +122,13 @@ def test_a_ring_repeating_an_old_echo_counts_as_down() -> None:
     frozen.sonars.append(Sonar(id="ring", isonline=True))
     frozen.obstacles.append(echo(2.0, math.pi / 2, at_ms=0))
     heard = live(frozen, 600) | {("Obstacle", "echo-0"): 580}  # reported a tick ago
-    back, _ = supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
+    back, _ = ideal(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)
     assert back.velocity[:2] == (0.0, 0.0) and back.zone is SafetyZone.BLIND
-    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard, config=FRONT)
+    front = SafetySupervisor(IDEAL_FRONT, LIMITS, tick_ms=TICK_MS)  # the scenarios' camera
+    ahead, _ = supervise(Velocity(0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard, supervisor=front)
     assert ahead.velocity == pytest.approx((0.2, 0.0, 0.0)) and ahead.zone is SafetyZone.STALE
     heard[("Obstacle", "echo-0")] = 0  # no longer repeated, the ring scanning: it left
-    assert supervise(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)[0].zone is None
+    assert ideal(Velocity(-0.5, 0.0, 0.0), frozen, now_ms=600, heard=heard)[0].zone is None
 
 
 def test_an_echo_a_ring_that_is_down_no_longer_reports_is_kept_as_stale() -> None:
