@@ -354,12 +354,25 @@ def real_people_problems(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
     """What the scenario gets wrong of a real robot's people and sonar ring
     (``scenarios.safety.unknown_people``), placed in the file, in its order: refusals for
     ``oimi bridge``, warnings for a rosbag2 driven through it (a bag's readings are real)."""
-    locator = TomlLocator(loaded.raw.decode("utf-8"))
+    text = loaded.raw.decode("utf-8")
+    locator = TomlLocator(text)
+    problems = list(unknown_people(loaded.scenario))
+    sensors = tomllib.loads(text).get("sensors", {})
+    if "fov_rad" not in sensors and loaded.scenario.robot.safety.camera_fov_rad is None:
+        problems.append((("sensors", "fov_rad"), UNSET_VIEW))
     errors = [
-        _located(Invalid(where, what), str(loaded.source), locator)
-        for where, what in unknown_people(loaded.scenario)
+        _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
     ]
     return tuple(sorted(errors, key=lambda error: (error.line, error.column)))
+
+
+UNSET_VIEW: Final = (
+    "not set: give the robot's camera's horizontal field of view (the simulated camera's"
+    " 2.2 rad may be wider than the lab's: while a sonar is down the robot drives only"
+    " inside that view, narrowed for a child at its edge)"
+)
+"""Why a session with a real robot needs ``[sensors] fov_rad`` (or ``[robot.safety]
+camera_fov_rad``) set."""
 
 
 def _first_of(errors: list[ScenarioError]) -> ScenarioError:

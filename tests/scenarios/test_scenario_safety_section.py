@@ -280,16 +280,29 @@ def test_a_real_robots_scenario_may_not_assume_less_of_people_than_the_superviso
     """Simulated humans justify a smaller or slower person; a real robot's (``oimi bridge``)
     people are not the scenario's: a child pushing at more than the 0 m/s set here would
     go uncounted while the ring is down."""
-    ring = b'name = "x"\n[sensors]\nsonar_beams = 12\n'  # a real ring (test_sensors_ring.py)
+    ring = b'name = "x"\n[sensors]\nsonar_beams = 12\nfov_rad = 2.0\n'  # a real ring and camera
     text = ring + b"[robot.safety]\nhuman_speed_mps = 0.0\nhuman_radius_m = 0.2\n"
     loaded = parse_scenario(text, source="s.toml")  # a simulation with nobody in it: allowed
     with pytest.raises(ScenarioError, match=r"below the supervisor's own 1\.0 m/s") as caught:
         check_real_people(loaded)
-    assert str(caught.value).startswith("s.toml:5:1: robot.safety.human_speed_mps (m/s): 0.0")
+    assert str(caught.value).startswith("s.toml:6:1: robot.safety.human_speed_mps (m/s): 0.0")
     assert [str(e) for e in caught.value.also] == [
-        "s.toml:6:1: robot.safety.human_radius_m (m): 0.2 is below the supervisor's own"
+        "s.toml:7:1: robot.safety.human_radius_m (m): 0.2 is below the supervisor's own"
         " 0.25 m: a real robot's people are not the scenario's, and a child may be larger or"
         " faster (left out, it is the larger of that and the scenario's humans')"
     ]
     check_real_people(parse_scenario(ring + b"[robot.safety]\nhuman_speed_mps = 1.5\n"))
     check_real_people(parse_scenario(ring))  # left out: the supervisor's own
+
+
+def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
+    """With a sonar down the robot drives only inside the camera's view (narrowed for a
+    child at its edge): the simulated camera's 2.2 rad, left out, may be wider than the
+    lab's, and a child just outside the real view would be driven into (review of the
+    narrowed view, H1). Either ``[sensors] fov_rad`` or ``[robot.safety] camera_fov_rad``."""
+    ring = b'name = "x"\n[sensors]\nsonar_beams = 12\n'
+    with pytest.raises(ScenarioError) as caught:
+        check_real_people(parse_scenario(ring, source="s.toml"))
+    assert str(caught.value).startswith("s.toml:2:1: sensors.fov_rad (rad): not set: give the")
+    check_real_people(parse_scenario(ring + b"fov_rad = 1.2\n"))
+    check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))

@@ -180,8 +180,9 @@ def test_a_real_robot_is_refused_an_ideal_ring() -> None:
     with pytest.raises(ScenarioError) as caught:
         check_real_people(parse_scenario(b'name = "x"\n[sensors]\nrate_hz = 10\n', source="s.toml"))
     assert str(caught.value).startswith("s.toml:2:1: sensors.sonar_beams: 0 is an ideal ring")
-    check_real_people(parse_scenario(b'name = "x"\n[sensors]\nsonar_beams = 16\n'))
-    check_real_people(parse_scenario(b'name = "x"\n[robot.safety]\nsonar_beam_rad = 1.0\n'))
+    check_real_people(parse_scenario(b'name = "x"\n[sensors]\nsonar_beams = 16\nfov_rad = 2.0\n'))
+    view = b"[sensors]\nfov_rad = 2.0\n"  # (a real robot's camera: test_scenario_safety_section)
+    check_real_people(parse_scenario(b'name = "x"\n[robot.safety]\nsonar_beam_rad = 1.0\n' + view))
 
 
 def test_a_ring_that_may_report_each_child_in_every_beam_must_fit_the_map() -> None:
