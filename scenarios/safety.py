@@ -64,16 +64,11 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         " supervisor would take them for offline between two reports and stop the robot",
     )
     slower = min((sensors.rate_hz, "camera's frame"), (sensors.sonar_scan_hz, "sonar ring's scan"))
-    dropout = sensors.dropout_probability
-    reports = scans_to_see(dropout) if dropout < 1 else 1  # (none ever made: no reading)
-    period_ms = _whole_ms(reports / slower[0] + scenario.tick_ms / 1000)
-    missed = f"{reports} of the {slower[1]}s" if reports > 1 else f"the {slower[1]}"
-    dropped = f" with dropout_probability {dropout!r}" if reports > 1 else ""
+    period_ms = _whole_ms(1 / slower[0] + scenario.tick_ms / 1000)
     found["max_data_age_ms"] = Need(
         period_ms,
-        f"{missed} and a tick ({period_ms} ms at {slower[0]!r} Hz{dropped}):"
-        " readings would age past it between two reports, their margins short of the walk"
-        " since",
+        f"the {slower[1]} and a tick ({period_ms} ms at {slower[0]!r} Hz): readings would"
+        " age past it between two reports, their margins short of the walk since",
     )
     two_scans_ms = _whole_ms(2 / sensors.sonar_scan_hz)
     found["max_scan_age_ms"] = Need(
@@ -89,6 +84,7 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         " the supervisor would take the camera for offline between two frames and slow the"
         " robot",
     )
+    dropout = sensors.dropout_probability
     if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)
         scans = scans_to_see(dropout)
         hold_ms = _whole_ms(scans / sensors.sonar_scan_hz)

@@ -70,7 +70,7 @@ from oimi.pipeline.act.separation import (
     within_view,
 )
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
-from oimi.pipeline.messages import Camera, Entity, Sonar, WorldMap
+from oimi.pipeline.messages import Camera, Entity, Obstacle, Sonar, WorldMap
 
 _NEVER: Final = -math.inf
 """When a sensor never heard from last reported (before any time)."""
@@ -128,6 +128,10 @@ class SafetySupervisor:
         """The most the base's velocity changes in a tick, m/s."""
         self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         """How fast a human may walk (``human_speed_mps``)."""
+        self._echo_walk_ms: int = max(config.max_data_age_ms, config.echo_hold_ms)  # type: ignore[type-var,assignment]  # filled
+        """How long the margin of an echo a working ring no longer reports grows with the
+        walk: as long as the ring may keep it (``echo_hold_ms``; a stale reading's, a ring
+        down or repeating itself, stops at ``max_data_age_ms``)."""
         self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
         """Where a protective stop ends: halfway from the stop zone to the slow zone's edge."""
         self._reckoning = DeadReckoning(
@@ -384,7 +388,10 @@ class SafetySupervisor:
         anchor = self._anchors[key]
         x, y = estimate(anchor, self._reckoning.pose)
         distance = math.hypot(x, y)
-        seen_ms = min(age_ms + self._tick_ms, config.max_data_age_ms)
+        # an echo a working ring keeps while it misses the body: as long as it may keep it
+        held = type(human) is Obstacle and not slipped
+        walk_ms = self._echo_walk_ms if held else config.max_data_age_ms
+        seen_ms = min(age_ms + self._tick_ms, walk_ms)  # type: ignore[type-var]
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
         if slipped:  # the base may have slipped since: the reading placed that far off
             drift = self._reckoning.drift(anchor.since)

@@ -45,12 +45,11 @@ class SafetyConfig(Message):
     """Largest closing speed in the slow zone, and largest speed when sensing is stale, m/s."""
     max_data_age_ms: int | None = None
     """A human's position older than this (or a camera offline) is stale: slow-zone speed;
-    the walk a reading's margin covers is capped at this age, ms; None: the longer of 500 and
-    a scenario's slower sensor's period (a camera frame or a sonar scan) and a tick, or as
-    many periods as its sensors may miss a body on in a row with its
-    ``dropout_probability`` (as ``echo_hold_ms``'s scans), and a tick (a scenario may not
-    set it below that: readings would age past it between two reports, their margins short
-    of the walk)."""
+    the walk a reading's margin covers is capped at this age (an echo's at ``echo_hold_ms``,
+    if longer), ms; None: the longer of 500 and
+    a scenario's slower sensor's period (a camera frame or a sonar scan) and a tick (a
+    scenario may not set it below that: readings would age past it between two reports,
+    their margins short of the walk)."""
     human_speed_mps: float | None = None
     """Fastest a human is assumed to walk between readings (grows the uncertainty margin),
     m/s; None: the fastest of 1.0 and the scenario's humans' ``max_speed_mps`` (a scenario
@@ -68,9 +67,10 @@ class SafetyConfig(Message):
     """How long an echo the sonar ring stops reporting is kept (as a body still there) while
     every ring says it is on, before it counts as a body that left its range, ms: a ring
     that misses a body now and then (a dropout) would otherwise let the robot forget a
-    child standing behind it; None: the longer of 2000 and what a scenario's
-    ``dropout_probability`` needs (a ring that misses a body on every scan of it has a
-    chance below :data:`~scenarios.safety.MISSED` per body)."""
+    child standing behind it. An echo's margin grows with the walk for as long as it is
+    kept (a child the ring misses on a few scans walks on meanwhile); None: the longer of
+    2000 and what a scenario's ``dropout_probability`` needs (a ring that misses a body on
+    every scan of it has a chance below :data:`~scenarios.safety.MISSED` per body)."""
     camera_fov_rad: float | None = None
     """The front camera's horizontal field of view, rad, centred ahead. While a sonar of
     the ring is down (offline, silent or late) nothing sees beside or behind the robot, so

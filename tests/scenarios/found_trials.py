@@ -37,9 +37,9 @@ MERGE_176 = {  # its neighbour, unsafe on a real ring (the review of b9a6df9, /t
 
 # Sensors dropping readings (dropout_probability 0.4; /tmp/s22/safe): sessions unsafe on
 # the truth until the property skipped the humans no sensor had reported, or not since
-# they walked off farther than the margin covered (then 0.5 m: max_data_age_ms did not yet
-# count the reports a dropping sensor misses). As ``test_with_sensors_failing_...``'s
-# keyword arguments.
+# they walked off farther than the margin covered (then 0.5 m: an echo's margin stopped
+# growing at max_data_age_ms while the ring kept it for echo_hold_ms). As
+# ``test_with_sensors_failing_...``'s keyword arguments.
 NEVER_REPORTED_FROZEN = {  # the ring's first scan missed a child 0.2 m behind, then froze:
     # counted as scanning for half a second, the ring "saw" nobody; full speed into them
     "scene": ([(163, -0.909, -0.416, 0.0, ("LB",))], [((5.51, 5.432), [], 0.0)], 2.0),

@@ -19,11 +19,13 @@ TICK_MS = 20
 
 class Ran(NamedTuple):
     """A trial's session: what it recorded, and how far a human may walk from where a
-    report placed them that the supervisor's margin covers (``human_speed_mps`` for
-    ``max_data_age_ms``: longer where the sensors drop readings)."""
+    report placed them that the supervisor's margin covers: ``human_speed_mps`` for
+    ``max_data_age_ms`` (a camera's reading), or for as long as the ring may keep an echo
+    it no longer reports (``echo_hold_ms``, no less: a ring's)."""
 
     memory: MemorySink
     walk_covered_m: float
+    echo_walk_m: float
 
 
 def least_closing(vx: float, vy: float, ux: float, uy: float) -> float:
@@ -38,12 +40,12 @@ def least_closing(vx: float, vy: float, ux: float, uy: float) -> float:
     return least
 
 
-def reports(memory: MemorySink, names: Sequence[str]) -> dict[int, list[tuple[str, int]]]:
+def reports(memory: MemorySink, names: Sequence[str]) -> dict[int, list[tuple[str, int, bool]]]:
     """By tick, the humans a sensor reported in it, each with the tick its reading was
-    taken (a frozen sensor repeats an old one); ``names``: the humans in the scenario's
-    order (the ring names the N-th one's echo ``echo-N``, or ``echo-N.sK`` for a beam's;
-    the room has no furniture)."""
-    found: dict[int, list[tuple[str, int]]] = {}
+    taken (a frozen sensor repeats an old one) and whether the ring's echo reported them;
+    ``names``: the humans in the scenario's order (the ring names the N-th one's echo
+    ``echo-N``, or ``echo-N.sK`` for a beam's; the room has no furniture)."""
+    found: dict[int, list[tuple[str, int, bool]]] = {}
     for update in memory.on(Topic.SENSOR_UPDATES):
         for change in update.updates:  # type: ignore[attr-defined]
             kind, _, ident = change.objectid.partition("/")
@@ -52,5 +54,5 @@ def reports(memory: MemorySink, names: Sequence[str]) -> dict[int, list[tuple[st
             if kind == "Obstacle":
                 ident = names[int(ident.removeprefix("echo-").partition(".")[0])]
             taken = json.loads(change.jsonmsg)["positionchangetime"] // TICK_MS
-            found.setdefault(update.tick, []).append((ident, taken))
+            found.setdefault(update.tick, []).append((ident, taken, kind == "Obstacle"))
     return found

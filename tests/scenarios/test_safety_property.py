@@ -45,9 +45,9 @@ scan, has braked from its top speed.
 Sensors may drop readings (``dropout_probability``, drawn: mostly none, else 0.1 to 0.4,
 the camera's and the ring's alike). A human no sensor has reported yet, or who has walked
 farther (on the truth) from where the latest report placed them than the supervisor's
-margin covers (``Ran.walk_covered_m``: a reading's margin stops growing at
-``max_data_age_ms``, which a scenario that drops readings lengthens to the reports its
-sensors may miss), is one the supervisor knows nothing of: (2) skips them, and for
+margin covers (``Ran``: a camera's reading's margin stops growing at
+``max_data_age_ms``, an echo's at ``echo_hold_ms``, as long as a ring that misses a body
+keeps it), is one the supervisor knows nothing of: (2) skips them, and for
 ``SIGHT_TICKS`` after the report that places them again. (With the ring down the robot
 drives only where the camera looks, narrowed so that a child centred outside the view
 beyond the slow zone, never reported, is kept out of the stop zone:
@@ -275,7 +275,9 @@ def run_session(trial: Trial) -> Ran:
         session.sink.add(memory)
         session.run()
     safety = session.pipeline.config.safety
-    return Ran(memory, safety.human_speed_mps * safety.max_data_age_ms / 1000)  # type: ignore[operator]
+    walk = safety.human_speed_mps
+    echo_ms = max(safety.max_data_age_ms, safety.echo_hold_ms)  # type: ignore[type-var]
+    return Ran(memory, walk * safety.max_data_age_ms / 1000, walk * echo_ms / 1000)  # type: ignore[operator]
 
 
 def examples(count: int) -> settings:
@@ -427,7 +429,8 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
     hidden_at: dict[str, int] = {}  # when each human was last hidden from every sensor
     truth = {s.tick: {h.id: (h.x_m, h.y_m) for h in s.humans} for s in states}
     placed = reports(memory, [h.id for h in states[0].humans])
-    anchors: dict[str, tuple[float, float]] = {}  # where the latest report placed each one
+    anchors: dict[str, tuple[int, tuple[float, float], float]] = {}
+    """Each one's newest reading: when it was taken, where it placed them, the walk covered."""
     unreported_at: dict[str, int] = {}  # when each was last one no report placed
     speeds = {}
     fastest = {}  # the most each recorded speed may have been (cut towards zero)
@@ -436,10 +439,12 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         speeds[state.tick] = speed
         now = truth[state.tick]
-        for name, taken in placed.get(state.tick, ()):
-            anchors[name] = truth.get(taken, now)[name]
+        for name, taken, echo in placed.get(state.tick, ()):
+            if name not in anchors or taken >= anchors[name][0]:  # (a frozen sensor's is old)
+                covered = ran.echo_walk_m if echo else ran.walk_covered_m
+                anchors[name] = (taken, truth.get(taken, now)[name], covered)
         for name, at in now.items():
-            if name not in anchors or math.dist(anchors[name], at) > ran.walk_covered_m:
+            if name not in anchors or math.dist(anchors[name][1], at) > anchors[name][2]:
                 unreported_at[name] = state.tick
         step = 10.0**-STATE_DECIMALS
         fastest[state.tick] = math.hypot(abs(robot.vx_mps) + step, abs(robot.vy_mps) + step)

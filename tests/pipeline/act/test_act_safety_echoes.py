@@ -65,8 +65,11 @@ def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_
     """Not reported for 550 ms: the body left, the ring's link died with it, or the ring
     missed it. Until the ring says it is on again, and then for ``echo_hold_ms`` after the
     echo's last report, the echo stays where it was (not stale: a ring that is up slows
-    nothing). Its reading 600 ms old, the child may be beside the robot: driving away is
-    slowed (they could walk round it while it brakes)."""
+    nothing), its margin growing with the walk meanwhile (a ring that missed a child on a
+    few scans: ``WALKED_UNSEEN_*`` in tests/scenarios/found_trials.py). Its reading 620 ms
+    old, the child may be anywhere within 0.64 m of it, the robot's centre among those
+    places: no direction is away, and the robot stands (a stale echo's margin, which a
+    ring down or repeating itself may never renew, stops at ``max_data_age_ms``: below)."""
     behind = room(seen(4.0, at_ms=600))
     behind.sonars.append(Sonar(id="ring", isonline=True))
     behind.obstacles.append(echo(0.6, at_ms=0))
@@ -74,7 +77,7 @@ def test_an_echo_is_gone_only_once_the_ring_has_said_it_is_on_since_it_reported_
     verdict, _ = ideal(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
     assert verdict.velocity[:2] == (0.0, 0.0) and verdict.zone is SafetyZone.STOP
     away, _ = ideal(Velocity(0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)
-    assert away.velocity == pytest.approx((ESCAPE_MPS, 0.0, 0.0))
+    assert away.velocity == (0.0, 0.0, 0.0)
     heard[("Sonar", "ring")] = 580  # it has said it is on since, but a ring misses bodies
     assert ideal(Velocity(-0.5, 0.0, 0.0), behind, now_ms=600, heard=heard)[0].zone is (
         SafetyZone.STOP
