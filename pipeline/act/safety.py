@@ -128,6 +128,8 @@ class SafetySupervisor:
         """The most the base's velocity changes in a tick, m/s."""
         self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         """How fast a human may walk (``human_speed_mps``)."""
+        self._arcs = bool(config.sonar_beam_rad)
+        """Whether the ring's beams merge, an echo an arc (``EchoSorter.arc_m``)."""
         self._echo_walk_ms: int = max(config.max_data_age_ms, config.echo_hold_ms)  # type: ignore[type-var,assignment]  # filled
         """How long the margin of an echo a working ring no longer reports grows with the
         walk: as long as the ring may keep it (``echo_hold_ms``; a stale reading's, a ring
@@ -397,7 +399,8 @@ class SafetySupervisor:
             drift = self._reckoning.drift(anchor.since)
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
-        arc = self._echoes.arc_m(human)  # a merging ring's echo: what made it lies on an arc
+        # a merging ring's echo: what made it lies on an arc (the ideal ring's: a point)
+        arc = self._echoes.arc_m(human) if self._arcs else 0.0
         if arc:  # its disc covers the arc; its distance is the arc's, less :meth:`_across`
             nearest = self._across(anchor, distance, arc) + surface - distance
             surface = max(surface - arc, nearest)
