@@ -16,7 +16,9 @@ import math
 from collections.abc import Iterator
 from typing import Final, NamedTuple
 
+from oimi.pipeline.act.echoes import arc_chord
 from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
+from oimi.pipeline.act.separation import stopping_way
 from oimi.scenarios.schema import Scenario, SensorSpec, unit_of
 
 NOISE_SIGMAS: Final = 3.0
@@ -262,8 +264,7 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     bodies_m = config.robot_radius_m + config.human_radius_m
     least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m + braking_m
     assert config.sonar_beam_rad is not None
-    way_m = speed * (1 / scenario.tick_hz + speed / (2 * accel))
-    arc_m = way_m * 2 * math.sin(min(config.sonar_beam_rad, math.tau) / 4)
+    arc_m = arc_chord(stopping_way(speed, 1 / scenario.tick_hz, accel), config.sonar_beam_rad)
     least += arc_m
     if sensors.sonar_range_m < least:
         yield (

@@ -44,6 +44,13 @@ from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.messages import Entity, Obstacle, WorldMap
 
 
+def arc_chord(rho: float, beam_rad: float) -> float:
+    """The chord of half a beam ``beam_rad`` wide at ``rho``, ``2 rho sin(beam / 4)``: no
+    point at that range within half a beam of the axis lies farther from the axis's point
+    (0 for the ideal ring's beam, 0)."""
+    return 2 * rho * math.sin(min(beam_rad, math.tau) / 4)
+
+
 class Anchor(NamedTuple):
     """A reading placed in the odometry frame."""
 
@@ -85,8 +92,8 @@ class EchoSorter:
         self._half_view: float = config.camera_fov_rad / 2  # type: ignore[operator]  # filled
         self._body_m: float = config.human_radius_m + config.sensing_error_m  # type: ignore[operator]
         """How far a body's edge may lie from the centre a reading gives."""
-        self._arc_sine = math.sin(min(self._beam_rad, math.tau) / 4)
-        """``sin(beam / 4)``: an echo's arc's chord over twice its range (:meth:`arc_m`)."""
+        self._arc_per_m = arc_chord(1.0, self._beam_rad)
+        """An echo's arc's chord per metre of its range (:meth:`arc_m`)."""
 
     def echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
         """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
@@ -170,7 +177,7 @@ class EchoSorter:
         the echo's margin by it, its centre kept at the range: docs/actuator-and-joystick.md."""
         if self._beam_rad == 0.0 or not isinstance(reading, Obstacle):
             return 0.0
-        return 2 * max(reading.positionrho, 0.0) * self._arc_sine
+        return max(reading.positionrho, 0.0) * self._arc_per_m
 
     def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which

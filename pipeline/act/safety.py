@@ -67,6 +67,7 @@ from oimi.pipeline.act.separation import (
     followed_meeting,
     meeting,
     nearer,
+    stopping_way,
     within_view,
 )
 from oimi.pipeline.events import MotionSource, SafetyIntervention, SafetyPhase, SafetyZone
@@ -128,8 +129,6 @@ class SafetySupervisor:
         """The most the base's velocity changes in a tick, m/s."""
         self._walk: float = config.human_speed_mps  # type: ignore[assignment]  # filled
         """How fast a human may walk (``human_speed_mps``)."""
-        self._arcs = bool(config.sonar_beam_rad)
-        """Whether the ring's beams merge, an echo an arc (``EchoSorter.arc_m``)."""
         self._echo_walk_ms: int = max(config.max_data_age_ms, config.echo_hold_ms)  # type: ignore[type-var,assignment]  # filled
         """How long the margin of an echo a working ring no longer reports grows with the
         walk: as long as the ring may keep it (``echo_hold_ms``; a stale reading's, a ring
@@ -390,9 +389,9 @@ class SafetySupervisor:
         anchor = self._anchors[key]
         x, y = estimate(anchor, self._reckoning.pose)
         distance = math.hypot(x, y)
+        echo = type(human) is Obstacle
         # an echo a working ring keeps while it misses the body: as long as it may keep it
-        held = type(human) is Obstacle and not slipped
-        walk_ms = self._echo_walk_ms if held else config.max_data_age_ms
+        walk_ms = self._echo_walk_ms if echo and not slipped else config.max_data_age_ms
         seen_ms = min(age_ms + self._tick_ms, walk_ms)  # type: ignore[type-var]
         margin = config.sensing_error_m + config.human_speed_mps * max(seen_ms, 0) / 1000
         if slipped:  # the base may have slipped since: the reading placed that far off
@@ -400,7 +399,7 @@ class SafetySupervisor:
             margin += drift.distance_m + distance * min(drift.heading_rad, math.pi)
         surface = distance - config.robot_radius_m - config.human_radius_m - margin
         # a merging ring's echo: what made it lies on an arc (the ideal ring's: a point)
-        arc = self._echoes.arc_m(human) if self._arcs else 0.0
+        arc = self._echoes.arc_m(human) if echo else 0.0
         if arc:  # its disc covers the arc; its distance is the arc's, less :meth:`_across`
             nearest = self._across(anchor, distance, arc) + surface - distance
             surface = max(surface - arc, nearest)
@@ -439,7 +438,7 @@ class SafetySupervisor:
         (docs/actuator-and-joystick.md; the actuator caps every request at the top speed)."""
         x, y, _ = self._reckoning.pose
         top = max(self._limits.max_speed_mps, self._reckoning.speed)
-        way = top * (self._dt_s + top / (2 * self._limits.max_accel_mps2))
+        way = stopping_way(top, self._dt_s, self._limits.max_accel_mps2)
         sine = arc / distance if distance > arc else 1.0
         return self._echoes.off_arc(anchor, x, y) - way * sine
 

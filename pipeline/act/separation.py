@@ -65,6 +65,11 @@ def braking_cap(lead: float, room: float, walk: float, across: float = 0.0) -> f
     return -lead + math.sqrt(lead * lead + rest)
 
 
+def stopping_way(speed: float, dt: float, a: float) -> float:
+    """How far a base at ``speed`` goes in a tick ``dt`` and then braking at ``a``."""
+    return speed * (dt + speed / (2 * a))
+
+
 def clear_gap(speed: float, dt: float, walk: float, a: float) -> float:
     """The gap (``s - stop``) from which :func:`braking_cap` allows any closing part up to
     ``speed`` with as much again across (``c + across <= 2 speed``), and a base at
