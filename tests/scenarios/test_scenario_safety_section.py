@@ -22,7 +22,7 @@ def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
     config = pipeline_config(loaded.scenario)
-    ideal = {"camera_fov_rad": 2.2, "sonar_beam_rad": 0.0}  # the scenario's camera and ring
+    ideal = {"camera_fov_rad": 2.2, "camera_range_m": 5.0, "sonar_beam_rad": 0.0}  # its own
     assert config.safety == SafetyConfig(robot_radius_m=0.35).filled(**ideal)
 
 
@@ -47,6 +47,8 @@ def test_the_section_sets_the_zones() -> None:
         ("slow_distance_m = 0.05\n", r"the slow zone must contain the stop zone", 3),
         ("slow_speed_mps = 0.2\nmax_data_age_ms = -5\n", r"max_data_age_ms must be", 4),
         ("enabled = false\n", r"robot.safety.enabled: unknown field", 3),
+        ("camera_range_m = -1.0\n", r"safety camera_range_m must be a non-negative", 3),
+        ("camera_range_m = nan\n", r"camera_range_m \(m\): must be a finite number", 3),
     ],
 )
 def test_bad_safety_values_are_located_errors(body: str, pattern: str, line: int) -> None:
@@ -232,6 +234,23 @@ def test_a_cameras_view_wider_than_the_scenarios_camera_is_a_located_error() -> 
     )
     kept = text.replace(b"2.5", b"1.5")
     assert pipeline_config(parse_scenario(kept).scenario).safety.camera_fov_rad == 1.5
+
+
+def test_left_out_the_cameras_range_is_the_scenarios_camera_even_when_short() -> None:
+    short = b'name = "x"\n[sensors]\nrange_m = 2.0\n'
+    assert pipeline_config(parse_scenario(short).scenario).safety.camera_range_m == 2.0
+
+
+def test_a_cameras_range_beyond_the_scenarios_camera_is_a_located_error() -> None:
+    """A child beyond the camera's range is never reported: a supervisor told a longer
+    range would take their echo, merged into a tracked child's, for that child."""
+    text = b'name = "x"\n[robot.safety]\ncamera_range_m = 6.0\n[sensors]\nrange_m = 4.0\n'
+    assert refused(text).startswith(
+        "s.toml:3:1: robot.safety.camera_range_m (m): 6.0 is beyond the camera's range_m 4.0:"
+        " the supervisor would take a child beyond it"
+    )
+    kept = text.replace(b"6.0", b"3.5")
+    assert pipeline_config(parse_scenario(kept).scenario).safety.camera_range_m == 3.5
 
 
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
