@@ -6,7 +6,13 @@ import msgspec
 import pytest
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import check_real_people, parse_scenario, warnings_with
+from oimi.scenarios.loader import (
+    check_real_people,
+    parse_scenario,
+    real_robot_overrides,
+    real_robot_warnings,
+    warnings_with,
+)
 from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session
 
@@ -314,3 +320,28 @@ def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
     assert str(caught.value).startswith("s.toml:2:1: sensors.fov_rad (rad): not set: give the")
     check_real_people(parse_scenario(ring + b"fov_rad = 1.2\n"))
     check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))
+
+
+def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded() -> None:
+    """The simulated camera's 5 m may reach farther than the lab's tracker: a child beyond
+    its range is never reported, and the supervisor would take their echo, merged into a
+    tracked child's, for that child. Left out, a real robot's session (``oimi bridge``,
+    ``oimi replay BAG/``) takes the supervisor's own 3 m, with a warning (not a refusal: a
+    shorter range keeps more echoes, stops, not collisions), as an override recorded as the
+    session's variation, so that a redrive rebuilds the same supervisor."""
+    ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n'
+    loaded = parse_scenario(ring, source="s.toml")
+    overrides = real_robot_overrides(loaded)
+    assert overrides == {"robot.safety.camera_range_m": "3.0"}
+    (warning,) = real_robot_warnings(loaded)
+    assert str(warning).startswith(
+        "s.toml:3:1: sensors.range_m (m): not set: the safety supervisor takes the robot's"
+        " camera to report people within 3.0 m"
+    )
+    session = Session(loaded, overrides=overrides)
+    assert session.config.safety.camera_range_m == 3.0
+    assert session.metadata().variation == overrides
+    for stated in (ring + b"range_m = 4.0\n", ring + b"[robot.safety]\ncamera_range_m = 4.0\n"):
+        loaded = parse_scenario(stated)
+        assert real_robot_overrides(loaded) == {} and real_robot_warnings(loaded) == ()
+        assert pipeline_config(loaded.scenario).safety.camera_range_m == 4.0
