@@ -172,22 +172,14 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
     someone: below what the scenario implies, or a camera's view wider (or range longer)
     than its camera's, as (path, message)."""
     safety = scenario.robot.safety
-    fov_rad = scenario.sensors.fov_rad
-    if safety.camera_fov_rad is not None and safety.camera_fov_rad > fov_rad:
-        yield (
-            ("robot", "safety", "camera_fov_rad"),
-            f"{safety.camera_fov_rad!r} is wider than the camera's fov_rad {fov_rad!r}: with"
-            " the sonar ring down the supervisor would let the robot drive where nothing"
-            " looks (left out, it is taken from the scenario)",
-        )
-    range_m = scenario.sensors.range_m
-    if safety.camera_range_m is not None and safety.camera_range_m > range_m:
-        yield (
-            ("robot", "safety", "camera_range_m"),
-            f"{safety.camera_range_m!r} is beyond the camera's range_m {range_m!r}: the"
-            " supervisor would take a child beyond it, never reported, merged into a tracked"
-            " child's echo, for that child (left out, it is taken from the scenario)",
-        )
+    for name, own, beyond, why in CAMERA:
+        given, camera = getattr(safety, name), getattr(scenario.sensors, own)
+        if given is not None and given > camera:
+            yield (
+                ("robot", "safety", name),
+                f"{given!r} is {beyond} the camera's {own} {camera!r}: {why} (left out, it is"
+                " taken from the scenario)",
+            )
     beam = beam_rad(scenario.sensors)
     if safety.sonar_beam_rad is not None and safety.sonar_beam_rad < beam:
         yield (
@@ -213,6 +205,25 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
                 ("robot", "safety", name),
                 f"{value!r} is below {need.why} (left out, it is taken from the scenario)",
             )
+
+
+CAMERA: Final = (
+    (
+        "camera_fov_rad",
+        "fov_rad",
+        "wider than",
+        "with the sonar ring down the supervisor would let the robot drive where nothing looks",
+    ),
+    (
+        "camera_range_m",
+        "range_m",
+        "beyond",
+        "the supervisor would take a child beyond it, never reported, merged into a tracked"
+        " child's echo, for that child",
+    ),
+)
+"""The camera's assumptions a scenario may not set beyond its camera's own (``[sensors]``):
+each one's name, its camera's field, how it would exceed it and what would go wrong."""
 
 
 PEOPLE: Final = ("human_radius_m", "human_speed_mps")

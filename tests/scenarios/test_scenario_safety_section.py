@@ -232,31 +232,35 @@ def test_left_out_the_cameras_view_is_the_scenarios_camera_even_when_narrow() ->
     assert pipeline_config(parse_scenario(narrow).scenario).safety.camera_fov_rad == 0.8
 
 
-def test_a_cameras_view_wider_than_the_scenarios_camera_is_a_located_error() -> None:
-    text = b'name = "x"\n[robot.safety]\ncamera_fov_rad = 2.5\n[sensors]\nfov_rad = 2.0\n'
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.camera_fov_rad (rad): 2.5 is wider than the camera's"
-        " fov_rad 2.0: with the sonar ring down the supervisor would let the robot drive"
-    )
+@pytest.mark.parametrize(
+    ("name", "own", "message"),
+    [
+        (
+            "camera_fov_rad",
+            "fov_rad",
+            "(rad): 2.5 is wider than the camera's fov_rad 2.0: with the sonar ring down the"
+            " supervisor would let the robot drive",
+        ),
+        (  # a child beyond it is never reported: their merged echo would be taken for a child's
+            "camera_range_m",
+            "range_m",
+            "(m): 2.5 is beyond the camera's range_m 2.0: the supervisor would take a child"
+            " beyond it",
+        ),
+    ],
+)
+def test_a_cameras_view_or_range_beyond_the_scenarios_camera_is_a_located_error(
+    name: str, own: str, message: str
+) -> None:
+    text = f'name = "x"\n[robot.safety]\n{name} = 2.5\n[sensors]\n{own} = 2.0\n'.encode()
+    assert refused(text).startswith(f"s.toml:3:1: robot.safety.{name} {message}")
     kept = text.replace(b"2.5", b"1.5")
-    assert pipeline_config(parse_scenario(kept).scenario).safety.camera_fov_rad == 1.5
+    assert getattr(pipeline_config(parse_scenario(kept).scenario).safety, name) == 1.5
 
 
 def test_left_out_the_cameras_range_is_the_scenarios_camera_even_when_short() -> None:
     short = b'name = "x"\n[sensors]\nrange_m = 2.0\n'
     assert pipeline_config(parse_scenario(short).scenario).safety.camera_range_m == 2.0
-
-
-def test_a_cameras_range_beyond_the_scenarios_camera_is_a_located_error() -> None:
-    """A child beyond the camera's range is never reported: a supervisor told a longer
-    range would take their echo, merged into a tracked child's, for that child."""
-    text = b'name = "x"\n[robot.safety]\ncamera_range_m = 6.0\n[sensors]\nrange_m = 4.0\n'
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.camera_range_m (m): 6.0 is beyond the camera's range_m 4.0:"
-        " the supervisor would take a child beyond it"
-    )
-    kept = text.replace(b"6.0", b"3.5")
-    assert pipeline_config(parse_scenario(kept).scenario).safety.camera_range_m == 3.5
 
 
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
