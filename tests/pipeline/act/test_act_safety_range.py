@@ -101,3 +101,43 @@ def test_without_a_scenario_the_camera_is_taken_to_report_people_within_3_m() ->
     range, ``oimi bridge``) assumes a short-ranged person tracker: 3 m."""
     assert ASSUMED["camera_range_m"] == 3.0
     assert SafetyConfig().filled().camera_range_m == 3.0
+
+
+def driven(supervisor: SafetySupervisor, ticks: int) -> dict[int, tuple[float, float, float]]:
+    """Drive straight ahead at 0.5 m/s (nothing in view: nothing limits) for ``ticks``; the
+    reckoned pose after each, by time (ms)."""
+    poses = {}
+    for tick in range(ticks):
+        now_ms = tick * TICK_MS
+        world_map = room()
+        world_map.sonars.append(Sonar(id="ring", isonline=True))
+        supervise(Velocity(0.5, 0.0, 0.0), world_map, now_ms=now_ms, supervisor=supervisor)
+        poses[now_ms + TICK_MS] = supervisor.reckoned_pose
+    return poses
+
+
+@pytest.mark.parametrize(("beyond_m", "kept"), [(-0.02, True), (0.02, False)])
+def test_the_robots_move_between_the_frame_and_the_echo_counts_against_the_range(
+    beyond_m: float, kept: bool
+) -> None:
+    """The camera's frame placed H 200 ms before the ring's echo of U, the robot driving
+    ahead meanwhile (0.1 m): U's body may lie that much farther from where the camera
+    looked than from where the ring heard it. (No walk: ``human_speed_mps`` 0; a camera
+    that sees 3.4 rad: the move widens the angle it must see too.) Kept with the camera's
+    range 2 cm short of the echo's range, a body and the move; dropped 2 cm beyond."""
+    poses = driven(SafetySupervisor(WIDE, LIMITS, tick_ms=TICK_MS), 40)  # the same drive
+    now_ms, frame_ms = 40 * TICK_MS, 40 * TICK_MS - 200
+    moved_m = poses[now_ms][0] - poses[frame_ms][0]
+    assert 0.099 < moved_m < 0.101
+    x, y = 0.62 * math.cos(-BEAM) - moved_m, 0.62 * math.sin(-BEAM)  # U's echo, now
+    reach_m = math.hypot(x, y) + BODY_M + moved_m
+    config = msgspec.structs.replace(
+        WIDE, camera_fov_rad=3.4, human_speed_mps=0.0, camera_range_m=reach_m + beyond_m
+    )
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    driven(supervisor, 40)
+    world_map = room(seen(0.72, math.radians(6), at_ms=frame_ms))
+    world_map.sonars.append(Sonar(id="ring", isonline=True))
+    world_map.obstacles.append(echo(math.hypot(x, y), math.atan2(y, x), at_ms=now_ms))
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.0), world_map, now_ms=now_ms, supervisor=supervisor)
+    assert verdict.human == ("Obstacle/echo-0" if kept else "child"), beyond_m
