@@ -214,14 +214,17 @@ class EchoSorter:
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
         far = rho + moved + walked  # the farthest the body's centre lay from the frame, less a body
-        spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
-        spread += math.asin(min(1.0, (moved + walked) / rho))
+        turned = 0.0
         if slipped:
             drift = self._reckoning.drift(echo.since)
             far += drift.distance_m
-            spread += min(drift.heading_rad, math.pi)
+            turned = min(drift.heading_rad, math.pi)
         if far > self._reach_m:
             return False  # it may have stood beyond the camera's range: never reported
+        spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
+        spread += math.asin(min(1.0, (moved + walked) / rho))
+        if slipped:
+            spread += turned
         bearing = math.atan2(d_y, d_x) - h_theta
         off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
         return off + spread <= self._half_view
