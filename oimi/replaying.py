@@ -97,12 +97,12 @@ def drive_rosbag(
     only with ``overwrite``). Needs the ``ros2`` extra.
     The expectations about people are set apart, not judged: a bag has no people."""
     from oimi.ros2.bag import replay_rosbag
-    from oimi.scenarios.loader import load_scenario, real_people_problems
+    from oimi.scenarios.loader import load_scenario, real_people_problems, real_robot_warnings
 
     output = output or Path("out") / f"{bag.name}-replay.mcap"
     loaded = load_scenario(scenario, extensions=extensions)
     result, ticks, notes = replay_rosbag(bag, loaded, output=output, seed=seed, overwrite=overwrite)
     judged, not_judged = judgeable(loaded.scenario.expect, result.verdicts)
     result = msgspec.structs.replace(result, verdicts=judged)
-    warnings = (*loaded.warnings, *real_people_problems(loaded))
+    warnings = (*loaded.warnings, *real_people_problems(loaded), *real_robot_warnings(loaded))
     return Driven(result, ticks, list(notes), output, not_judged, warnings)

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.act.safety_config import safety_problems
+from oimi.pipeline.act.safety_config import ASSUMED, safety_problems
 from oimi.pipeline.messages import Script
 from oimi.pipeline.operator.commands import VERBS
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded
@@ -373,6 +373,46 @@ UNSET_VIEW: Final = (
 )
 """Why a session with a real robot needs ``[sensors] fov_rad`` (or ``[robot.safety]
 camera_fov_rad``) set."""
+
+
+REAL_RANGE: Final = {"robot.safety.camera_range_m": repr(ASSUMED["camera_range_m"])}
+"""What a session with a real robot changes of a scenario that states no camera range
+(:func:`real_robot_overrides`)."""
+
+
+def real_robot_overrides(loaded: LoadedScenario) -> dict[str, str]:
+    """The overrides a session with a real robot (``oimi bridge``, ``oimi replay BAG/``)
+    applies to the scenario, recorded as its ``variation`` (a redrive rebuilds the same
+    supervisor): :data:`REAL_RANGE` when the scenario states neither ``[sensors] range_m``
+    nor ``[robot.safety] camera_range_m`` (the simulated camera's 5 m may reach farther than
+    the lab's tracker, and a child beyond its range is never reported: a shorter range only
+    keeps more echoes). Not a refusal, unlike the view (:data:`UNSET_VIEW`): it costs stops,
+    not safety (:func:`real_robot_warnings` says so)."""
+    return dict(REAL_RANGE) if _range_unstated(loaded) else {}
+
+
+def real_robot_warnings(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
+    """What a session with a real robot assumes that the scenario leaves unstated (its
+    camera's range, :func:`real_robot_overrides`), placed in the file."""
+    if not _range_unstated(loaded):
+        return ()
+    locator = TomlLocator(loaded.raw.decode("utf-8"))
+    return (_located(Invalid(("sensors", "range_m"), UNSET_RANGE), str(loaded.source), locator),)
+
+
+UNSET_RANGE: Final = (
+    f"not set: the safety supervisor takes the robot's camera to report people within"
+    f" {ASSUMED['camera_range_m']!r} m (the simulated camera's 5.0 m may reach farther than"
+    " the lab's): give the lab camera's range (or [robot.safety] camera_range_m), or an"
+    " echo of a child it tracks farther away is kept as a body of its own (more stops)"
+)
+"""Why a session with a real robot warns of an unstated ``[sensors] range_m``."""
+
+
+def _range_unstated(loaded: LoadedScenario) -> bool:
+    """Whether the scenario states neither its camera's range nor the supervisor's."""
+    sensors = tomllib.loads(loaded.raw.decode("utf-8")).get("sensors", {})
+    return "range_m" not in sensors and loaded.scenario.robot.safety.camera_range_m is None
 
 
 def _first_of(errors: list[ScenarioError]) -> ScenarioError:

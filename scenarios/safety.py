@@ -135,11 +135,11 @@ def scans_to_see(dropout: float) -> float:
 NEVER_BELOW: Final = {
     name: value
     for name, value in ASSUMED.items()
-    if name not in ("robot_radius_m", "camera_fov_rad", "sonar_beam_rad")
+    if name not in ("robot_radius_m", "camera_fov_rad", "camera_range_m", "sonar_beam_rad")
 }
 """Below the supervisor's own assumptions, one left out is not taken even when the scenario
-allows it (the robot's radius, the camera's view and the ring's beams aside: they are the
-robot's own)."""
+allows it (the robot's radius, the camera's view and range and the ring's beams aside: they
+are the robot's own)."""
 
 
 def beam_rad(sensors: SensorSpec) -> float:
@@ -150,11 +150,12 @@ def beam_rad(sensors: SensorSpec) -> float:
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario
-    (the camera's field of view: its camera's; a sonar's beam: its ring's)."""
+    (the camera's field of view and range: its camera's; a sonar's beam: its ring's)."""
     implied = needs(scenario)
     return scenario.robot.safety.filled(
         **{name: _left_out(name, implied) for name in implied},
         camera_fov_rad=scenario.sensors.fov_rad,
+        camera_range_m=scenario.sensors.range_m,
         sonar_beam_rad=beam_rad(scenario.sensors),
     )
 
@@ -168,17 +169,17 @@ def _left_out(name: str, implied: dict[str, Need]) -> float:
 
 def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     """Each assumption the scenario sets where the supervisor could let the robot touch
-    someone: below what the scenario implies, or a camera's view wider than its camera's,
-    as (path, message)."""
+    someone: below what the scenario implies, or a camera's view wider (or range longer)
+    than its camera's, as (path, message)."""
     safety = scenario.robot.safety
-    fov_rad = scenario.sensors.fov_rad
-    if safety.camera_fov_rad is not None and safety.camera_fov_rad > fov_rad:
-        yield (
-            ("robot", "safety", "camera_fov_rad"),
-            f"{safety.camera_fov_rad!r} is wider than the camera's fov_rad {fov_rad!r}: with"
-            " the sonar ring down the supervisor would let the robot drive where nothing"
-            " looks (left out, it is taken from the scenario)",
-        )
+    for name, own, beyond, why in CAMERA:
+        given, camera = getattr(safety, name), getattr(scenario.sensors, own)
+        if given is not None and given > camera:
+            yield (
+                ("robot", "safety", name),
+                f"{given!r} is {beyond} the camera's {own} {camera!r}: {why} (left out, it is"
+                " taken from the scenario)",
+            )
     beam = beam_rad(scenario.sensors)
     if safety.sonar_beam_rad is not None and safety.sonar_beam_rad < beam:
         yield (
@@ -204,6 +205,25 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
                 ("robot", "safety", name),
                 f"{value!r} is below {need.why} (left out, it is taken from the scenario)",
             )
+
+
+CAMERA: Final = (
+    (
+        "camera_fov_rad",
+        "fov_rad",
+        "wider than",
+        "with the sonar ring down the supervisor would let the robot drive where nothing looks",
+    ),
+    (
+        "camera_range_m",
+        "range_m",
+        "beyond",
+        "the supervisor would take a child beyond it, never reported, merged into a tracked"
+        " child's echo, for that child",
+    ),
+)
+"""The camera's assumptions a scenario may not set beyond its camera's own (``[sensors]``):
+each one's name, its camera's field, how it would exceed it and what would go wrong."""
 
 
 PEOPLE: Final = ("human_radius_m", "human_speed_mps")

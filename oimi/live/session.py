@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import msgspec
 
 from oimi.recorder.metadata import LiveRecord, RecordingMetadata, ScenarioRecord
@@ -24,9 +26,13 @@ class LiveSession(Session):
         seed: int | None = None,
         world: Body | None = None,
         sensors: SensorInputs | None = None,
+        overrides: Mapping[str, str] | None = None,
     ) -> None:
-        """``world`` and ``sensors``: a robot reached elsewhere (``Session``'s)."""
-        super().__init__(loaded, seed=seed, autostart=False, world=world, sensors=sensors)
+        """``world`` and ``sensors``: a robot reached elsewhere; ``overrides``: the
+        scenario varied (``Session``'s)."""
+        super().__init__(
+            loaded, seed=seed, autostart=False, world=world, sensors=sensors, overrides=overrides
+        )
 
     def metadata(self) -> RecordingMetadata:
         metadata = super().metadata()

@@ -52,7 +52,7 @@ from oimi.ros2.bridge import rule_message, script_info
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.remote import RemoteBody, odometry, remote_sensors
 from oimi.ros2.topics import RosTopic
-from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.loader import LoadedScenario, real_robot_overrides
 from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import RunResult, Session
 from oimi.scenarios.session.watchdog import watching
@@ -287,7 +287,14 @@ def replay_rosbag(
     inputs, ticks, has_commands = read_inputs(bag, tick_ms=loaded.scenario.tick_ms)
     body = RemoteBody(loaded.scenario.robot.radius_m)
     sensors = remote_sensors(loaded.scenario)
-    session = BagSession(loaded, seed=seed, autostart=not has_commands, world=body, sensors=sensors)
+    session = BagSession(
+        loaded,
+        seed=seed,
+        autostart=not has_commands,
+        world=body,
+        sensors=sensors,
+        overrides=real_robot_overrides(loaded),  # the bag's readings are a real camera's
+    )
     if has_commands:
         session.schedule.clear()  # the bag's commands include the scenario's own
     guard = JoystickGuard()

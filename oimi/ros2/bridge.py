@@ -24,6 +24,7 @@ from typing import Final
 import msgspec
 from cyclonedds.util import duration
 
+from oimi.cmd_check import report_warnings
 from oimi.live.app import Served, note, serve
 from oimi.live.inputs import JoystickGuard
 from oimi.live.server import LiveServer
@@ -44,7 +45,12 @@ from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.network import network_from_args
 from oimi.ros2.remote import RemoteBody, outputs_message, remote_sensors
-from oimi.scenarios.loader import LoadedScenario, check_real_people
+from oimi.scenarios.loader import (
+    LoadedScenario,
+    check_real_people,
+    real_robot_overrides,
+    real_robot_warnings,
+)
 
 JOY_OWNER: Final = "ros2:/joy"
 """The joystick guard's owner for pad states that arrive over DDS."""
@@ -119,7 +125,13 @@ class BridgeSession(LiveSession):
     ) -> None:
         self.body = RemoteBody(loaded.scenario.robot.radius_m)
         self.remote_sensors = remote_sensors(loaded.scenario)
-        super().__init__(loaded, seed=seed, world=self.body, sensors=self.remote_sensors)
+        super().__init__(
+            loaded,
+            seed=seed,
+            world=self.body,
+            sensors=self.remote_sensors,
+            overrides=real_robot_overrides(loaded),  # the lab camera's range, if left out
+        )
         self.network = node.network
         self.on_note = on_note
         self.guard: JoystickGuard | None = None
@@ -232,5 +244,13 @@ def serve_bridge(args: argparse.Namespace) -> Served:
         open_session=bridged,
         suffix="-bridge",
         on_server=attach,
-        admit=check_real_people,  # the robot's people are real: no less than the supervisor's
+        admit=admit_real,
     )
+
+
+def admit_real(loaded: LoadedScenario) -> None:
+    """Refuse a scenario that assumes less of the robot's people than the supervisor does
+    (they are real: ``check_real_people``); say what it assumes of the lab camera's range
+    that the scenario leaves out (``real_robot_warnings``)."""
+    check_real_people(loaded)
+    report_warnings(real_robot_warnings(loaded))

@@ -20,10 +20,20 @@ What else must hold depends on the ring (``sonar_beam_rad``):
   bearing, in that frame, within the camera's half view less half a beam (the beam about
   its axis), the angle the echo's body subtends at its range (its disc may only reach into
   the beam) and the angle of the robot's move and a walk between both readings at that
-  range. A body the ring hides reaches no beam but those of nearer bodies: when the echoes
-  of all of them are dropped, all their beams lay in the view, so its centre did, and the
-  camera tracks it itself. Anywhere else every echo is kept. One body across two beams
-  makes two echoes in one gate: both are that child.
+  range; and the body that made it within the camera's range (``camera_range_m``: the
+  camera reports a person only when their centre is in it), as far as it may have stood
+  from where the robot was at that frame: the nearest body in the beam, its surface at the
+  echo's range ``rho``, has its centre within ``rho`` and a body (``human_radius_m`` and
+  ``sensing_error_m``) of where the ring took the echo, and that robot and that body may
+  have moved apart by the robot's move and a walk between both readings (the reckoning's
+  slip too, where it may have slipped): ``rho + body + moved + walked <= camera_range_m``.
+  A child beyond the range, behind or beside the tracked one in the same beam, is never
+  reported: without this their echo was dropped and the robot closed on them. A body the
+  ring hides reaches no beam but those of nearer bodies: when the echoes of all of them
+  are dropped, all their beams lay in the view, so its centre did, and the camera tracks
+  it while its centre is within range (beyond it, it is hidden as below). Anywhere else
+  every echo is kept. One body across two beams makes two echoes in one gate: both are
+  that child.
 - a ring that reports every body apart (0: the simulator's ideal ring): an echo is a
   tracked human's only when it is the one echo in that human's gate (two there are two
   bodies: one may be a child beside them, outside the camera's view, ``make soak
@@ -94,6 +104,10 @@ class EchoSorter:
         """How far a body's edge may lie from the centre a reading gives."""
         self._arc_per_m = arc_chord(1.0, self._beam_rad)
         """An echo's arc's chord per metre of its range (:meth:`arc_m`)."""
+        self._reach_m: float = config.camera_range_m - self._body_m  # type: ignore[operator]  # filled
+        """How far from the robot, at the camera's frame, an echo's range may lie (with the
+        robot's move and a walk between both readings) for the camera to have reported the
+        body that made it: its range less a body (:meth:`_covers`)."""
 
     def echoes(self, world_map: WorldMap) -> list[tuple[str, Entity]]:
         """The obstacles that are not fixed and have a reading, named ``Obstacle/<id>``
@@ -182,7 +196,14 @@ class EchoSorter:
     def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which
         made ``echo`` may hold (the coverage rule: the module's docstring; ``slipped``:
-        the heading the reckoning may have slipped since the echo counts against it)."""
+        the heading and distance the reckoning may have slipped since the echo count
+        against it). In the view: its bearing in that frame, within the camera's half view
+        less half a beam, the body's angle and the move's and walk's. In range: what made
+        the echo is the nearest body in its beam, its surface at the echo's range ``rho``
+        (a driver may give a centre: nearer still), so its centre lay within ``rho + body``
+        (``human_radius_m + sensing_error_m``) of the robot then, and within ``moved``
+        (the robot between both readings) and ``walked`` (a walk between their times) more
+        of the robot at the frame: ``rho + body + moved + walked <= camera_range_m``."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
@@ -192,10 +213,18 @@ class EchoSorter:
             return False  # a body's disc reaches all round the robot
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
+        far = rho + moved + walked  # the farthest the body's centre lay from the frame, less a body
+        turned = 0.0
+        if slipped:
+            drift = self._reckoning.drift(echo.since)
+            far += drift.distance_m
+            turned = min(drift.heading_rad, math.pi)
+        if far > self._reach_m:
+            return False  # it may have stood beyond the camera's range: never reported
         spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
         spread += math.asin(min(1.0, (moved + walked) / rho))
         if slipped:
-            spread += min(self._reckoning.drift(echo.since).heading_rad, math.pi)
+            spread += turned
         bearing = math.atan2(d_y, d_x) - h_theta
         off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
         return off + spread <= self._half_view

@@ -20,6 +20,9 @@ ASSUMED: Final[dict[str, float]] = {
     "max_status_age_ms": 2000,  # unless a scenario's status period is longer: one report
     # of a status repeated every second may be missed
     "camera_fov_rad": 1.0,  # a pipeline without a scenario: a narrow camera (57 degrees)
+    "camera_range_m": 3.0,  # a pipeline without a scenario, or a real robot's camera unless
+    # its range is stated (oimi bridge): a person tracker's short range (smaller keeps more
+    # echoes: it costs stops, not safety)
     "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
     "max_scan_age_ms": 500,  # unless a scenario's ring scans slower: two of its scans
     "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
@@ -109,6 +112,15 @@ class SafetyConfig(Message):
     one echo near them; None: the scenario's ring's (``2 pi / sonar_beams``, 0 for the
     ideal ring; pi / 3 without a scenario and on a real robot, ``oimi bridge``; a scenario
     may not set it below its ring's)."""
+
+    camera_range_m: float | None = None
+    """The farthest from the robot's centre the camera reports a person's centre, m: an
+    echo is taken for a tracked human only where the camera's frame would have reported
+    any body that may have made it (:mod:`~pipeline.act.echoes`); a child beyond the range,
+    never reported, merged into the tracked child's echo, would otherwise be driven into.
+    None: the scenario's camera's ``range_m`` (3.0 without a scenario, and on a real robot
+    whose scenario states no ``range_m``: ``oimi bridge``; a scenario may not set it
+    beyond its camera's)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

@@ -115,6 +115,16 @@ def test_the_bridge_recording_replays_clean(drive):
     assert main(["replay", str(out / "bridge.mcap"), "--mode", "redrive"]) == 0
 
 
+def test_the_bridge_takes_a_lab_cameras_range_left_out_for_3_m_and_records_it(drive):
+    """``ros2_room.toml`` gives its camera's view, not its range: the bridge warns and its
+    supervisor takes its own 3 m (a child beyond the lab tracker's range is never reported),
+    recorded as the session's variation: the redrive above rebuilds the same supervisor."""
+    result, out = drive
+    assert "sensors.range_m (m): not set: the safety supervisor takes" in result["bridge_stderr"]
+    variation = open_recording(out / "bridge.mcap").meta.variation
+    assert variation == {"robot.safety.camera_range_m": "3.0"}
+
+
 def test_the_simulated_robot_stands_still_when_cmd_vel_falls_silent(drive):
     result, _ = drive
     assert result["moves_again"], result["sim_stderr"]

@@ -103,6 +103,8 @@ def test_driving_the_pipeline_over_the_bag_gives_the_session_again(exported, tmp
         driven = [m.payload_bytes for m in after.iter_messages([topic])]
         assert driven == recorded, topic
     assert any(isinstance(m.decoded(), SensorUpdates) for m in after.iter_messages())
+    # the lab camera's range, left out of the scenario: the supervisor's own, recorded
+    assert after.meta.variation == {"robot.safety.camera_range_m": "3.0"}
     assert main(["replay", str(again)]) == 0  # and the drive itself redrives
 
 

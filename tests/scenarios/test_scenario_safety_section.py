@@ -6,7 +6,13 @@ import msgspec
 import pytest
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import check_real_people, parse_scenario, warnings_with
+from oimi.scenarios.loader import (
+    check_real_people,
+    parse_scenario,
+    real_robot_overrides,
+    real_robot_warnings,
+    warnings_with,
+)
 from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session
 
@@ -22,7 +28,7 @@ def test_the_supervisor_is_on_by_default_with_the_robot_radius() -> None:
     loaded = parse_scenario(b'name = "x"\n[robot]\nradius_m = 0.35\n')
     assert loaded.scenario.robot.safety == SafetyConfig()
     config = pipeline_config(loaded.scenario)
-    ideal = {"camera_fov_rad": 2.2, "sonar_beam_rad": 0.0}  # the scenario's camera and ring
+    ideal = {"camera_fov_rad": 2.2, "camera_range_m": 5.0, "sonar_beam_rad": 0.0}  # its own
     assert config.safety == SafetyConfig(robot_radius_m=0.35).filled(**ideal)
 
 
@@ -47,6 +53,8 @@ def test_the_section_sets_the_zones() -> None:
         ("slow_distance_m = 0.05\n", r"the slow zone must contain the stop zone", 3),
         ("slow_speed_mps = 0.2\nmax_data_age_ms = -5\n", r"max_data_age_ms must be", 4),
         ("enabled = false\n", r"robot.safety.enabled: unknown field", 3),
+        ("camera_range_m = -1.0\n", r"safety camera_range_m must be a non-negative", 3),
+        ("camera_range_m = nan\n", r"camera_range_m \(m\): must be a finite number", 3),
     ],
 )
 def test_bad_safety_values_are_located_errors(body: str, pattern: str, line: int) -> None:
@@ -224,14 +232,35 @@ def test_left_out_the_cameras_view_is_the_scenarios_camera_even_when_narrow() ->
     assert pipeline_config(parse_scenario(narrow).scenario).safety.camera_fov_rad == 0.8
 
 
-def test_a_cameras_view_wider_than_the_scenarios_camera_is_a_located_error() -> None:
-    text = b'name = "x"\n[robot.safety]\ncamera_fov_rad = 2.5\n[sensors]\nfov_rad = 2.0\n'
-    assert refused(text).startswith(
-        "s.toml:3:1: robot.safety.camera_fov_rad (rad): 2.5 is wider than the camera's"
-        " fov_rad 2.0: with the sonar ring down the supervisor would let the robot drive"
-    )
+@pytest.mark.parametrize(
+    ("name", "own", "message"),
+    [
+        (
+            "camera_fov_rad",
+            "fov_rad",
+            "(rad): 2.5 is wider than the camera's fov_rad 2.0: with the sonar ring down the"
+            " supervisor would let the robot drive",
+        ),
+        (  # a child beyond it is never reported: their merged echo would be taken for a child's
+            "camera_range_m",
+            "range_m",
+            "(m): 2.5 is beyond the camera's range_m 2.0: the supervisor would take a child"
+            " beyond it",
+        ),
+    ],
+)
+def test_a_cameras_view_or_range_beyond_the_scenarios_camera_is_a_located_error(
+    name: str, own: str, message: str
+) -> None:
+    text = f'name = "x"\n[robot.safety]\n{name} = 2.5\n[sensors]\n{own} = 2.0\n'.encode()
+    assert refused(text).startswith(f"s.toml:3:1: robot.safety.{name} {message}")
     kept = text.replace(b"2.5", b"1.5")
-    assert pipeline_config(parse_scenario(kept).scenario).safety.camera_fov_rad == 1.5
+    assert getattr(pipeline_config(parse_scenario(kept).scenario).safety, name) == 1.5
+
+
+def test_left_out_the_cameras_range_is_the_scenarios_camera_even_when_short() -> None:
+    short = b'name = "x"\n[sensors]\nrange_m = 2.0\n'
+    assert pipeline_config(parse_scenario(short).scenario).safety.camera_range_m == 2.0
 
 
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
@@ -295,3 +324,28 @@ def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
     assert str(caught.value).startswith("s.toml:2:1: sensors.fov_rad (rad): not set: give the")
     check_real_people(parse_scenario(ring + b"fov_rad = 1.2\n"))
     check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))
+
+
+def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded() -> None:
+    """The simulated camera's 5 m may reach farther than the lab's tracker: a child beyond
+    its range is never reported, and the supervisor would take their echo, merged into a
+    tracked child's, for that child. Left out, a real robot's session (``oimi bridge``,
+    ``oimi replay BAG/``) takes the supervisor's own 3 m, with a warning (not a refusal: a
+    shorter range keeps more echoes, stops, not collisions), as an override recorded as the
+    session's variation, so that a redrive rebuilds the same supervisor."""
+    ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n'
+    loaded = parse_scenario(ring, source="s.toml")
+    overrides = real_robot_overrides(loaded)
+    assert overrides == {"robot.safety.camera_range_m": "3.0"}
+    (warning,) = real_robot_warnings(loaded)
+    assert str(warning).startswith(
+        "s.toml:3:1: sensors.range_m (m): not set: the safety supervisor takes the robot's"
+        " camera to report people within 3.0 m"
+    )
+    session = Session(loaded, overrides=overrides)
+    assert session.config.safety.camera_range_m == 3.0
+    assert session.metadata().variation == overrides
+    for stated in (ring + b"range_m = 4.0\n", ring + b"[robot.safety]\ncamera_range_m = 4.0\n"):
+        loaded = parse_scenario(stated)
+        assert real_robot_overrides(loaded) == {} and real_robot_warnings(loaded) == ()
+        assert pipeline_config(loaded.scenario).safety.camera_range_m == 4.0
