@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Final, Protocol, TypeVar
 
 import msgspec
 from oimi.pipeline.errors import LocatedError
+from oimi.pipeline.jsontree import ABSENT, differences
 from oimi.pipeline.messages import FORMAT_VERSION
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.metadata import RecordingMetadata
@@ -178,12 +179,34 @@ def _attached_extensions(recording: Recording, folder: Path) -> list[LoadedExten
 
 def rebuild_notes(recording: Recording, session: Rebuilt) -> list[str]:
     """What differs between the recording's set-up and the rebuilt one (likely causes of a
-    divergence): oimi's version, its registries' versions and the configuration."""
+    divergence): oimi's version, its registries' versions and the configuration, each
+    field that differs on its own line (a field this oimi has and the recording lacks is
+    new since: the session ran without it)."""
     now = session.metadata().records()
     notes = []
     for record in ("oimi", "configuration"):
         then = recording.metadata.get(record, {})
         for key, value in now.get(record, {}).items():
             if key in then and then[key] != value:
-                notes.append(f"{record}.{key} differs: recorded {then[key]}, now {value}")
+                notes += _differing(f"{record}.{key}", then[key], value)
     return notes
+
+
+def _differing(name: str, then: str, now: str) -> list[str]:
+    """Notes on a metadata record's field: its JSON's differing leaves, or both texts."""
+    try:
+        leaves = list(differences(msgspec.json.decode(then), msgspec.json.decode(now), name))
+    except msgspec.DecodeError:
+        leaves = []
+    if not leaves:  # not JSON, or the same JSON written otherwise
+        return [f"{name} differs: recorded {then}, now {now}"]
+    return [
+        f"{path} is new since the recording (now {_json(new)})"
+        if old is ABSENT
+        else f"{path} differs: recorded {_json(old)}, now {_json(new)}"
+        for path, old, new in leaves
+    ]
+
+
+def _json(value: object) -> str:
+    return "<absent>" if value is ABSENT else msgspec.json.encode(value).decode()
