@@ -451,6 +451,8 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
             hidden_lately = state.tick - hidden_at.get(h.id, -REVEAL_TICKS - 1) <= REVEAL_TICKS
             unreported = state.tick - unreported_at.get(h.id, -SIGHT_TICKS - 1) <= SIGHT_TICKS
             claimed = view.claims(h.id)  # unknown to the supervisor, but not to its view
+            if claimed:
+                event("a human the narrowed view claims")
             if (hidden_lately or unreported) and claimed:
                 event("a human no sensor has placed lately, whom the narrowed view claims")
             if centre - RADII_M >= STOP_DISTANCE_M:
