@@ -126,3 +126,22 @@ RINGDOWN_WALK_1721 = {  # the review of e563091 (L4): the ring offline 0.1 to 3.
     "beams": 16,
     "dropout": 0.0,
 }
+VIEW_EDGE = {  # the review of e563091 (M2, test_safety_edge.py): a child 1.13 m away, 2
+    # degrees outside the 2.2 rad view, the ring offline before its first scan: no sensor
+    # ever reports them, but the narrowed view claims them (the pad asks for 1 m/s at 65
+    # degrees left; along the view's own edge the robot drove into them)
+    "scene": ([(245, -0.905, 0.426, 0.0, ("LB",))], [((6.481, 7.024), [], 0.0)], 0.0),
+    "all_round": False,
+    "faults": [(0.0, "sonar", "offline")],
+    "beams": 0,
+    "dropout": 0.0,
+}
+VIEW_DROPOUT = {  # the same with the ring's one scan missing a child 1.5 m away, 11 degrees
+    # outside the view, before it went offline (found with the view widened to the camera's
+    # by 800 draws of this property: /tmp/s23/prop/count_unsafe.py)
+    "scene": ([(130, 0.981, 0.195, 0.0, ("LB",))], [((4.61, 5.464), [], 0.0)], -1.399),
+    "all_round": False,
+    "faults": [(0.1, "sonar", "offline")],
+    "beams": 0,
+    "dropout": 0.25,
+}

@@ -1,6 +1,7 @@
 """What the safety property (``test_safety_property.py``) reads of a session's record
 besides the world's true state: how far a recorded velocity may be from the true one,
-which humans the sensors reported when, and how far the supervisor's margin covers a walk."""
+which humans the sensors reported when, how far the supervisor's margin covers a walk, and
+when the sonar ring was down."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
+from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.events import Topic
 from oimi.pipeline.sink import MemorySink
 from oimi.scenarios.simulation.bodies import STATE_DECIMALS
@@ -26,6 +28,8 @@ class Ran(NamedTuple):
     memory: MemorySink
     walk_covered_m: float
     echo_walk_m: float
+    safety: SafetyConfig
+    """The supervisor's configuration, filled (what it assumed)."""
 
 
 def least_closing(vx: float, vy: float, ux: float, uy: float) -> float:
@@ -56,3 +60,45 @@ def reports(memory: MemorySink, names: Sequence[str]) -> dict[int, list[tuple[st
             taken = json.loads(change.jsonmsg)["positionchangetime"] // TICK_MS
             found.setdefault(update.tick, []).append((ident, taken, kind == "Obstacle"))
     return found
+
+
+def ring_down(memory: MemorySink, safety: SafetyConfig, ticks: int) -> list[bool]:
+    """For each tick below ``ticks``, whether the supervisor surely counted a sonar of the
+    ring down then, by its own criteria read off the recorded ``/sensors/updates`` (which it
+    consumes in the tick they come): the sonar's status last said it is offline, or was
+    last heard more than ``max_status_age_ms`` ago, or its latest scan (``scantime``, taken
+    no later than when it first came) is older than ``max_scan_age_ms``, or ahead by more
+    than a tick, or never came. It counts a ring down in more cases (a status three
+    quarters late, an old echo repeated: a frozen ring's, until its scan time ages too);
+    those ticks are not claimed here (False: not surely down)."""
+    safety = safety.filled()
+    assert safety.max_status_age_ms is not None and safety.max_scan_age_ms is not None
+    by_tick: dict[int, list] = {}
+    for update in memory.on(Topic.SENSOR_UPDATES):
+        by_tick.setdefault(update.tick, []).extend(update.updates)  # type: ignore[attr-defined]
+    status: dict[str, tuple[bool, int]] = {}  # sonar -> (said online, when heard, ms)
+    scans: dict[str, tuple[int, int]] = {}  # sonar -> (its latest scantime, when noted, ms)
+    down = []
+    for tick in range(ticks):
+        now_ms = tick * TICK_MS
+        for change in by_tick.get(tick, ()):
+            kind, _, ident = change.objectid.partition("/")
+            if kind != "Sonar":
+                continue
+            if change.attributename == "isonline":
+                status[ident] = (change.jsonmsg == "s_true", now_ms)
+            elif change.attributename == "scantime":
+                stamp = int(change.jsonmsg)
+                if ident not in scans or scans[ident][0] != stamp:
+                    scans[ident] = (stamp, min(stamp, now_ms))
+        down.append(
+            any(
+                not online
+                or now_ms - heard_ms > safety.max_status_age_ms
+                or not now_ms - safety.max_scan_age_ms
+                <= scans.get(ident, (0, -math.inf))[1]
+                <= now_ms + TICK_MS
+                for ident, (online, heard_ms) in status.items()
+            )
+        )
+    return down
