@@ -18,7 +18,12 @@ from oimi.pipeline.script import ParsedScript, ScriptError
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.rules import RuleRegistry
-from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.extensions import (
+    USER_RULE_CODES,
+    Toolkit,
+    build_toolkit,
+    load_extensions,
+)
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.activities import check_script_file
 
@@ -81,13 +86,20 @@ def check_file(
     return FileCheck(str(path), errors, warnings)
 
 
+_EXTENSION_HINT = (
+    f" (codes from {USER_RULE_CODES} are extensions' rules: name the extension with --extension,"
+    " or in the scenario's extensions)"
+)
+
+
 def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[ScriptError]:
     """Alfa/omega messages naming a rule code the rule library does not have."""
     script = parsed.script
     return [
         parsed.sourcemap.place(
             ScriptError(
-                f"rule code {message.rulecode} ({message.id}) is not in the rule library",
+                f"rule code {message.rulecode} ({message.id}) is not in the rule library"
+                + (_EXTENSION_HINT if message.rulecode >= USER_RULE_CODES else ""),
                 path=f"{kind}[{index}].rulecode",
             )
         )

@@ -112,6 +112,20 @@ def test_check_and_run_list_every_problem_of_a_scenario_each_placed(tmp_path, ca
     assert not (tmp_path / "two.mcap").exists()
 
 
+def test_an_unknown_extension_rule_code_says_how_to_load_its_extension(tmp_path, capsys):
+    """Codes from 1000 are extensions': the warning said only 'not in the rule library'."""
+    script = tmp_path / "s.txt"
+    script.write_text('[s]\n[alfa:1001,cheer,"","",A,U]\n[goal:g]\n[action]\n[b##blk_terminus]\n')
+    assert main(["check", str(script)]) == 0, "a warning, not a failure"
+    assert capsys.readouterr().err.startswith(
+        f"{script}:2:7: rule code 1001 (cheer) is not in the rule library (codes from 1000 are"
+        " extensions' rules: name the extension with --extension, or in the scenario's"
+        " extensions) (warning)"
+    )
+    assert main(["check", str(ACTIVITIES / "example_act.txt")]) == 0
+    assert "extension" not in capsys.readouterr().err, "code 16 is oimi's range: no such hint"
+
+
 def test_check_passes_good_files(capsys):
     files = [str(p) for p in sorted(ACTIVITIES.iterdir()) if p.suffix in (".txt", ".json")]
     assert main(["check", *files]) == 0
