@@ -139,6 +139,19 @@ def test_check_conditions_given_on_the_command_line(capsys):
     assert captured.err.startswith("<condition 2>:1:10: ")
 
 
+def test_a_bad_condition_shows_its_line_with_a_caret_as_a_script_does(capsys):
+    """A condition's error had only its place: a script's shows the line and a caret."""
+    assert main(["check", "--condition", "{CLASS #Humen U ?c} ! {TRUE}"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "<condition 1>:1:8: unknown class '#Humen' (expected #Human, #Obstacle, #Object,"
+        " #Activity)",
+        "    {CLASS #Humen U ?c} ! {TRUE}",
+        "           ^",
+    ]
+    assert main(["check", "--condition", "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"]) == 2
+    assert capsys.readouterr().err.splitlines()[1:] == ["     ! {E: nearr (?c, 1)}", "           ^"]
+
+
 def test_a_condition_over_several_lines_is_placed_at_its_line_and_column(capsys):
     text = "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"
     assert main(["check", "--condition", text]) == 2
