@@ -125,6 +125,16 @@ def test_cli_compares_a_folder_of_sessions(recordings_dir: Path, tmp_path: Path,
     assert 'href="sessions/walk_at_robot-s0/index.html"' in (tmp_path / "index.html").read_text()
 
 
+def test_cli_shows_its_progress_over_several_sessions(recordings_dir: Path, capsys) -> None:
+    """A folder of a hundred one-hour sessions took minutes without a word."""
+    assert main(["analyse", str(recordings_dir)]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.startswith("analyse [")]
+    assert len(lines) == 3, "a line per session where stderr is not a terminal"
+    assert lines[-1].startswith(f"analyse [{'#' * 30}] 3/3 sessions  (")
+    assert main(["analyse", str(recordings_dir), "-q"]) == 0
+    assert "analyse [" not in capsys.readouterr().err
+
+
 def test_cli_warns_about_a_truncated_file(too_close_mcap: Path, tmp_path: Path, capsys) -> None:
     cut = tmp_path / "cut.mcap"
     with too_close_mcap.open("rb") as stream:
