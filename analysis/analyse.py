@@ -35,14 +35,17 @@ def analyse(
     *,
     out: Path | None = None,
     verdicts: Callable[[Path], Verdicts | None] | None = None,
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> Analysis:
     """Measure the recordings in ``paths`` (files or folders) one at a time; with ``out``,
     write one recording's report into it, or several's comparison (``index.html``) linking
-    each session's report (``sessions/NAME/``) and their tables (``data/``)."""
+    each session's report (``sessions/NAME/``) and their tables (``data/``). ``progress``
+    hears ``(done, total, session_id)`` as each session is done."""
     files = recordings(paths)
     single = len(files) == 1
     reports: dict[str, str] = {}
     one: tuple[RecordingMetadata, SessionMetrics] | None = None
+    done: list[str] = []
 
     def on_session(data: SessionData, metrics: SessionMetrics) -> None:
         nonlocal one
@@ -52,6 +55,9 @@ def analyse(
             folder = out if single else out / "sessions" / safe_name(data.session_id)
             index = write_session_report(data, metrics, folder)
             reports[data.session_id] = str(index.relative_to(out))
+        done.append(data.session_id)
+        if progress is not None:
+            progress(len(done), len(files), data.session_id)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", AnalysisWarning)

@@ -179,7 +179,11 @@ def readable(value: object, column: str = "") -> str:
 
 
 def label(column: str) -> str:
-    """``min_surface_distance_m`` -> ``min surface distance``: the header a person reads."""
+    """``min_surface_distance_m`` -> ``min surface distance``: the header a person reads.
+
+    A parameter (``param:robot.max_speed_mps``) keeps its name: it is what ``--param`` takes."""
+    if column.startswith("param:"):
+        return column
     for suffix in ("_mps", "_ms", "_m", "_s"):
         if column.endswith(suffix):
             column = column.removesuffix(suffix)
@@ -205,6 +209,7 @@ def html_table(
     """An HTML table of the first ``rows`` rows, values made readable, headers explained."""
     if frame.height == 0:
         return '<p class="small">none</p>'
+    frame = frame.drop(_shown_twice(frame))
     head = "".join(
         f'<th title="{html.escape(GLOSSARY.get(c, ("", ""))[1])}">{html.escape(label(c))}</th>'
         for c in frame.columns
@@ -225,6 +230,12 @@ def html_table(
         else ""
     )
     return f"<div class='wide'><table><tr>{head}</tr>{''.join(body)}</table></div>{more}"
+
+
+def _shown_twice(frame: pl.DataFrame) -> list[str]:
+    """Columns ``X_ms`` beside a duration column ``X``: the same time, under the same header."""
+    durations = {c for c, t in frame.schema.items() if isinstance(t, pl.Duration)}
+    return [c for c in frame.columns if c.endswith("_ms") and c.removesuffix("_ms") in durations]
 
 
 def image(data: bytes, alt: str) -> str:

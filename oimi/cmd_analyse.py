@@ -52,12 +52,20 @@ COMPARISON_COLUMNS = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("paths", nargs="+", type=Path, help="MCAP recordings or folders of them")
     parser.add_argument("--out", type=Path, help="write tables, plots and an HTML report here")
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress (shown for several recordings)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output(args.out, folder=True)
-    analysis = analyse(args.paths, out=args.out, verdicts=recorded_verdicts)
+    count = console.Count("analyse", "sessions")
+    several = len(args.paths) > 1 or any(path.is_dir() for path in args.paths)
+    progress = None if args.quiet or not several else count
+    analysis = analyse(args.paths, out=args.out, verdicts=recorded_verdicts, progress=progress)
+    if progress is not None:
+        count.close()
     print_analysis(analysis)
     if args.out is not None:
         print(f"report: {args.out / 'index.html'}")

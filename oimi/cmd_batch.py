@@ -13,6 +13,8 @@ import shlex
 import sys
 from pathlib import Path
 
+import polars as pl
+
 from oimi import console
 from oimi.arg_types import add_world_every_argument
 from oimi.batch.app import BatchReport, Interrupted, run_batch
@@ -87,8 +89,12 @@ def print_report(report: BatchReport) -> int:
     """The summary, the comparison's groups and the files written; 1 if any run failed."""
     print(report.summary)
     if report.groups is not None:
+        groups = report.groups.select(c for c in GROUP_COLUMNS if c in report.groups.columns)
+        if "pass rate" in groups.columns:  # a percentage, read as one: 67 %, not 66.667
+            rate = pl.col("pass rate").round(0).cast(pl.Int64)
+            groups = groups.with_columns(pl.format("{} %", rate).alias("pass rate"))
         with console.table_config(rows=60, width_chars=200):
-            print(report.groups.select(c for c in GROUP_COLUMNS if c in report.groups.columns))
+            print(groups)
     print("results: " + ", ".join(str(p) for p in report.files))
     if report.comparison is not None:
         print(f"comparison: {report.comparison}")

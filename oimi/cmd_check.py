@@ -63,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
             if item.error:
                 failed = True
                 report(item.error)
+                report_context(item.context)
             else:
                 print(f"<condition {item.number}>: ok")
             continue
@@ -108,6 +109,10 @@ def report_warnings(warnings: Iterable[LocatedError]) -> None:
 def report_error(error: LocatedError) -> None:
     """``FILE:LINE:COL: message``, then the line and a caret when known."""
     report(str(error))
-    context = getattr(error, "context", "")
+    report_context(getattr(error, "context", ""))
+
+
+def report_context(context: str) -> None:
+    """The offending line and its caret, indented under the message (nothing when unknown)."""
     if context:
         report("\n".join(f"    {line}" for line in context.splitlines()))

@@ -9,6 +9,7 @@ is complete or damaged (and how much of it could be read).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 from pathlib import Path
 from typing import Any
@@ -114,7 +115,7 @@ def format_info(info: dict[str, Any]) -> str:
     for key, value in info["variation"].items():
         lines.append(f"variation   {key} = {value}")
     lines.append(f"written by  oimi {info['oimi_version'] or '?'}, format {info['format_version']}")
-    extensions = ", ".join(f"{k} {v}".strip() for k, v in info["extensions"].items())
+    extensions = ", ".join(extension_text(k, v) for k, v in info["extensions"].items())
     lines.append(f"extensions  {extensions or 'none'}")
     lines.append(f"metadata    {', '.join(info['metadata_records'])}")
     lines.append(f"topics      {len(info['topics'])} ({info['messages']:,} messages)")
@@ -123,3 +124,17 @@ def format_info(info: dict[str, Any]) -> str:
     lines.append(f"attachments {len(info['attachments'])}")
     lines.extend(f"  {name}  ({size:,} bytes)" for name, size in info["attachments"].items())
     return "\n".join(lines)
+
+
+def extension_text(name: str, record: str) -> str:
+    """``peek 0.1 (module peek, digest c22d7481291a0390)``: one extension of the
+    ``extensions`` record, whose value is JSON text (shown as found when it is not)."""
+    try:
+        fields = json.loads(record)
+    except ValueError:
+        fields = None
+    if not isinstance(fields, dict):
+        return f"{name} {record}".strip()
+    version = fields.get("version") or "?"
+    module, digest = fields.get("module") or "?", fields.get("digest") or "?"
+    return f"{name} {version} (module {module}, digest {digest})"

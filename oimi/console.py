@@ -60,6 +60,27 @@ class Progress:
             self.stream.flush()
 
 
+class Count:
+    """Items done of a total on stderr (``analyse [####   ] 3/10 sessions  (NAME)``): on a
+    terminal redrawn in place, elsewhere a line per item."""
+
+    def __init__(self, label: str, noun: str, *, stream=None) -> None:
+        self.label, self.noun = label, noun
+        self.stream = stream or sys.stderr
+        self.live = self.stream.isatty()
+
+    def __call__(self, done: int, total: int, name: str) -> None:
+        bar = "#" * (done * 30 // max(total, 1))
+        line = f"{self.label} [{bar:<30}] {done}/{total} {self.noun}  ({name})"
+        self.stream.write(f"\r{line}\033[K" if self.live else line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.live:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
 class Pacer:
     """Sleeps so that tick ``n`` ends no earlier than ``n * tick_ms`` after the start."""
 

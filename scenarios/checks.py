@@ -15,10 +15,16 @@ from typing import NamedTuple
 from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import RuleAction
 from oimi.pipeline.script import ParsedScript, ScriptError
+from oimi.pipeline.script.sourcemap import LineIndex
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.rules import RuleRegistry
-from oimi.scenarios.extensions import Toolkit, build_toolkit, load_extensions
+from oimi.scenarios.extensions import (
+    USER_RULE_CODES,
+    Toolkit,
+    build_toolkit,
+    load_extensions,
+)
 from oimi.scenarios.loader import load_scenario
 from oimi.scenarios.session.activities import check_script_file
 
@@ -34,11 +40,13 @@ class FileCheck(NamedTuple):
 
 class ConditionCheck(NamedTuple):
     """The ``number``-th condition given: ``error`` is ``""`` when it compiles, else
-    ``<condition N>:COL: message``."""
+    ``<condition N>:LINE:COL: message``, and ``context`` its line with a caret under the
+    column (as a script's errors have)."""
 
     number: int
     text: str
     error: str
+    context: str = ""
 
 
 def check(
@@ -57,7 +65,12 @@ def check(
         )
         yield checked._replace(file=name)  # as given
     for number, text in enumerate(conditions, start=1):
-        yield ConditionCheck(number, text, check_condition(text, number, toolkit))
+        error = condition_error(text, toolkit)
+        if error is None:
+            yield ConditionCheck(number, text, "")
+        else:
+            where = LineIndex(text).context(error.line, error.column) if error.line else ""
+            yield ConditionCheck(number, text, str(error.located(f"<condition {number}>")), where)
 
 
 def check_file(
@@ -81,13 +94,20 @@ def check_file(
     return FileCheck(str(path), errors, warnings)
 
 
+_EXTENSION_HINT = (
+    f" (codes from {USER_RULE_CODES} are extensions' rules: name the extension with --extension,"
+    " or in the scenario's extensions)"
+)
+
+
 def unknown_rule_codes(parsed: ParsedScript, rules: RuleRegistry) -> list[ScriptError]:
     """Alfa/omega messages naming a rule code the rule library does not have."""
     script = parsed.script
     return [
         parsed.sourcemap.place(
             ScriptError(
-                f"rule code {message.rulecode} ({message.id}) is not in the rule library",
+                f"rule code {message.rulecode} ({message.id}) is not in the rule library"
+                + (_EXTENSION_HINT if message.rulecode >= USER_RULE_CODES else ""),
                 path=f"{kind}[{index}].rulecode",
             )
         )
@@ -150,11 +170,11 @@ def _check_scenario(path: Path, *, allow_outside: bool, extensions: Sequence[str
     return FileCheck(str(path), [], list(loaded.warnings))
 
 
-def check_condition(text: str, number: int, toolkit: Toolkit | None = None) -> str:
-    """``""`` when ``text`` compiles, else ``<condition N>:LINE:COL: message``."""
+def condition_error(text: str, toolkit: Toolkit | None = None) -> LocatedError | None:
+    """Why ``text`` does not compile (placed in ``text``), or None when it does."""
     functions: FunctionRegistry | None = None if toolkit is None else toolkit.registries.functions
     try:
         compile_condition(text, registry=functions)
     except LocatedError as error:
-        return str(error.located(f"<condition {number}>"))
-    return ""
+        return error
+    return None

@@ -605,6 +605,8 @@ _TERMINALS: Final = {
     "$END": "the end of the file",
 }
 _BLOCK_KINDS: Final = {"INST", "TERMINUS", "JUMP", "SENSOR"}
+_BLOCK_TYPES: Final = ("blk_inst", "blk_jump", "blk_terminus", "blk_sensor")
+"""What a block's type is written as (``blk_sens`` too, which a hint need not offer)."""
 _WORD: Final = re.compile(r"[^\s\[\]()\"%,]+")
 _GLUED_KIND: Final = re.compile(r"(?<=#)blk_\w*$")
 
@@ -647,8 +649,12 @@ def _describe(
     if char == "%" and "CND_CHUNK" not in expected:
         return "unterminated comment: this '%' has no closing '%'"
     if expected & _BLOCK_KINDS and not at_end:
+        word = word.removesuffix(":")  # the colon after the type is not part of it
+        close = difflib.get_close_matches(word, _BLOCK_TYPES, n=1)
+        hint = f"; did you mean {close[0]}?" if close else ""
         return (
-            f"unknown block type {word!r}; expected blk_inst, blk_jump, blk_terminus or blk_sensor"
+            f"unknown block type {word!r}; expected blk_inst, blk_jump, blk_terminus or"
+            f" blk_sensor{hint}"
         )
     if at_end:
         if paren_open:

@@ -12,7 +12,14 @@ from oimi.analysis.dataset import build_dataset
 from oimi.analysis.load import load_session
 from oimi.analysis.metrics import session_metrics
 from oimi.analysis.plots import PLOTS, label_levels
-from oimi.analysis.report import group_cells, human_duration, readable, write_session_report
+from oimi.analysis.report import (
+    group_cells,
+    html_table,
+    human_duration,
+    label,
+    readable,
+    write_session_report,
+)
 
 from oimi.cli import main
 
@@ -118,6 +125,16 @@ def test_cli_compares_a_folder_of_sessions(recordings_dir: Path, tmp_path: Path,
     assert 'href="sessions/walk_at_robot-s0/index.html"' in (tmp_path / "index.html").read_text()
 
 
+def test_cli_shows_its_progress_over_several_sessions(recordings_dir: Path, capsys) -> None:
+    """A folder of a hundred one-hour sessions took minutes without a word."""
+    assert main(["analyse", str(recordings_dir)]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.startswith("analyse [")]
+    assert len(lines) == 3, "a line per session where stderr is not a terminal"
+    assert lines[-1].startswith(f"analyse [{'#' * 30}] 3/3 sessions  (")
+    assert main(["analyse", str(recordings_dir), "-q"]) == 0
+    assert "analyse [" not in capsys.readouterr().err
+
+
 def test_cli_warns_about_a_truncated_file(too_close_mcap: Path, tmp_path: Path, capsys) -> None:
     cut = tmp_path / "cut.mcap"
     with too_close_mcap.open("rb") as stream:
@@ -148,3 +165,22 @@ def test_a_folder_with_an_unreadable_recording_is_analysed_without_it_and_exits_
     assert "walk_at_robot-s0" in captured.out and "child_too_close-s3" in captured.out
     assert pl.read_csv(tmp_path / "report" / "comparison.csv").height == 2
     assert main(["analyse", str(folder / "broken.mcap")]) == 2, "alone, it is an error"
+
+
+def test_a_parameter_keeps_its_name_as_a_header() -> None:
+    """It is what --param takes: 'param:humans.child.x' (unit cut, as for metrics) is no field."""
+    assert label("param:humans.child.x_m") == "param:humans.child.x_m"
+    assert label("param:robot.max_speed_mps") == "param:robot.max_speed_mps"
+    assert label("min_surface_distance_m") == "min surface distance"
+
+
+def test_a_time_shown_as_a_duration_is_not_shown_twice() -> None:
+    """The goals table has time_ms and time: the page showed two columns headed 'time'."""
+    goals = pl.DataFrame(
+        {"time_ms": [17800], "time": [17800], "goal": ["hide_and_show"]},
+        schema={"time_ms": pl.Int64, "time": pl.Duration("ms"), "goal": pl.String},
+    )
+    headers = re.findall(r"<th[^>]*>([^<]*)</th>", html_table(goals))
+    assert headers == ["time", "goal"]
+    durations = pl.DataFrame({"duration_ms": [5]})  # no duration column beside it: kept
+    assert re.findall(r"<th[^>]*>([^<]*)</th>", html_table(durations)) == ["duration"]

@@ -14,7 +14,9 @@ from batch_scenarios import write_scenario
 from oimi.recorder.reader import open_recording
 from polars.testing import assert_frame_equal
 
+from oimi.batch.app import BatchReport
 from oimi.cli import main
+from oimi.cmd_batch import print_report
 
 
 def batch(tmp_path: Path, out: str, *extra: str) -> list[str]:
@@ -88,6 +90,21 @@ def test_a_failing_expectation_exits_1_and_names_the_run_and_its_reproduction(
     recording = open_recording(batch_recording)
     assert recording.metadata["variation"] == {"robot.max_speed_mps": "0.4"}
     assert recording.metadata["scenario"]["seed"] == "1"
+
+
+def test_the_printed_pass_rate_reads_as_a_percentage(capsys) -> None:
+    """It printed '100.000' and '66.667', three decimals of a share of a few seeds."""
+    groups = pl.DataFrame(
+        {"scenario": ["a", "b"], "params": ["", ""], "runs": [3, 3], "pass rate": [100.0, 200 / 3]}
+    )
+    report = BatchReport(rows=[], summary="batch: 6 runs", files=[], groups=groups, comparison=None)
+    assert print_report(report) == 0
+    rows = [
+        line.split("|")
+        for line in capsys.readouterr().out.splitlines()
+        if "| a " in line or "| b " in line
+    ]
+    assert [row[4].strip() for row in rows] == ["100 %", "67 %"]
 
 
 def test_a_resumed_batch_skips_finished_runs(tmp_path: Path, capsys) -> None:

@@ -112,6 +112,20 @@ def test_check_and_run_list_every_problem_of_a_scenario_each_placed(tmp_path, ca
     assert not (tmp_path / "two.mcap").exists()
 
 
+def test_an_unknown_extension_rule_code_says_how_to_load_its_extension(tmp_path, capsys):
+    """Codes from 1000 are extensions': the warning said only 'not in the rule library'."""
+    script = tmp_path / "s.txt"
+    script.write_text('[s]\n[alfa:1001,cheer,"","",A,U]\n[goal:g]\n[action]\n[b##blk_terminus]\n')
+    assert main(["check", str(script)]) == 0, "a warning, not a failure"
+    assert capsys.readouterr().err.startswith(
+        f"{script}:2:7: rule code 1001 (cheer) is not in the rule library (codes from 1000 are"
+        " extensions' rules: name the extension with --extension, or in the scenario's"
+        " extensions) (warning)"
+    )
+    assert main(["check", str(ACTIVITIES / "example_act.txt")]) == 0
+    assert "extension" not in capsys.readouterr().err, "code 16 is oimi's range: no such hint"
+
+
 def test_check_passes_good_files(capsys):
     files = [str(p) for p in sorted(ACTIVITIES.iterdir()) if p.suffix in (".txt", ".json")]
     assert main(["check", *files]) == 0
@@ -123,6 +137,19 @@ def test_check_conditions_given_on_the_command_line(capsys):
     captured = capsys.readouterr()
     assert captured.out == "<condition 1>: ok\n"
     assert captured.err.startswith("<condition 2>:1:10: ")
+
+
+def test_a_bad_condition_shows_its_line_with_a_caret_as_a_script_does(capsys):
+    """A condition's error had only its place: a script's shows the line and a caret."""
+    assert main(["check", "--condition", "{CLASS #Humen U ?c} ! {TRUE}"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "<condition 1>:1:8: unknown class '#Humen' (expected #Human, #Obstacle, #Object,"
+        " #Activity)",
+        "    {CLASS #Humen U ?c} ! {TRUE}",
+        "           ^",
+    ]
+    assert main(["check", "--condition", "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"]) == 2
+    assert capsys.readouterr().err.splitlines()[1:] == ["     ! {E: nearr (?c, 1)}", "           ^"]
 
 
 def test_a_condition_over_several_lines_is_placed_at_its_line_and_column(capsys):

@@ -13,6 +13,7 @@ from mcap.reader import make_reader
 from test_cli_run import oimi
 
 from oimi.cli import COMMANDS, build_parser
+from oimi.cmd_info import extension_text
 from oimi.usage import COMMANDS as USAGE
 
 ROOT = Path(__file__).parents[2]
@@ -79,6 +80,13 @@ def test_info_shows_scenario_seed_duration_topics_and_attachments(recorded) -> N
     assert info["topics"]["/world/state"] == run["summary"]["ticks"] // 2 + 1
     assert info["live"] is False and info["session"] is None
     assert "rules/library.py" in info["attachments"]
+
+
+def test_info_shows_an_extension_as_words_not_its_json_record() -> None:
+    """It printed 'peek {"module":"peek","version":"0.1","digest":"c22d..."}'."""
+    record = json.dumps({"module": "peek", "version": "0.1", "digest": "c22d7481291a0390"})
+    assert extension_text("peek", record) == "peek 0.1 (module peek, digest c22d7481291a0390)"
+    assert extension_text("odd", "not json") == "odd not json", "an unreadable one as found"
 
 
 def test_info_on_a_cut_file_says_it_is_damaged_and_how_far_it_reads(recorded, tmp_path) -> None:

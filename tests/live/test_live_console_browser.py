@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_helpers import CHROMIUM, CHROMIUM_FLAGS, ROOT, require_browser, served
+from live_helpers import CHROMIUM, CHROMIUM_FLAGS, ROOT, LineClient, require_browser, served
 from oimi.pipeline.events import JoystickInput, Topic
 from oimi.recorder.reader import open_recording
 from oimi.replay.redrive import redrive
@@ -330,3 +330,22 @@ def test_a_rules_switch_shows_the_current_activity_paused(browser_page, tmp_path
         expect(play).to_have_class("current paused")
         expect(page.locator("#block")).to_contain_text("wait_for_child")
         page.screenshot(path=str(screenshot))
+
+
+def test_the_newest_warning_is_the_one_in_view(browser_page, tmp_path):
+    """The warnings list is a few lines high and holds the latest eight: newest last, the
+    operator saw the oldest ones and had to scroll for the one their last press caused."""
+    page = browser_page
+    with served(tmp_path / "warnings.mcap", "--token", "t0ken") as live:
+        page.goto(f"{live.console}?token=t0ken")
+        expect(page.locator("#scenario")).to_have_text("live_room")
+        assert live.tcp_port is not None
+        client = LineClient.connect(live.tcp_port)
+        client.read()  # the hello
+        assert client.call(cmd="auth", token="t0ken")["ok"]
+        for n in range(8):
+            assert not client.call(cmd="remove", activity=f"nothing_{n}")["ok"]
+        client.close()
+        newest = page.locator("#log li", has_text="'nothing_7' is not selected")
+        expect(newest).to_be_in_viewport()
+        expect(page.locator("#log li").first).to_have_text(re.compile("nothing_7"))

@@ -482,9 +482,10 @@ function drawWorld() {
   const log = $("log");
   log.replaceChildren();
   for (const entry of frame.log || []) {
+    // newest first: the list is a few lines high, and the newest is what the operator needs
     const li = document.createElement("li");
     li.textContent = `${entry.source}: ${entry.message}`;
-    log.append(li);
+    log.prepend(li);
   }
 }
 

@@ -201,8 +201,16 @@ ERROR_TABLE: list[tuple[str, list[str]]] = [
     ),
     (r"4:1: \[omega:\.\.\.\] after a goal", [HEAD + '[omega:0,k,"","",R,L]']),
     (r"4:5: unknown block type 'blk_foo'; expected blk_inst", [HEAD + "[b##blk_foo]"]),
-    (r"4:5: unknown block type 'blk_sensors'", [HEAD + "[b##blk_sensors]"]),
     (r"4:6: unknown block type 'blk_foo'", [HEAD + "[b#x#blk_foo]"]),
+    (
+        r"4:6: unknown block type 'blk_insr'; expected blk_inst, .* or blk_sensor; did you mean "
+        r"blk_inst\?$",
+        [HEAD + "[b#x#blk_insr: MV() LD() AO()]", HEAD + "[b#x#blk_insr MV() LD() AO()]"],
+    ),
+    (
+        r"4:5: unknown block type 'blk_sensors'; expected .*; did you mean blk_sensor\?$",
+        [HEAD + "[b##blk_sensors]"],
+    ),
     (
         r"4:1: unknown item \[acton\]: the activity name was already given; did you mean "
         r"\[action\]\?",
