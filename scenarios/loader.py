@@ -39,6 +39,7 @@ from oimi.scenarios.extensions import (
     build_toolkit,
     load_extensions,
 )
+from oimi.scenarios.fields import suggestion
 from oimi.scenarios.profile import THESIS_ROBOT
 from oimi.scenarios.safety import coverage_gaps, unknown_people, unsafe_assumptions
 from oimi.scenarios.schema import (
@@ -542,8 +543,9 @@ def _invalid(message: str, document: Any) -> Invalid:
     text, _, path_text = message.partition(" - at ")
     path = parse_json_path(path_text.strip("`") or "$")
     if unknown := re.match(r"Object contains unknown field `([^`]+)`", text):
-        hint = _OPERATOR_HINT if unknown.group(1) == "verb" else ""
-        return Invalid((*path, unknown.group(1)), "unknown field" + hint)
+        key = unknown.group(1)
+        hint = _OPERATOR_HINT if key == "verb" else suggestion(key, path, document)
+        return Invalid((*path, key), "unknown field" + hint)
     if missing := re.match(r"Object missing required field `([^`]+)`", text):
         return Invalid((*path, missing.group(1)), "required, but missing")
     if bound := _OUT_OF_RANGE.match(text):

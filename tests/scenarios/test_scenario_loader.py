@@ -193,6 +193,20 @@ def test_a_full_scenario_decodes_into_typed_structs(tmp_path):
 ERRORS = [
     # (what, text, message pattern, line)
     ("unknown key", "[robot]\nx_m = 1.0\nspeed = 2\n", r"robot.speed: unknown field$", 4),
+    ("mistyped key", "sead = 3\n", r":2:1: sead: unknown field; did you mean seed\?$", 2),
+    (
+        "key without its unit",
+        "[robot]\nx_m = 1.0\nradius = 0.3\n",
+        r"robot.radius: unknown field; did you mean radius_m\?$",
+        4,
+    ),
+    (
+        "mistyped key of a tagged table",
+        '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n'
+        '[[humans.behaviour]]\nkind = "wander"\npause = 2.0\n',
+        r"humans\[0\].behaviour\[0\].pause: unknown field; did you mean pause_s\?$",
+        8,
+    ),
     (
         "wrong type",
         '[[humans]]\nid = "kid"\nx_m = "left"\ny_m = 1.0\n',
