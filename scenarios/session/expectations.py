@@ -194,7 +194,10 @@ class Tracker:
                 done = [t for t, s in self.activity_states.get(e.activity, ()) if s == "completed"]
                 ok = bool(done) and deadline is not None and done[0] <= deadline
                 seen = f"at {done[0] / 1000:.2f} s" if done else "never"
-                return self._verdict(e, f"activity {e.activity} completed", ok, f"completed {seen}")
+                name = f"activity {e.activity} completed"
+                if e.by_s is not None:  # (without one: by the session's end)
+                    name += f" by {_s(deadline)} s"
+                return self._verdict(e, name, ok, f"completed {seen}")
             case RuleFired() if e.after_s is None and e.by_s is None:
                 count = self.episodes.fired().get(e.rule, 0)
                 ok, bound = _within(count, e.at_least, e.at_most)
