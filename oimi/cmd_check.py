@@ -59,7 +59,16 @@ def run(args: argparse.Namespace) -> int:
     ):
         if isinstance(item, ConditionCheck):
             errors = [item.error] if item.error else []
-            checked.append({"condition": item.text, "ok": not item.error, "errors": errors})
+            checked.append(
+                {
+                    "condition": item.text,
+                    "ok": not item.error,
+                    "errors": errors,
+                    "warnings": list(item.warnings),
+                }
+            )
+            for warning in item.warnings:
+                report(f"{warning} (warning)")
             if item.error:
                 failed = True
                 report(item.error)

@@ -8,6 +8,7 @@ undoes (thesis 4.4: when the script is over, its omega restores the previous sit
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -16,6 +17,8 @@ from oimi.pipeline.errors import LocatedError
 from oimi.pipeline.messages import RuleAction
 from oimi.pipeline.script import ParsedScript, ScriptError
 from oimi.pipeline.script.sourcemap import LineIndex
+from oimi.pipeline.think.condition_ast import bound_aliases, unbound_aliases
+from oimi.pipeline.think.condition_parse import parse_condition
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.pipeline.think.rules import RuleRegistry
@@ -47,6 +50,8 @@ class ConditionCheck(NamedTuple):
     text: str
     error: str
     context: str = ""
+    warnings: tuple[str, ...] = ()
+    """What compiles but reads as a mistake (:func:`condition_warnings`)."""
 
 
 def check(
@@ -67,7 +72,7 @@ def check(
     for number, text in enumerate(conditions, start=1):
         error = condition_error(text, toolkit)
         if error is None:
-            yield ConditionCheck(number, text, "")
+            yield ConditionCheck(number, text, "", warnings=condition_warnings(text, number))
         else:
             where = LineIndex(text).context(error.line, error.column) if error.line else ""
             yield ConditionCheck(number, text, str(error.located(f"<condition {number}>")), where)
@@ -168,6 +173,23 @@ def _check_scenario(path: Path, *, allow_outside: bool, extensions: Sequence[str
         problem = LocatedError(f"cannot read the file: {error.strerror}", source=str(path))
         return FileCheck(str(path), [problem], [])
     return FileCheck(str(path), [], list(loaded.warnings))
+
+
+def condition_warnings(text: str, number: int) -> tuple[str, ...]:
+    """``<condition N>:LINE:COL: ...`` for each alias a compiling condition reads that none
+    of its ``CLASS`` clauses binds (a mistyped alias is never bound: its calls are false),
+    with the nearest alias it binds."""
+    ast = parse_condition(text)
+    bound = bound_aliases(ast)
+    warnings = []
+    for alias, (line, column) in unbound_aliases(ast):
+        close = difflib.get_close_matches(alias, bound, n=1, cutoff=0.6)
+        warnings.append(
+            f"<condition {number}>:{line}:{column}: {alias} is bound by no CLASS clause of this"
+            " condition: it has a value only where another rule bound it in scope U"
+            + (f" (did you mean {close[0]}?)" if close else "")
+        )
+    return tuple(warnings)
 
 
 def condition_error(text: str, toolkit: Toolkit | None = None) -> LocatedError | None:

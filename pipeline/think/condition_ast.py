@@ -189,3 +189,41 @@ def located(message: str, pos: Pos) -> RuleSyntaxError:
 
 def token_pos(token: Token) -> Pos:
     return (token.line or 1, token.column or 1)
+
+
+def bound_aliases(ast: ConditionAst) -> list[str]:
+    """The aliases the condition's ``CLASS`` clauses bind, in order."""
+    return [c.alias for c in (*ast.left, *ast.right) if isinstance(c, ClassClause)]
+
+
+def unbound_aliases(ast: ConditionAst) -> list[tuple[str, Pos]]:
+    """Each alias the condition reads (with its first place) that none of its ``CLASS``
+    clauses binds: it has a value only where another rule bound it in scope ``U`` (a
+    mistyped alias reads as one that is never bound)."""
+    bound = {THIS, *bound_aliases(ast)}
+    read: dict[str, Pos] = {}
+    for clause in (*ast.left, *ast.right):
+        for alias, pos in _aliases_read(clause):
+            if alias not in bound:
+                read.setdefault(alias, pos)
+    return list(read.items())
+
+
+def _aliases_read(clause: Clause) -> list[tuple[str, Pos]]:
+    """The aliases a clause reads: in its criteria's and calls' operands, and the alias
+    an ``ATT`` clause binds its attribute to."""
+    match clause:
+        case ClassClause(criteria=criteria):
+            calls = [c for c in criteria if isinstance(c, Call)]
+            operands = [o for c in criteria if isinstance(c, Comparison) for o in (c.left, c.right)]
+        case AttClause(call=call):
+            calls, operands = [call], []
+        case VarClause(call=call) | EvalClause(call=call):
+            calls, operands = [call], []
+        case _:
+            return []
+    operands += [arg for call in calls for arg in call.args]
+    found = [(o.alias, o.pos) for o in operands if isinstance(o, AliasRef | FieldRef | AttRef)]
+    if isinstance(clause, AttClause):
+        found.insert(0, (clause.alias, clause.pos))
+    return found

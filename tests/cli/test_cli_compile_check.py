@@ -152,6 +152,24 @@ def test_a_bad_condition_shows_its_line_with_a_caret_as_a_script_does(capsys):
     assert capsys.readouterr().err.splitlines()[1:] == ["     ! {E: nearr (?c, 1)}", "           ^"]
 
 
+def test_an_alias_no_clause_binds_is_a_warning_naming_the_nearest_bound_one(capsys):
+    """A mistyped alias compiles (another rule may bind it in scope U) and is never bound
+    here: its calls are false. It is a warning, with the alias the condition binds."""
+    typo = "{CLASS #Human U ?child} ! {E: near (?kid, 1)}"
+    assert main(["check", "--condition", typo, "--condition", "! {E: near (?child, 1)}"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == "<condition 1>: ok\n<condition 2>: ok\n"
+    assert captured.err.splitlines() == [
+        "<condition 1>:1:37: ?kid is bound by no CLASS clause of this condition: it has a value"
+        " only where another rule bound it in scope U (did you mean ?child?) (warning)",
+        "<condition 2>:1:13: ?child is bound by no CLASS clause of this condition: it has a"
+        " value only where another rule bound it in scope U (warning)",
+    ]
+    bound = "{CLASS #Human U ?c}, {ATT ?c $d L F: distance (?c)} ! {E: less_than (?c>$d, 2)}"
+    assert main(["check", "--condition", bound]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_a_condition_over_several_lines_is_placed_at_its_line_and_column(capsys):
     text = "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"
     assert main(["check", "--condition", text]) == 2
