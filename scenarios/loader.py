@@ -698,7 +698,23 @@ def _find_script(
             )
         if resolved.is_file():
             return candidate
-    raise Invalid(where, f"script file {name!r} not found in {folder} nor in the library")
+    near = [
+        p.name for root in (folder, LIBRARY_DIR, *extra) for p in _scripts_in(root / script.parent)
+    ]
+    close = difflib.get_close_matches(script.name, near, n=1)
+    hint = f"; did you mean {str(script.with_name(close[0]))!r}?" if close else ""
+    raise Invalid(
+        where,
+        f"script file {name!r} not found in the scenario's folder ({folder.resolve()}) nor in"
+        f" the library ({LIBRARY_DIR}){hint}",
+    )
+
+
+def _scripts_in(folder: Path) -> list[Path]:
+    """The script files (``.txt``, ``.json``) directly in ``folder`` (none if it is not one)."""
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if p.suffix in SCRIPT_SUFFIXES and p.is_file())
 
 
 def _check_generator(
@@ -731,9 +747,15 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     world = scenario.world
     yield from _check_ids(scenario)
 
-    def outside(x: float, y: float, margin: float = 0.0) -> bool:
-        return not (
-            margin <= x <= world.width_m - margin and margin <= y <= world.height_m - margin
+    def outside(x: float, y: float, margin: float = 0.0) -> str:
+        """Empty inside the arena (``margin`` from its walls), else where and the arena's span."""
+        width, height = world.width_m - margin, world.height_m - margin
+        if margin <= x <= width and margin <= y <= height:
+            return ""
+        radius = ", for its radius" if margin else ""
+        return (
+            f"at ({x:g}, {y:g}), outside the arena (x {margin:g} to {width:g} m, y {margin:g}"
+            f" to {height:g} m{radius})"
         )
 
     robot = scenario.robot
@@ -749,8 +771,8 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
     yield from unsafe_assumptions(scenario)
     rx = robot.x_m if robot.x_m is not None else world.width_m / 2
     ry = robot.y_m if robot.y_m is not None else world.height_m / 2
-    if outside(rx, ry, robot.radius_m):
-        yield ("robot", "x_m"), f"the robot's start ({rx}, {ry}) is outside the arena"
+    if off := outside(rx, ry, robot.radius_m):
+        yield ("robot", "x_m"), f"the robot starts {off}"
 
     beams = scenario.sensors.sonar_beams  # a real ring may report a human in every beam
     room = MAX_ENTITIES - len(scenario.humans) * max(beams, 1)  # each echo an obstacle
@@ -771,17 +793,17 @@ def check_scenario(scenario: Scenario) -> Iterator[tuple[PathKey, str]]:
         where = ("world", "obstacles", index)
         if obstacle.radius_m <= 0 and (obstacle.width_m <= 0 or obstacle.height_m <= 0):
             yield where, f"obstacle {obstacle.id!r} needs radius_m, or width_m and height_m"
-        if outside(obstacle.x_m, obstacle.y_m):
-            yield (*where, "x_m"), f"obstacle {obstacle.id!r} is outside the arena"
+        if off := outside(obstacle.x_m, obstacle.y_m):
+            yield (*where, "x_m"), f"obstacle {obstacle.id!r} is {off}"
     for index, thing in enumerate(world.objects):
         where = ("world", "objects", index)
-        if outside(thing.x_m, thing.y_m, thing.radius_m):
-            yield (*where, "x_m"), f"object {thing.id!r} is outside the arena"
+        if off := outside(thing.x_m, thing.y_m, thing.radius_m):
+            yield (*where, "x_m"), f"object {thing.id!r} is {off}"
 
     for index, human in enumerate(scenario.humans):
         where = ("humans", index)
-        if outside(human.x_m, human.y_m):
-            yield (*where, "x_m"), f"human {human.id!r} starts outside the arena"
+        if off := outside(human.x_m, human.y_m):
+            yield (*where, "x_m"), f"human {human.id!r} starts {off}"
         apart = math.hypot(human.x_m - rx, human.y_m - ry)
         if apart < robot.radius_m + human.radius_m:
             yield (
@@ -887,11 +909,8 @@ def _check_segment(
         if not segment.waypoints:
             yield (*where, "waypoints"), f"human {human!r}: waypoints is empty"
         for number, (x, y) in enumerate(segment.waypoints):
-            if outside(x, y):
-                yield (
-                    (*where, "waypoints", number),
-                    (f"human {human!r}: waypoint ({x}, {y}) is outside the arena"),
-                )
+            if off := outside(x, y):
+                yield (*where, "waypoints", number), f"human {human!r}: waypoint {number} is {off}"
 
 
 # ------------------------------------------------------------------ overrides

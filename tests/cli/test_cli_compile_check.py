@@ -102,8 +102,10 @@ def test_check_and_run_list_every_problem_of_a_scenario_each_placed(tmp_path, ca
     scenario = tmp_path / "two.toml"
     scenario.write_text(TWO_PROBLEMS, encoding="utf-8")
     expected = [
-        f"{scenario}:9:1: robot.x_m (m): the robot's start (9.0, 2.0) is outside the arena",
-        f"{scenario}:13:1: humans[0].x_m (m): human 'ada' starts outside the arena",
+        f"{scenario}:9:1: robot.x_m (m): the robot starts at (9, 2), outside the arena"
+        " (x 0.3 to 3.7 m, y 0.3 to 3.7 m, for its radius)",
+        f"{scenario}:13:1: humans[0].x_m (m): human 'ada' starts at (2, 7.5), outside the arena"
+        " (x 0 to 4 m, y 0 to 4 m)",
     ]
     assert main(["check", str(scenario)]) == 2
     assert [line for line in capsys.readouterr().err.splitlines() if line in expected] == expected

@@ -245,6 +245,13 @@ ERRORS = [
         r"script file 'activities/none.json' not found",
         3,
     ),
+    (
+        "mistyped script",
+        '[[activities]]\nscript = "activities/cuddle_tme.txt"\n',
+        r"not found in the scenario's folder \(/.+\) nor in the library \(/.+/library\);"
+        r" did you mean 'activities/cuddle_time.txt'\?$",
+        3,
+    ),
     ("script kind", '[[activities]]\nscript = "a.py"\n', r"not a .json or .txt file", 3),
     (
         "unknown generator",
@@ -276,7 +283,7 @@ ERRORS = [
         "waypoint outside the arena",
         '[[humans]]\nid = "kid"\nx_m = 1.0\ny_m = 1.0\n'
         'behaviour = [{ kind = "waypoints", waypoints = [[1.0, 1.0], [9.0, 1.0]] }]\n',
-        r"waypoint \(9.0, 1.0\) is outside the arena",
+        r"waypoint 1 is at \(9, 1\), outside the arena \(x 0 to 6 m, y 0 to 5 m\)",
         6,
     ),
     (
@@ -429,7 +436,10 @@ def _full():
         ({"robot.top_speed": "1"}, r"override 'robot.top_speed': no field 'top_speed'"),
         ({"humans.ghost.x_m": "1"}, r"no element 'ghost'"),
         ({"robot.max_speed_mps": "fast"}, r"robot.max_speed_mps \(m/s\): Expected `float`, got"),
-        ({"humans.child.x_m": "99"}, r"human 'child' starts outside the arena"),
+        (
+            {"humans.child.x_m": "99"},
+            r"human 'child' starts at \(99, 1\), outside the arena \(x 0 to 7 m",
+        ),
     ],
 )
 def test_bad_overrides_are_scenario_errors(overrides, pattern):
@@ -475,6 +485,6 @@ def test_errors_inside_inline_tables_point_at_the_element_key():
 
 def test_a_waypoint_outside_the_arena_is_placed_on_the_waypoint():
     text = INLINE.replace('"near"', "0.5")
-    with pytest.raises(ScenarioError, match=r"waypoint \(1.0, 7.5\) is outside") as caught:
+    with pytest.raises(ScenarioError, match=r"waypoint 1 is at \(1, 7.5\), outside") as caught:
         parse_scenario(text.encode(), source="s.toml")
     assert (caught.value.line, caught.value.column) == (8, 62)
