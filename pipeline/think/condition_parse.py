@@ -6,8 +6,10 @@ terminal names lark reports are translated by one table (``TERMINALS``).
 
 from __future__ import annotations
 
+import difflib
 import functools
 import json
+import re
 from collections.abc import Sequence
 from importlib import resources
 from typing import Final
@@ -112,8 +114,10 @@ class _ToAst(Transformer):
         cls = str(cls_token)[1:]
         if cls not in CLASS_NAMES:
             known = ", ".join(f"#{c}" for c in CLASS_NAMES)
+            close = difflib.get_close_matches(cls, CLASS_NAMES, n=1)
+            hint = f"; did you mean #{close[0]}?" if close else ""
             raise located(
-                f"unknown class {str(cls_token)!r} (expected {known})", token_pos(cls_token)
+                f"unknown class {str(cls_token)!r} (expected {known}){hint}", token_pos(cls_token)
             )
         name = _alias(alias)
         if name == THIS:
@@ -248,6 +252,24 @@ def _end_pos(text: str) -> Pos:
     return (len(lines), len(lines[-1]) + 1)
 
 
+_NUMBER_BEFORE: Final = re.compile(r"(?:^|(?<=[\s(,]))[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?\Z")
+"""A number that ends where an unexpected token starts."""
+_WORD: Final = re.compile(r"[^\s(),{}]*")
+
+
+def _glued_number(text: str, token: Token) -> tuple[str, int] | None:
+    """``(word, its number's length)`` when ``token`` starts right after a number, as in
+    ``1.0x`` or ``1.0.5`` (the word from the number to the next delimiter); else None."""
+    start = token.start_pos
+    if start is None or start == 0 or text[start - 1].isspace():
+        return None
+    number = _NUMBER_BEFORE.search(text, 0, start)
+    if number is None:
+        return None
+    rest = _WORD.match(text, start).group()  # type: ignore[union-attr]
+    return (number.group() + rest, start - number.start()) if rest else None
+
+
 def _syntax_error(text: str, exc: UnexpectedInput) -> RuleSyntaxError:
     if isinstance(exc, UnexpectedCharacters):
         pos = (exc.line, exc.column)
@@ -264,6 +286,10 @@ def _syntax_error(text: str, exc: UnexpectedInput) -> RuleSyntaxError:
                 return located(f"unbalanced braces: missing {closing} at the end", pos)
             return located(f"unexpected end of the condition; expected {_expected(expected)}", pos)
         pos = token_pos(token)
+        glued = _glued_number(text, token)
+        if glued is not None:
+            word, back = glued
+            return located(f"{word!r} is not a number", (pos[0], pos[1] - back))
         if token.type == "RBRACE":
             return located(
                 f"unbalanced braces: unexpected '}}'; expected {_expected(expected)}", pos

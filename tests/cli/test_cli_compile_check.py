@@ -146,7 +146,7 @@ def test_a_bad_condition_shows_its_line_with_a_caret_as_a_script_does(capsys):
     assert main(["check", "--condition", "{CLASS #Humen U ?c} ! {TRUE}"]) == 2
     assert capsys.readouterr().err.splitlines() == [
         "<condition 1>:1:8: unknown class '#Humen' (expected #Human, #Obstacle, #Object,"
-        " #Activity)",
+        " #Activity); did you mean #Human?",
         "    {CLASS #Humen U ?c} ! {TRUE}",
         "           ^",
     ]
