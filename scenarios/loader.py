@@ -321,7 +321,7 @@ def parse_scenario(
         toolkit = build_toolkit(loaded_extensions)
         _check_behaviours(scenario, toolkit)
         paths, scripts = _check_activities(scenario, folder, catalogue, allow_outside, toolkit)
-        _check_expected_rules(
+        _check_expected_names(
             scenario, scripts, (folder, folder / "activities", *toolkit.activity_folders)
         )
     except Invalid as problem:
@@ -647,35 +647,57 @@ def _check_activities(
     return paths, [*scripts.values(), *generated]
 
 
-def _check_expected_rules(
+def _check_expected_names(
     scenario: Scenario, scripts: Sequence[Script], folders: Sequence[Path]
 ) -> None:
-    """A ``rule_fired`` expectation whose rule no script loads, but whose name is close to
-    one that a script does load, is a typo (``at_most = 0`` would pass forever): refused.
-    The scenario's scripts are looked at first, then every script of its activity folders
-    and the library; a name like none of them is left alone (a generator may make it)."""
-    expected = [(n, e.rule) for n, e in enumerate(scenario.expect) if isinstance(e, RuleFired)]
-    known = _rule_ids(scripts)
-    missing = [(n, rule) for n, rule in expected if rule not in known]
+    """An expectation naming a rule no script loads, an activity no script is, or a goal
+    no script has, whose name is close to one that a script does, is a typo (``at_most =
+    0`` would pass forever; ``completed never`` would say nothing of why): refused. The
+    scenario's scripts are looked at first, then every script of its activity folders and
+    the library; a name like none of them is left alone (a generator may make it)."""
+    expected = [(n, key, name) for n, e in enumerate(scenario.expect) for key, name in _named(e)]
+    known = _names(scripts)
+    missing = [(n, key, name) for n, key, name in expected if name not in known[key]]
     if not missing:
         return
     for folder in (*folders, ACTIVITIES):
         for path in sorted([*folder.glob("*.json"), *folder.glob("*.txt")]):
             parsed, _ = check_script_file(path)
             if parsed is not None:
-                known |= _rule_ids([parsed.script])
-    for index, rule in missing:
-        close = difflib.get_close_matches(rule, sorted(known), n=1)
-        if rule not in known and close:
-            raise Invalid(
-                ("expect", index, "rule"),
-                f"no script loads a rule {rule!r}; did you mean {close[0]!r}?",
-            )
+                for key, names in _names([parsed.script]).items():
+                    known[key] |= names
+    typos = [
+        Invalid(
+            ("expect", index, key),
+            f"no script {_HAS[key]} {key} {name!r}; did you mean {close[0]!r}?",
+        )
+        for index, key, name in missing
+        if name not in known[key]
+        and (close := difflib.get_close_matches(name, sorted(known[key]), n=1))
+    ]
+    if typos:
+        typos[0].others = tuple(typos[1:])
+        raise typos[0]
 
 
-def _rule_ids(scripts: Iterable[Script]) -> set[str]:
-    """The ids of the rules the scripts' alfa and omega messages name."""
-    return {m.id for s in scripts for m in (*s.alfarulemessages, *s.omegarulemessages)}
+_HAS: Final = {"rule": "loads a", "activity": "is an", "goal": "has a"}
+"""How an expectation's named thing belongs to a script, by its key."""
+
+
+def _named(expectation: Any) -> list[tuple[str, str]]:
+    """The rule, activity and goal an expectation names, by its key."""
+    return [(key, getattr(expectation, key)) for key in _HAS if hasattr(expectation, key)]
+
+
+def _names(scripts: Iterable[Script]) -> dict[str, set[str]]:
+    """The rules the scripts' alfa and omega messages name, the scripts' activities and
+    their goals, by an expectation's key."""
+    scripts = list(scripts)
+    return {
+        "rule": {m.id for s in scripts for m in (*s.alfarulemessages, *s.omegarulemessages)},
+        "activity": {s.activityname for s in scripts},
+        "goal": {g.goalid for s in scripts for g in s.goals},
+    }
 
 
 def _find_script(
