@@ -45,6 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=1.0,
         help="with --foxglove: stream at this multiple of the recorded pace (0: at once)",
     )
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     rosbag = parser.add_argument_group("a rosbag2 folder (docs/ros2.md)")
     rosbag.add_argument("--scenario", type=Path, help="the scenario whose pipeline is driven")
     rosbag.add_argument("-o", "--output", type=Path, help="record the drive (default: out/)")
@@ -61,7 +62,9 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.recording.is_dir():
         return _drive_rosbag(args)
-    comparison = replay(args.recording, mode=args.mode, foxglove=args.foxglove, speed=args.speed)
+    comparison = replay(
+        args.recording, mode=args.mode, foxglove=args.foxglove, speed=args.speed, quiet=args.quiet
+    )
     jsonout.emit(
         args, {"command": "replay", "ok": comparison.ok, **msgspec.to_builtins(comparison)}
     )

@@ -9,9 +9,10 @@ from typing import NamedTuple
 
 import msgspec
 
+from oimi.console import Progress
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.reader import open_recording
-from oimi.replay.compare import Comparison, format_report
+from oimi.replay.compare import Comparison, Watch, format_report
 from oimi.replay.expectations import judgeable
 from oimi.replay.redrive import redrive
 from oimi.replay.rerun import rerun_recording
@@ -19,17 +20,40 @@ from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
 
 
-def replay(recording: Path, *, mode: str, foxglove: int | None, speed: float) -> Comparison:
-    """Compare ``recording`` with its replay in ``mode`` and print the report; then, with a
-    ``foxglove`` port, stream it to a Foxglove client at ``speed`` times its pace."""
-    comparison = MODES[mode](recording)
+def replay(
+    recording: Path, *, mode: str, foxglove: int | None, speed: float, quiet: bool = False
+) -> Comparison:
+    """Compare ``recording`` with its replay in ``mode`` and print the report (with a
+    progress bar on stderr unless ``quiet``); then, with a ``foxglove`` port, stream it to
+    a Foxglove client at ``speed`` times its pace."""
+    progress = None if quiet else _progress(recording, mode)
+    try:
+        comparison = MODES[mode](recording, watch=progress)
+    finally:
+        if progress is not None:
+            progress.close()
     print(format_report(comparison))
     if foxglove is not None:
         serve_to_foxglove(recording, foxglove, speed=speed)
     return comparison
 
 
-def rerun(path: Path) -> Comparison:
+def _progress(path: Path, mode: str) -> Progress | None:
+    """A progress bar for replaying ``path`` (None when its tick rate is not recorded:
+    the replay then says so itself, as it refuses it)."""
+    try:
+        scenario = open_recording(path).meta.scenario
+    except RecordingError:
+        return None
+    hz = _integer(scenario.tick_hz) if scenario is not None else None
+    return Progress(f"{mode} {path.name}", 1000 // hz) if hz else None
+
+
+def _integer(text: str | None) -> int | None:
+    return int(text) if text is not None and text.isdigit() else None
+
+
+def rerun(path: Path, *, watch: Watch | None = None) -> Comparison:
     """``replay.rerun.rerun``, refusing up front (``RecordingError``) a live session's
     recording (its operator commands and joystick came from outside the scenario, which a
     rerun plays again) and one driven over a rosbag2 (no world to simulate again)."""
@@ -48,7 +72,7 @@ def rerun(path: Path) -> Comparison:
             " replay it with --mode redrive (the default)",
             source=str(path),
         )
-    return rerun_recording(recording)
+    return rerun_recording(recording, watch=watch)
 
 
 MODES = {"redrive": redrive, "rerun": rerun}

@@ -24,6 +24,10 @@ from oimi.recorder.reader import RecordedMessage, Recording
 from oimi.recorder.world_sampling import recorded_sampling
 from oimi.scenarios.session.watchdog import watching
 
+Watch = Callable[[int, int], None]
+"""Hears a replay's progress: ``(ticks replayed, the session's ticks)``."""
+WATCH_TICKS: Final = 1000
+"""How often a replay's progress is told (20 s of a 50 Hz session)."""
 CONTEXT_MESSAGES: Final = 5
 """How many matched messages a divergence report shows before the difference."""
 VALUE_CHARS: Final = 300
@@ -321,13 +325,22 @@ def _tick_of(payload: bytes) -> int:
 
 
 def compare_ticks(
-    comparator: Comparator, step: Callable[[int], None], *, mode: str, notes: Iterable[str] = ()
+    comparator: Comparator,
+    step: Callable[[int], None],
+    *,
+    mode: str,
+    notes: Iterable[str] = (),
+    watch: Watch | None = None,
+    total: int | None = None,
 ) -> Comparison:
     """Run ``step(tick)`` from tick 0 for as long as the recording lasts, the comparator
     receiving what it emits; stop at the first divergence. A user's code that holds a
-    tick is stopped by the watchdog, as it was when the session ran."""
+    tick is stopped by the watchdog, as it was when the session ran. ``watch(tick,
+    total)`` hears the progress every :data:`WATCH_TICKS` ticks and at the end, when the
+    session's ``total`` ticks are known."""
     tick = 0
     divergence = None
+    watch = watch if total else None
     try:
         with watching() as watchdog:
             while comparator.pull_through(tick):
@@ -335,9 +348,13 @@ def compare_ticks(
                 watchdog.feed()
                 comparator.finish_tick(tick)
                 tick += 1
+                if watch is not None and not tick % WATCH_TICKS:
+                    watch(min(tick, total), total)  # type: ignore[arg-type]
     except Diverged as stop:
         divergence = stop.divergence
         tick += 1
+    if watch is not None:
+        watch(min(tick, total), total)  # type: ignore[arg-type]
     return Comparison(
         mode=mode,
         recording=comparator.recording.path,

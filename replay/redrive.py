@@ -16,29 +16,27 @@ from typing import Final
 from oimi.pipeline.events import INPUT_TOPICS, JoystickInput, OperatorCommands, SensorUpdates, Topic
 from oimi.pipeline.sink import NS_PER_MS
 from oimi.recorder.reader import Recording, open_recording
-from oimi.replay.compare import Comparator, Comparison, compare_ticks
+from oimi.replay.compare import Comparator, Comparison, Watch, compare_ticks
 from oimi.replay.rebuild import check_replayable, rebuild_notes, rebuilt_pipeline
 
 REDRIVE_TOPICS: Final = tuple(t for t in Topic if t is not Topic.WORLD_STATE)
 """What the pipeline emits (every topic but the world's state)."""
 
 
-def redrive(path: str | os.PathLike[str]) -> Comparison:
-    """Redrive a recording (``RecordingError`` when it cannot be read or rebuilt)."""
-    return redrive_recording(open_recording(path))
+def redrive(path: str | os.PathLike[str], *, watch: Watch | None = None) -> Comparison:
+    """Redrive a recording (``RecordingError`` when it cannot be read or rebuilt);
+    ``watch`` hears the progress (``compare_ticks``)."""
+    return redrive_recording(open_recording(path), watch=watch)
 
 
-def redrive_recording(recording: Recording) -> Comparison:
+def redrive_recording(recording: Recording, *, watch: Watch | None = None) -> Comparison:
     """Redrive an opened recording."""
     check_replayable(recording)
     with rebuilt_pipeline(recording) as built:
         notes = rebuild_notes(recording, built)
         pipeline = built.pipeline
-        comparator = Comparator(
-            recording,
-            compared=REDRIVE_TOPICS,
-            last_tick=_last_tick(recording, pipeline.config.tick_ms),
-        )
+        last_tick = _last_tick(recording, pipeline.config.tick_ms)
+        comparator = Comparator(recording, compared=REDRIVE_TOPICS, last_tick=last_tick)
         built.sink.add(comparator)
         assert set(INPUT_TOPICS) <= set(REDRIVE_TOPICS)
 
@@ -58,7 +56,10 @@ def redrive_recording(recording: Recording) -> Comparison:
                 joystick=next((e for e in joystick if isinstance(e, JoystickInput)), None),
             )
 
-        return compare_ticks(comparator, step, mode="redrive", notes=notes)
+        total = None if last_tick is None else last_tick + 1
+        return compare_ticks(
+            comparator, step, mode="redrive", notes=notes, watch=watch, total=total
+        )
 
 
 def _last_tick(recording: Recording, tick_ms: int) -> int | None:

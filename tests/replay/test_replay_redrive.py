@@ -447,6 +447,19 @@ def test_replay_cli_exits_0_with_counts_in_both_modes_and_1_at_a_divergence(
     assert "DIVERGENCE (extra) on /map" in capsys.readouterr().out
 
 
+def test_replay_shows_its_progress_on_stderr_unless_quiet(
+    recording: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An 8-hour session replays for minutes: a bar says how far (a line per quarter off a
+    terminal, the last at 100 %); ``-q`` for none."""
+    for mode in ("redrive", "rerun"):
+        assert main(["replay", str(recording), "--mode", mode]) == 0
+        err = capsys.readouterr().err.splitlines()
+        assert err[-1].startswith(f"{mode} {recording.name} [{'#' * 30}] 100%"), err
+    assert main(["replay", str(recording), "-q"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_an_identical_report_lists_the_count_per_topic() -> None:
     report = format_report(
         Comparison(mode="redrive", recording="x.mcap", ticks=3, compared={"/map": 2, "/log": 0})
