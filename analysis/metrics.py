@@ -244,7 +244,7 @@ def operator_commands(data: SessionData) -> pl.DataFrame:
     """Every operator command with its reply (ok, reason) when one was recorded."""
     replies = (
         data["/operator/state/replies"]
-        .select("id", "ok", "reason", reply_ms="time_ms")
+        .select("id", "ok", "reason", replied_ms="time_ms")
         .unique("id", keep="first", maintain_order=True)
     )
     return (

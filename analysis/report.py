@@ -140,10 +140,12 @@ KEY_FIGURES: Final = (
 
 
 def human_duration(seconds: float) -> str:
-    """``72.0`` -> ``1 min 12 s``; ``0.02`` -> ``0.02 s``; hours when long."""
+    """``72.0`` -> ``1 min 12 s``; ``17.8`` -> ``17.8 s`` (a tenth under a minute, as a
+    session's times are read beside verdicts that give them); ``0.02`` -> ``0.02 s``;
+    hours when long."""
     if seconds < 0:
         return "-" + human_duration(-seconds)
-    if seconds < 10:
+    if round(seconds, 1) < 60:
         return f"{seconds:.2g} s" if seconds < 1 else f"{seconds:.1f} s".replace(".0 s", " s")
     whole = round(seconds)
     hours, rest = divmod(whole, 3600)

@@ -84,6 +84,8 @@ def test_operator_commands_carry_their_replies(too_close) -> None:
     operator = metrics["operator"]
     assert operator["cmd"].to_list() == ["add", "get_ready", "start"]
     assert operator["ok"].to_list() == [True, True, True]
+    assert operator.columns[-1] == "replied_ms"  # shown as "replied", a time (not "reply")
+    assert operator["replied_ms"].to_list() == operator["time_ms"].to_list()  # the same tick
 
 
 def test_joystick_takeovers_are_the_spans_with_the_lock_held(joystick) -> None:
