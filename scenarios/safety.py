@@ -135,7 +135,14 @@ def scans_to_see(dropout: float) -> float:
 NEVER_BELOW: Final = {
     name: value
     for name, value in ASSUMED.items()
-    if name not in ("robot_radius_m", "camera_fov_rad", "camera_range_m", "sonar_beam_rad")
+    if name
+    not in (
+        "robot_radius_m",
+        "camera_fov_rad",
+        "camera_range_m",
+        "sonar_beam_rad",
+        "sonar_reports_surface",
+    )
 }
 """Below the supervisor's own assumptions, one left out is not taken even when the scenario
 allows it (the robot's radius, the camera's view and range and the ring's beams aside: they
@@ -150,13 +157,15 @@ def beam_rad(sensors: SensorSpec) -> float:
 
 def supervisor_config(scenario: Scenario) -> SafetyConfig:
     """The scenario's ``[robot.safety]`` with what it leaves out taken from the scenario
-    (the camera's field of view and range: its camera's; a sonar's beam: its ring's)."""
+    (the camera's field of view and range: its camera's; a sonar's beam, and whether it
+    reports surfaces: its ring's, a merging one's do)."""
     implied = needs(scenario)
     return scenario.robot.safety.filled(
         **{name: _left_out(name, implied) for name in implied},
         camera_fov_rad=scenario.sensors.fov_rad,
         camera_range_m=scenario.sensors.range_m,
         sonar_beam_rad=beam_rad(scenario.sensors),
+        sonar_reports_surface=scenario.sensors.sonar_beams > 0,
     )
 
 
@@ -169,8 +178,9 @@ def _left_out(name: str, implied: dict[str, Need]) -> float:
 
 def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     """Each assumption the scenario sets where the supervisor could let the robot touch
-    someone: below what the scenario implies, or a camera's view wider (or range longer)
-    than its camera's, as (path, message)."""
+    someone: below what the scenario implies, a camera's view wider (or range longer)
+    than its camera's, or surfaces stated for the ideal ring (it reports centres), as
+    (path, message)."""
     safety = scenario.robot.safety
     for name, own, beyond, why in CAMERA:
         given, camera = getattr(safety, name), getattr(scenario.sensors, own)
@@ -188,6 +198,14 @@ def unsafe_assumptions(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], st
             f" ({beam!r} rad: sonar_beams {scenario.sensors.sonar_beams!r}): the supervisor"
             " would take a child merged into a tracked child's echo for that child (left"
             " out, it is taken from the scenario)",
+        )
+    if safety.sonar_reports_surface and not scenario.sensors.sonar_beams:
+        yield (
+            ("robot", "safety", "sonar_reports_surface"),
+            "true, but the ideal ring (sonar_beams 0) reports each body's centre: the"
+            " supervisor would keep the echo's centre a radius beyond the body's; a real"
+            " ring's scenario sets sonar_beams to its sonars (left out, it is taken from"
+            " the scenario)",
         )
     for name, need in needs(scenario).items():
         if not math.isfinite(need.least):

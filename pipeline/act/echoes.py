@@ -10,8 +10,9 @@ What else must hold depends on the ring (``sonar_beam_rad``):
 - a ring whose sonars merge what their beam holds (``sonar_beam_rad`` > 0; every real
   ring): a sonar gives a range, not a bearing, so an echo is an arc: what made it lies at
   its range within half a beam of its bearing (its beam's axis), on a body's surface or at
-  its centre. The supervisor grows the echo's disc to cover the arc (:meth:`EchoSorter.arc_m`)
-  and takes its distance from the arc itself (:meth:`EchoSorter.off_arc`), and a human's
+  its centre (``sonar_reports_surface``: on its surface, below). The supervisor grows the
+  echo's disc to cover the arc (:meth:`EchoSorter.arc_m`) and takes its distance from the
+  arc itself (:meth:`EchoSorter.off_arc`), and a human's
   gate is measured to the arc, a body's radius wider (capped at two radii, not one): a
   gate is only a necessary condition for an echo to be that human's, and what makes
   dropping one sound is what follows. A child beside the one the camera sees, in the same
@@ -39,6 +40,24 @@ What else must hold depends on the ring (``sonar_beam_rad``):
   bodies: one may be a child beside them, outside the camera's view, ``make soak
   SEED=35``); an echo alone in one human's gate is dropped even when another human's gate
   holds two (that human's own echo is then missing).
+
+A ring that reports surfaces (``sonar_reports_surface``): the nearest surface in the beam
+at range ``rho`` is the nearest point of a body's disc (radius ``r' <= human_radius_m``)
+where that point lies in the beam; the disc meets no point of the beam nearer than ``rho``,
+so it is tangent there to the circle of radius ``rho`` about where the robot's centre was,
+its normal pointing at that centre, and its centre lies on the same ray, ``rho + r'`` out.
+A smaller body tangent at the same point lies inside the disc of radius ``human_radius_m``
+tangent there, whose centre is ``rho + human_radius_m`` out: the echo's centre is placed
+there (:attr:`EchoSorter.beyond_m`), at the same bearing, and its arc is that of the
+centres, its chord ``2 (rho + r) sin(beam / 4)``. It is a disc, not the point heard: a robot
+moving across the ray comes nearer a disc tangent at a point than to that point. A body
+whose disc only reaches into the beam (its nearest point in another beam) is heard where
+the beam's edge enters it, its centre beyond that edge, off this arc: the beam holding its
+nearest point hears it nearer, and that echo's disc holds it (as with a ring of centres;
+one behind a nearer body there is hidden in that beam, below). What makes an echo a
+tracked human's is unchanged: its gate and the coverage rule take the surface's range,
+``rho`` (the centre within a body of it; an edge's centre out of the beam by at most the
+angle a body subtends at ``rho``).
 
 No ring reports a body hidden behind nearer ones in every beam it reaches, and no echo
 logic finds it (docs/actuator-and-joystick.md). No clock, no IO.
@@ -102,6 +121,11 @@ class EchoSorter:
         self._half_view: float = config.camera_fov_rad / 2  # type: ignore[operator]  # filled
         self._body_m: float = config.human_radius_m + config.sensing_error_m  # type: ignore[operator]
         """How far a body's edge may lie from the centre a reading gives."""
+        surface = config.sonar_reports_surface and self._beam_rad > 0.0
+        self.beyond_m: float = config.human_radius_m if surface else 0.0  # type: ignore[assignment]  # filled
+        """How far beyond its range an echo's centre is placed: ``human_radius_m`` where the
+        ring reports surfaces (the module's docstring), else 0 (its range may be a centre's;
+        the ideal ring's is)."""
         self._arc_per_m = arc_chord(1.0, self._beam_rad)
         """An echo's arc's chord per metre of its range (:meth:`arc_m`)."""
         self._reach_m: float = config.camera_range_m - self._body_m  # type: ignore[operator]  # filled
@@ -152,7 +176,8 @@ class EchoSorter:
         both readings' errors and the walk between their times, at most ``human_radius_m``
         (``slipped``: less the drift since the echo, placed that far off). On a merging ring
         the echo is an arc (:meth:`arc_m`) on the body's surface: the human's centre is
-        measured to the arc, and may lie a body's radius more from it."""
+        measured to the arc at the surface's range (the echo's own less :attr:`beyond_m`),
+        and may lie a body's radius more from it."""
         config = self._config
         _, at_ms, x, y, since = echo
         radius: float = config.human_radius_m  # type: ignore[assignment]  # filled
@@ -166,18 +191,20 @@ class EchoSorter:
         for j, (_, human_ms, hx, hy, _) in enumerate(seen):
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000  # type: ignore[operator]
             gate = min(2 * config.sensing_error_m + walked + surface, largest)  # type: ignore[operator]
-            off = self.off_arc(echo, hx, hy) if surface else math.hypot(x - hx, y - hy)
+            off = (
+                self.off_arc(echo, hx, hy, self.beyond_m) if surface else math.hypot(x - hx, y - hy)
+            )
             if off <= gate:
                 found.append(j)
         return found
 
-    def off_arc(self, echo: Anchor, x: float, y: float) -> float:
+    def off_arc(self, echo: Anchor, x: float, y: float, nearer: float = 0.0) -> float:
         """How far (x, y) (odometry frame: a human's centre, or the robot's) lies from the
-        echo's arc: the points at its range within half a beam of its bearing, from where
-        the robot was when it was taken."""
+        echo's arc: the points at its range (less ``nearer``) within half a beam of its
+        bearing, from where the robot was when it was taken."""
         p_x, p_y, _ = echo.since.pose
         e_x, e_y, d_x, d_y = echo.x - p_x, echo.y - p_y, x - p_x, y - p_y
-        rho, far = math.hypot(e_x, e_y), math.hypot(d_x, d_y)
+        rho, far = max(math.hypot(e_x, e_y) - nearer, 0.0), math.hypot(d_x, d_y)
         apart = abs(math.remainder(math.atan2(d_y, d_x) - math.atan2(e_y, e_x), math.tau))
         beyond = max(apart - self._beam_rad / 2, 0.0)  # from the arc's nearer end
         return math.sqrt(max(rho * rho + far * far - 2 * rho * far * math.cos(beyond), 0.0))
@@ -188,10 +215,11 @@ class EchoSorter:
         of half a beam at its range, ``2 rho sin(beam / 4)`` (a sonar gives a range, not a
         bearing: whatever it heard lies at that range within half a beam of its axis, where
         a driver places it, and no farther from that point than this). The supervisor grows
-        the echo's margin by it, its centre kept at the range: docs/actuator-and-joystick.md."""
+        the echo's margin by it, its centre kept at the range (:attr:`beyond_m` farther on a
+        ring of surfaces, the chord taken there): docs/actuator-and-joystick.md."""
         if self._beam_rad == 0.0 or not isinstance(reading, Obstacle):
             return 0.0
-        return max(reading.positionrho, 0.0) * self._arc_per_m
+        return (max(reading.positionrho, 0.0) + self.beyond_m) * self._arc_per_m
 
     def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which
@@ -200,14 +228,15 @@ class EchoSorter:
         against it). In the view: its bearing in that frame, within the camera's half view
         less half a beam, the body's angle and the move's and walk's. In range: what made
         the echo is the nearest body in its beam, its surface at the echo's range ``rho``
-        (a driver may give a centre: nearer still), so its centre lay within ``rho + body``
-        (``human_radius_m + sensing_error_m``) of the robot then, and within ``moved``
-        (the robot between both readings) and ``walked`` (a walk between their times) more
-        of the robot at the frame: ``rho + body + moved + walked <= camera_range_m``."""
+        (the echo's own less :attr:`beyond_m`; a driver may give a centre: nearer still),
+        so its centre lay within ``rho + body`` (``human_radius_m + sensing_error_m``) of
+        the robot then, and within ``moved`` (the robot between both readings) and
+        ``walked`` (a walk between their times) more of the robot at the frame:
+        ``rho + body + moved + walked <= camera_range_m``."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
-        rho = math.hypot(d_x, d_y)
+        rho = math.hypot(d_x, d_y) - self.beyond_m  # the surface's range
         body = self._body_m
         if rho <= body:
             return False  # a body's disc reaches all round the robot

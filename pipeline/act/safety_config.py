@@ -28,6 +28,8 @@ ASSUMED: Final[dict[str, float]] = {
     "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
     "sonar_beam_rad": math.pi / 3,  # a pipeline without a scenario, or a real robot's
     # ring (oimi bridge): wide, cheap sonars (60 degrees)
+    "sonar_reports_surface": False,  # a pipeline without a scenario, or a real robot's
+    # driver unless stated (oimi bridge): an echo's range may be a centre's
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
 
@@ -121,6 +123,17 @@ class SafetyConfig(Message):
     None: the scenario's camera's ``range_m`` (3.0 without a scenario, and on a real robot
     whose scenario states no ``range_m``: ``oimi bridge``; a scenario may not set it
     beyond its camera's)."""
+    sonar_reports_surface: bool | None = None
+    """Whether each echo of a merging ring (``sonar_beam_rad`` > 0) gives the range of the
+    nearest surface its sonar heard (a real sonar's raw range, the simulator's ring): the
+    body whose nearest point that is then has its centre a radius farther out, and the
+    supervisor keeps the echo's centre at its range plus ``human_radius_m``
+    (:mod:`~pipeline.act.echoes`: a child's radius counted once, not twice). False: the
+    range may be a body's centre's too, and the echo's centre stays at its range (it covers
+    either). None: the scenario's ring's (true on a merging simulated ring, which reports
+    surfaces; false on the ideal ring, which reports centres, and where it has no
+    effect); false without a scenario and on a real robot (``oimi bridge``) unless stated
+    (a scenario may not state it true for the ideal ring)."""
 
     def filled(self, **given: float) -> SafetyConfig:
         """This configuration with each assumption it leaves open (None) taken from

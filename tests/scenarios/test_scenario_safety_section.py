@@ -263,6 +263,33 @@ def test_left_out_the_cameras_range_is_the_scenarios_camera_even_when_short() ->
     assert pipeline_config(parse_scenario(short).scenario).safety.camera_range_m == 2.0
 
 
+def test_left_out_a_merging_simulated_ring_reports_surfaces_and_the_ideal_ring_centres() -> None:
+    """The simulator's merging ring reports each beam's nearest surface; its ideal ring,
+    each body's centre (``sonar_reports_surface``; stated false, a merging ring's echo keeps
+    its centre at its range)."""
+    safety = pipeline_config(
+        parse_scenario(b'name = "x"\n[sensors]\nsonar_beams = 12\n').scenario
+    ).safety
+    assert safety.sonar_reports_surface is True
+    assert (
+        pipeline_config(parse_scenario(b'name = "x"\n').scenario).safety.sonar_reports_surface
+        is False
+    )
+    stated = (
+        b'name = "x"\n[robot.safety]\nsonar_reports_surface = false\n[sensors]\nsonar_beams = 12\n'
+    )
+    assert pipeline_config(parse_scenario(stated).scenario).safety.sonar_reports_surface is False
+
+
+def test_surfaces_stated_for_the_ideal_ring_are_a_located_error() -> None:
+    """The ideal ring reports centres: taken for surfaces, each echo's centre would be kept a
+    radius beyond the body's."""
+    text = b'name = "x"\n[robot.safety]\nsonar_reports_surface = true\n'
+    assert refused(text).startswith(
+        "s.toml:3:1: robot.safety.sonar_reports_surface: true, but the ideal ring"
+    )
+
+
 def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> None:
     assert parse_scenario(b'name = "x"\n').warnings == ()  # the 3 m ring
     # 0.3 + 0.25 + 0.1 + 0.02 + (0.5 + 1.0) x (1/5 + 1/50 s), then braking from 0.5 m/s at
