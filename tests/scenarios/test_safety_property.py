@@ -345,6 +345,7 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
     unreported_at: dict[str, int] = {}  # when each was last one no report placed
     speeds = {}
     robots: dict[int, tuple[float, float]] = {}
+    framed: dict[str, int] = {}  # when the camera's latest frame that reported each was taken
     fastest = {}  # the most each recorded speed may have been (cut towards zero)
     for state in states:
         robot = state.robot
@@ -354,7 +355,9 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
         robots[state.tick] = (robot.x_m, robot.y_m)
         for name, taken, echo in placed.get(state.tick, ()):
             if beyond and echo:
-                echoed_beyond(name, taken, placed[state.tick], truth, robots, safety)
+                echoed_beyond(name, taken, framed, truth, robots, safety)
+            elif not echo:
+                framed[name] = taken
             if name not in anchors or taken >= anchors[name][0]:  # (a frozen sensor's is old)
                 covered = ran.echo_walk_m if echo else ran.walk_covered_m
                 anchors[name] = (taken, truth.get(taken, now)[name], covered)
@@ -424,16 +427,18 @@ def assert_safe(ran: Ran, all_round: bool, beams: int = 0) -> None:
             assert speeds[stands] <= 1e-9, f"still moving at tick {stands} after release"
 
 
-def echoed_beyond(name, taken, placed, truth, robots, safety) -> None:
+def echoed_beyond(name, taken, framed, truth, robots, safety) -> None:
     """Count an echo that reports ``name`` beyond the camera's range (at the tick
-    ``taken``), and more if the camera reported someone beside them in the same tick."""
+    ``taken``), and more if a fresh frame (``max_data_age_ms``) reported someone beside them
+    (``framed``: each one's latest frame's tick): an echo the coverage rule must keep."""
     at = truth.get(taken, {}).get(name)
     robot = robots.get(taken)
     if at is None or robot is None or math.dist(at, robot) <= safety.camera_range_m:
         return
     event("a human the ring reports beyond the camera's range")
-    for other, _, echo in placed:
+    fresh = safety.max_data_age_ms // TICK_MS
+    for other, when in framed.items():
         there = truth[taken].get(other)
-        if not echo and other != name and there and math.dist(there, at) < 3 * HUMAN_RADIUS_M:
-            event("a human the ring reports beyond the camera's range, beside one it reports")
+        if other != name and taken - when <= fresh and math.dist(there, at) < 3 * HUMAN_RADIUS_M:
+            event("a human the ring reports beyond the camera's range, beside one it tracks")
             return
