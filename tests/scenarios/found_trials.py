@@ -173,3 +173,25 @@ BEYOND_RANGE_67 = {  # two children walking together at the robot on a 12-sonar 
     "dropout": 0.0,
     "reach": 0.67,
 }
+BEYOND_RANGE_66 = {  # the same on main's ring that reports surfaces (sonar_reports_surface,
+    # b2a15a2), where BEYOND_RANGE_67 no longer shows the range condition: 6 sonars, a
+    # 0.66 m camera range; closed on the farther child at 0.0084 m/s in the stop zone
+    "pads": [
+        (2, 0.0, 0.0, 0.0, ()),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (5, -0.363, 0.932, 0.0, ("LB",)),
+    ],
+    "moves": [],
+    "humans": [
+        ((7.332, 5.958), [(4.942, 6.626)], 0.647),
+        ((7.317, 5.616), [(4.927, 6.285)], 0.647),
+    ],
+    "heading": -0.655,
+    "all_round": True,
+    "tamper": None,
+    "beams": 6,
+    "dropout": 0.0,
+    "reach": 0.66,
+}

@@ -83,6 +83,7 @@ from oimi.scenarios.simulation.bodies import STATE_DECIMALS
 
 from tests.fuzz.fuzzing import fuzz_settings
 from tests.scenarios.found_trials import (
+    BEYOND_RANGE_66,
     BEYOND_RANGE_67,
     DROPOUT_EDGE_697,
     MERGE_176,
@@ -245,6 +246,7 @@ may be a child beyond the camera's range (the coverage rule, ``camera_range_m``)
 @example(**WALKED_UNSEEN_466)  # dropping readings: children who walked on unreported
 @example(**WALKED_UNSEEN_495)
 @example(**BEYOND_RANGE_67)  # a child beyond the camera's range, their echo merged
+@example(**BEYOND_RANGE_66)
 @given(
     pads=st.lists(pad_state, max_size=8),
     moves=st.lists(move_block, max_size=5),
