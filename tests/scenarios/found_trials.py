@@ -1,6 +1,6 @@
 """Sessions the searches found unsafe once (``test_safety_property.py`` runs them as
-examples), as that test's keyword arguments (the first two less the ring, ``beams``, and
-the dropout)."""
+examples), as that test's keyword arguments (the first two less the ring, ``beams``, the
+dropout and the camera's range, ``reach``)."""
 
 from __future__ import annotations
 
@@ -47,6 +47,7 @@ NEVER_REPORTED_FROZEN = {  # the ring's first scan missed a child 0.2 m behind, 
     "faults": [(0.1, "sonar", "frozen"), (1.01, "camera", "silent"), (3.37, "camera", "silent")],
     "beams": 0,
     "dropout": 0.4,
+    "reach": None,
 }
 NEVER_REPORTED_BESIDE = {  # a child 0.2 m beside the robot, 5 degrees outside the view,
     # missed by the ring's one scan before it went offline: within the slow zone, where
@@ -60,6 +61,7 @@ NEVER_REPORTED_BESIDE = {  # a child 0.2 m beside the robot, 5 degrees outside t
     "faults": [(0.1, "sonar", "offline")],
     "beams": 0,
     "dropout": 0.4,
+    "reach": None,
 }
 DROPOUT_EDGE_697 = {  # the review of e563091 (M2): a child 2 degrees outside the view,
     # missed by the ring's one scan before it fell silent; driven into along the view's
@@ -70,6 +72,7 @@ DROPOUT_EDGE_697 = {  # the review of e563091 (M2): a child 2 degrees outside th
     "faults": [(0.1, "sonar", "silent")],
     "beams": 0,
     "dropout": 0.4,
+    "reach": None,
 }
 # As ``test_no_source_drives_...``'s keyword arguments:
 WALKED_UNSEEN_466 = {  # a child walking at 1 m/s just outside the view, missed by four
@@ -94,6 +97,7 @@ WALKED_UNSEEN_466 = {  # a child walking at 1 m/s just outside the view, missed 
     "tamper": None,
     "beams": 0,
     "dropout": 0.4,
+    "reach": None,
 }
 WALKED_UNSEEN_495 = {  # three children (two walking through each other), full stick with
     # a spin: one missed by the ring while they walked in (closing 0.13 m/s)
@@ -109,6 +113,7 @@ WALKED_UNSEEN_495 = {  # three children (two walking through each other), full s
     "tamper": None,
     "beams": 0,
     "dropout": 0.4,
+    "reach": None,
 }
 RINGDOWN_WALK_1721 = {  # the review of e563091 (L4): the ring offline 0.1 to 3.49 s, a
     # child walking 1.4 m up to the robot's flank unseen; the robot, driving along the
@@ -125,6 +130,7 @@ RINGDOWN_WALK_1721 = {  # the review of e563091 (L4): the ring offline 0.1 to 3.
     "faults": [(0.1, "sonar", "offline"), (3.49, "sonar", "online"), (0.28, "camera", "online")],
     "beams": 16,
     "dropout": 0.0,
+    "reach": None,
 }
 VIEW_EDGE = {  # the review of e563091 (M2, test_safety_edge.py): a child 1.13 m away, 2
     # degrees outside the 2.2 rad view, the ring offline before its first scan: no sensor
@@ -135,6 +141,7 @@ VIEW_EDGE = {  # the review of e563091 (M2, test_safety_edge.py): a child 1.13 m
     "faults": [(0.0, "sonar", "offline")],
     "beams": 0,
     "dropout": 0.0,
+    "reach": None,
 }
 VIEW_DROPOUT = {  # the same with the ring's one scan missing a child 1.5 m away, 11 degrees
     # outside the view, before it went offline (found with the view widened to the camera's
@@ -144,4 +151,47 @@ VIEW_DROPOUT = {  # the same with the ring's one scan missing a child 1.5 m away
     "faults": [(0.1, "sonar", "offline")],
     "beams": 0,
     "dropout": 0.25,
+    "reach": None,
+}
+# The camera's range drawn short (its coverage rule, ``camera_range_m``; /tmp/s23/range):
+BEYOND_RANGE_67 = {  # two children walking together at the robot on a 12-sonar ring, the
+    # farther 4 cm behind, beyond a 0.67 m camera range: with the range left out of the
+    # coverage rule, their echo was taken for the nearer child, whom the camera tracked;
+    # the robot, drawing back from that one, closed on them at 0.0016 m/s in the stop zone
+    "pads": [
+        (2, 0.0, 0.0, 0.0, ()),
+        (40, 0.333, 0.943, 0.0, ("LB",)),
+        (40, 0.333, 0.943, 0.0, ("LB",)),
+        (32, 0.333, 0.943, 0.0, ("LB",)),
+    ],
+    "moves": [],
+    "humans": [((7.188, 5.651), [(4.163, 7.248)], 0.54), ((7.114, 5.45), [(4.088, 7.047)], 0.54)],
+    "heading": -0.119,
+    "all_round": True,
+    "tamper": None,
+    "beams": 12,
+    "dropout": 0.0,
+    "reach": 0.67,
+}
+BEYOND_RANGE_66 = {  # the same on main's ring that reports surfaces (sonar_reports_surface,
+    # b2a15a2), where BEYOND_RANGE_67 no longer shows the range condition: 6 sonars, a
+    # 0.66 m camera range; closed on the farther child at 0.0084 m/s in the stop zone
+    "pads": [
+        (2, 0.0, 0.0, 0.0, ()),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (40, -0.363, 0.932, 0.0, ("LB",)),
+        (5, -0.363, 0.932, 0.0, ("LB",)),
+    ],
+    "moves": [],
+    "humans": [
+        ((7.332, 5.958), [(4.942, 6.626)], 0.647),
+        ((7.317, 5.616), [(4.927, 6.285)], 0.647),
+    ],
+    "heading": -0.655,
+    "all_round": True,
+    "tamper": None,
+    "beams": 6,
+    "dropout": 0.0,
+    "reach": 0.66,
 }

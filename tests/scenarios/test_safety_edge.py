@@ -11,7 +11,8 @@ from oimi.pipeline.events import Topic, WorldState
 
 from tests.scenarios.found_trials import DROPOUT_EDGE_697, NEVER_REPORTED_BESIDE, VIEW_EDGE
 from tests.scenarios.session_record import Ran, ring_down
-from tests.scenarios.test_safety_property import RADII_M, STOP_DISTANCE_M, Trial, run_session
+from tests.scenarios.test_safety_property import RADII_M, STOP_DISTANCE_M
+from tests.scenarios.trials import Trial, run_session
 from tests.scenarios.unseen import NarrowedView
 
 

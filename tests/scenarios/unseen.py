@@ -22,8 +22,6 @@ HUMAN_RADIUS_M = 0.25
 """The humans' radius (the supervisor's ``human_radius_m``)."""
 RING_M = 3.0
 """The ring's range (the scenarios' default)."""
-FRONT_FOV_RAD = 2.2
-"""The front camera's view (the scenarios' default)."""
 TURN_RAD = 0.002
 """The most the heading may change (``/world/state`` keeps milliradians) while a claim
 holds: a turn may bring a body the drive passed to an edge of the view."""
@@ -34,23 +32,31 @@ STILL_MPS = 0.002
 """A recorded speed this low has no direction to speak of (it points anywhere)."""
 
 
-def hidden(state: WorldState, all_round: bool, beams: int) -> set[str]:
-    """The humans no sensor can see now: out of the front camera's view (none when it sees
-    all round) and, on a ring of ``beams`` sonars, behind nearer bodies in every beam their
-    disc reaches (the simulator's ring, on the truth; the ideal ring hides nobody)."""
-    if all_round or not beams:
-        return set()
+def hidden(state: WorldState, safety: SafetyConfig, beams: int) -> set[str]:
+    """The humans no sensor can see now (on the truth): the camera's (``camera_fov_rad`` and
+    ``camera_range_m`` of ``safety``, filled: its scenario's) reports a centre within its
+    range and view; a ring of ``beams`` sonars reports the nearest surface in each beam (the
+    simulator's), so it hides a body behind nearer ones in every beam its disc reaches; the
+    ideal ring (0) reports every surface within its range."""
     robot = state.robot
     pose = (robot.x_m, robot.y_m, robot.theta_rad)
-    bodies = [(h.id, h.x_m, h.y_m, HUMAN_RADIUS_M, False) for h in state.humans]
-    echoed = {name.split(".")[0] for name, _, _ in beam_echoes(bodies, pose, beams, RING_M)}
-    return {
-        h.id
-        for h in state.humans
-        if h.id not in echoed
-        and abs(wrap_angle(math.atan2(h.y_m - robot.y_m, h.x_m - robot.x_m) - robot.theta_rad))
-        > FRONT_FOV_RAD / 2
-    }
+    half_view, reach = safety.camera_fov_rad / 2, safety.camera_range_m  # type: ignore[operator]
+    if beams:
+        bodies = [(h.id, h.x_m, h.y_m, HUMAN_RADIUS_M, False) for h in state.humans]
+        echoed = {name.split(".")[0] for name, _, _ in beam_echoes(bodies, pose, beams, RING_M)}
+    else:
+        echoed = {
+            h.id
+            for h in state.humans
+            if math.hypot(h.x_m - robot.x_m, h.y_m - robot.y_m) - HUMAN_RADIUS_M <= RING_M
+        }
+    unseen = set()
+    for h in state.humans:
+        dx, dy = h.x_m - robot.x_m, h.y_m - robot.y_m
+        bearing = abs(wrap_angle(math.atan2(dy, dx) - robot.theta_rad))
+        if h.id not in echoed and (bearing > half_view or math.hypot(dx, dy) > reach):
+            unseen.add(h.id)
+    return unseen
 
 
 class NarrowedView:
