@@ -11,10 +11,10 @@ import msgspec
 
 from oimi.console import Progress
 from oimi.recorder.errors import RecordingError
-from oimi.recorder.reader import open_recording
+from oimi.recorder.reader import Recording, open_recording
 from oimi.replay.compare import Comparison, Watch, format_report
 from oimi.replay.expectations import judgeable
-from oimi.replay.redrive import redrive
+from oimi.replay.redrive import redrive_recording
 from oimi.replay.rerun import rerun_recording
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
@@ -24,11 +24,13 @@ def replay(
     recording: Path, *, mode: str, foxglove: int | None, speed: float, quiet: bool = False
 ) -> Comparison:
     """Compare ``recording`` with its replay in ``mode`` and print the report (with a
-    progress bar on stderr unless ``quiet``); then, with a ``foxglove`` port, stream it to
-    a Foxglove client at ``speed`` times its pace."""
-    progress = None if quiet else _progress(recording, mode)
+    progress bar on stderr unless ``quiet``, when its tick rate is recorded); then, with a
+    ``foxglove`` port, stream it to a Foxglove client at ``speed`` times its pace."""
+    opened = open_recording(recording)
+    hz = None if quiet else opened.meta.tick_hz
+    progress = Progress(f"{mode} {recording.name}", 1000 // hz) if hz else None
     try:
-        comparison = MODES[mode](recording, watch=progress)
+        comparison = MODES[mode](opened, watch=progress)
     finally:
         if progress is not None:
             progress.close()
@@ -38,44 +40,28 @@ def replay(
     return comparison
 
 
-def _progress(path: Path, mode: str) -> Progress | None:
-    """A progress bar for replaying ``path`` (None when its tick rate is not recorded:
-    the replay then says so itself, as it refuses it)."""
-    try:
-        scenario = open_recording(path).meta.scenario
-    except RecordingError:
-        return None
-    hz = _integer(scenario.tick_hz) if scenario is not None else None
-    return Progress(f"{mode} {path.name}", 1000 // hz) if hz else None
-
-
-def _integer(text: str | None) -> int | None:
-    return int(text) if text is not None and text.isdigit() else None
-
-
-def rerun(path: Path, *, watch: Watch | None = None) -> Comparison:
-    """``replay.rerun.rerun``, refusing up front (``RecordingError``) a live session's
-    recording (its operator commands and joystick came from outside the scenario, which a
-    rerun plays again) and one driven over a rosbag2 (no world to simulate again)."""
-    recording = open_recording(path)
+def rerun(recording: Recording, *, watch: Watch | None = None) -> Comparison:
+    """``replay.rerun.rerun_recording``, refusing up front (``RecordingError``) a live
+    session's recording (its operator commands and joystick came from outside the scenario,
+    which a rerun plays again) and one driven over a rosbag2 (no world to simulate again)."""
     if recording.meta.live is not None:
         raise RecordingError(
             "a live session's recording: its operator commands and joystick came from"
             " outside the scenario, which --mode rerun cannot play again;"
             " replay it with --mode redrive (the default)",
-            source=str(path),
+            source=recording.path,
         )
     if recording.meta.from_bag:
         raise RecordingError(
             "a recording driven over a rosbag2: its inputs came from the bag, not from the"
             " scenario's world, which --mode rerun would simulate;"
             " replay it with --mode redrive (the default)",
-            source=str(path),
+            source=recording.path,
         )
     return rerun_recording(recording, watch=watch)
 
 
-MODES = {"redrive": redrive, "rerun": rerun}
+MODES = {"redrive": redrive_recording, "rerun": rerun}
 
 
 def serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:

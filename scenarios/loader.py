@@ -355,11 +355,12 @@ def real_people_problems(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
     """What the scenario gets wrong of a real robot's people and sonar ring
     (``scenarios.safety.unknown_people``), placed in the file, in its order: refusals for
     ``oimi bridge``, warnings for a rosbag2 driven through it (a bag's readings are real)."""
-    text = loaded.raw.decode("utf-8")
-    locator = TomlLocator(text)
+    locator = TomlLocator(loaded.raw.decode("utf-8"))
     problems = list(unknown_people(loaded.scenario))
-    sensors = tomllib.loads(text).get("sensors", {})
-    if "fov_rad" not in sensors and loaded.scenario.robot.safety.camera_fov_rad is None:
+    if (
+        "fov_rad" not in _sensors_written(loaded)
+        and loaded.scenario.robot.safety.camera_fov_rad is None
+    ):
         problems.append((("sensors", "fov_rad"), UNSET_VIEW))
     errors = [
         _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
@@ -412,8 +413,17 @@ UNSET_RANGE: Final = (
 
 def _range_unstated(loaded: LoadedScenario) -> bool:
     """Whether the scenario states neither its camera's range nor the supervisor's."""
+    return (
+        "range_m" not in _sensors_written(loaded)
+        and loaded.scenario.robot.safety.camera_range_m is None
+    )
+
+
+def _sensors_written(loaded: LoadedScenario) -> dict[str, Any]:
+    """The keys the scenario's file writes in ``[sensors]`` (not the schema's defaults:
+    a real robot's camera is not the simulated one)."""
     sensors = tomllib.loads(loaded.raw.decode("utf-8")).get("sensors", {})
-    return "range_m" not in sensors and loaded.scenario.robot.safety.camera_range_m is None
+    return sensors if isinstance(sensors, dict) else {}
 
 
 def _first_of(errors: list[ScenarioError]) -> ScenarioError:

@@ -251,9 +251,7 @@ class EchoSorter:
         if far > self._reach_m:
             return False  # it may have stood beyond the camera's range: never reported
         spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
-        spread += math.asin(min(1.0, (moved + walked) / rho))
-        if slipped:
-            spread += turned
+        spread += math.asin(min(1.0, (moved + walked) / rho)) + turned
         bearing = math.atan2(d_y, d_x) - h_theta
         off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
         return off + spread <= self._half_view
