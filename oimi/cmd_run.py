@@ -115,6 +115,9 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
     print(f"scenario {s.scenario} (seed {s.seed}): {s.ticks} ticks, {s.duration_s:.1f} s simulated")
     for name, state in s.activities.items():
         print(f"  activity {name}: {state}")
+    for name, state in s.ran.items():
+        if name not in s.activities:
+            print(f"  activity {name}: {state} (no longer selected)")
     for goal, at_ms in s.goals_reached.items():
         print(f"  goal {goal} reached at {at_ms / 1000:.2f} s")
     if s.rules_fired:

@@ -86,6 +86,8 @@ class Tracker:
         """When each rule a windowed ``rule_fired`` names fired (ms; only those rules)."""
         self.goals_reached: dict[str, int] = {}
         self.activity_states: dict[str, list[tuple[int, str]]] = {}
+        self.idle: set[str] = set()
+        """The activities the reader fell back to as its idle activity."""
         self.rejections: list[str] = []
         self.errors: list[str] = []
         """Every ERROR on ``/log`` (a user's rule, function or generator that raised...)."""
@@ -153,12 +155,23 @@ class Tracker:
             if item.kind == ProgressKind.GOAL_REACHED:
                 self.goals_reached.setdefault(item.detail, progress.time_ms)
             elif item.kind in (ProgressKind.LOAD, ProgressKind.IDLE):
+                if item.kind == ProgressKind.IDLE:
+                    self.idle.add(item.activity)
                 self._state(item.activity, progress.time_ms, "running")
             elif item.detail in ("completed", "interrupted"):
                 self._state(item.activity, progress.time_ms, item.detail)
 
     def _state(self, activity: str, time_ms: int, state: str) -> None:
         self.activity_states.setdefault(activity, []).append((time_ms, state))
+
+    def ran(self) -> dict[str, str]:
+        """Each activity that ran, the idle activity aside, with its last state (``running``,
+        ``completed`` or ``interrupted``), in the order they first ran."""
+        return {
+            activity: states[-1][1]
+            for activity, states in self.activity_states.items()
+            if activity not in self.idle
+        }
 
     def state_at(self, activity: str, time_ms: int) -> str:
         """The activity's state at ``time_ms`` (``loaded`` before it first ran)."""

@@ -55,6 +55,7 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     duration_s: float
     """Simulated time: ``ticks`` times the tick's length, s."""
     activities: dict[str, str]
+    """The operator's selection at the end, with each activity's state."""
     goals_reached: dict[str, int]
     rules_fired: dict[str, int]
     """Per rule, the evaluations whose condition held (a touch held 300 ms counts several)."""
@@ -79,6 +80,9 @@ class Summary(msgspec.Struct, frozen=True, kw_only=True):
     """Per rule that fired, its firing episodes: runs of evaluations that held."""
     errors: tuple[str, ...] = ()
     """Each ERROR the session logged (``1.00 s rules: rule 'r' (code 1010) raised ...``)."""
+    ran: dict[str, str] = {}
+    """Each activity that ran (the idle activity aside) with its last state, selected at
+    the end or not (``Tracker.ran``)."""
 
 
 class RunResult(msgspec.Struct, frozen=True, kw_only=True):
@@ -290,6 +294,7 @@ class Session:
             max_closing_speed_mps=max((e.closing_speed_mps for e in episodes), default=0.0),
             rule_episodes=dict(sorted(t.episodes.counts().items())),
             errors=tuple(t.errors),
+            ran=t.ran(),
         )
         return RunResult(summary=summary, verdicts=tuple(t.verdicts()))
 

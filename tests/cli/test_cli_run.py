@@ -116,3 +116,9 @@ def test_the_summary_says_the_simulated_time_and_the_rules_firing_episodes() -> 
         f"  rules fired: kick_starter x{fired['kick_starter']} (1 episode),"
         f" touch_reward x{fired['touch_reward']} (2 episodes)\n"
     ) in printed
+
+
+def test_the_summary_names_an_activity_that_ran_though_the_operator_cleared_it() -> None:
+    printed = oimi("run", "-q", LIBRARY / "operator_controls.toml", "--no-record").stdout
+    assert "  activity test_dance: completed (no longer selected)\n" in printed
+    assert "idle_activity" not in printed
