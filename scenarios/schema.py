@@ -547,7 +547,7 @@ class Scenario(Spec, kw_only=True):
     """Seeds every random generator of the session (see
     ``scenarios.simulation.world.stream_rng``)."""
     duration_s: SessionTime = 60.0
-    tick_hz: int = DEFAULT_TICK_HZ
+    tick_hz: PositiveInt = DEFAULT_TICK_HZ
     """Simulated clock rate; must divide 1000 (ticks are whole milliseconds)."""
     world: WorldSpec = msgspec.field(default_factory=WorldSpec)
     robot: RobotSpec = msgspec.field(default_factory=RobotSpec)

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import pytest
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import load_scenario
+from oimi.scenarios.loader import check_scenario, load_scenario
+from oimi.scenarios.schema import Scenario
 
 ERRORS = [
     # (what, text, message pattern, line)
@@ -125,6 +126,7 @@ ERRORS = [
         10,
     ),
     ("tick rate", "tick_hz = 60\n", r"tick_hz \(Hz\): 60 must divide 1000", 2),
+    ("no tick rate", "tick_hz = 0\n", r"tick_hz \(Hz\): must be >= 1, got 0", 2),
     (
         "unknown operator command",
         '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "strat" }\n',
@@ -188,3 +190,9 @@ def test_errors_name_the_file_and_line(tmp_path, what, text, pattern, line):
         load_scenario(path)
     assert caught.value.line == line, what
     assert str(caught.value).startswith(f"{path}:{line}:")
+
+
+def test_a_scenario_built_in_code_without_a_tick_rate_is_a_problem_not_a_crash() -> None:
+    """The safety checks count in ticks: they wait for a rate that makes whole-ms ticks."""
+    problems = list(check_scenario(Scenario(name="t", tick_hz=0)))
+    assert (("tick_hz",), "0 must divide 1000 (whole-ms ticks)") in problems
