@@ -308,6 +308,24 @@ def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> Non
     assert parse_scenario(slow_scan).warnings, "a slower scan needs a longer reach"
 
 
+def test_a_camera_too_short_to_drive_on_with_the_ring_down_is_a_located_warning() -> None:
+    """While a sonar is down only the camera sees ahead: one reporting people within less
+    than 0.3 + 0.25 + 0.02 + 0.1 m, 0.5 s of a frame's wait at 0.5 m/s and a tick and
+    braking from it (0.135 m), 1.055 m, leaves the robot only turning then (a warning: the
+    scenario runs, and drives while the ring is up)."""
+    short = b'name = "x"\n[sensors]\nrange_m = 1.05\n'
+    (warning,) = parse_scenario(short, source="s.toml").warnings
+    assert str(warning).startswith(
+        "s.toml:3:1: sensors.range_m (m): the camera reports people within 1.05 m, less than"
+        " the 1.055 m in which the safety supervisor can stop the robot"
+    )
+    assert str(warning).endswith("while a sonar is down the robot only turns")
+    assert parse_scenario(short.replace(b"1.05", b"1.06")).warnings == ()
+    stated = b'name = "x"\n[robot.safety]\ncamera_range_m = 1.0\n'
+    (warning,) = parse_scenario(stated, source="s.toml").warnings
+    assert str(warning).startswith("s.toml:3:1: robot.safety.camera_range_m (m): the camera")
+
+
 def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:
     loaded = parse_scenario(b'name = "x"\n[sensors]\nsonar_range_m = 1.63\n', source="s.toml")
     assert warnings_with(loaded, {}) == () == warnings_with(loaded, {"seed": "2"})
