@@ -371,6 +371,19 @@ def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
     check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))
 
 
+def real_session(text: bytes, overrides: dict[str, str], warned: str) -> SafetyConfig:
+    """The supervisor's configuration of a real robot's session (``oimi bridge``) of
+    ``text`` (``s.toml``), which must apply ``overrides``, recorded as its variation, and
+    warn once, starting with ``warned``."""
+    loaded = parse_scenario(text, source="s.toml")
+    assert real_robot_overrides(loaded) == overrides
+    (warning,) = real_robot_warnings(loaded)
+    assert str(warning).startswith(warned)
+    session = Session(loaded, overrides=overrides)
+    assert session.metadata().variation == overrides
+    return session.config.safety
+
+
 def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded() -> None:
     """The simulated camera's 5 m may reach farther than the lab's tracker: a child beyond
     its range is never reported, and the supervisor would take their echo, merged into a
@@ -379,18 +392,38 @@ def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded
     shorter range keeps more echoes, stops, not collisions), as an override recorded as the
     session's variation, so that a redrive rebuilds the same supervisor."""
     ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n'
-    loaded = parse_scenario(ring, source="s.toml")
-    overrides = real_robot_overrides(loaded)
-    assert overrides == {"robot.safety.camera_range_m": "3.0"}
-    (warning,) = real_robot_warnings(loaded)
-    assert str(warning).startswith(
+    surface = b"[robot.safety]\nsonar_reports_surface = true\n"  # (below)
+    safety = real_session(
+        ring + surface,
+        {"robot.safety.camera_range_m": "3.0"},
         "s.toml:3:1: sensors.range_m (m): not set: the safety supervisor takes the robot's"
-        " camera to report people within 3.0 m"
+        " camera to report people within 3.0 m",
     )
-    session = Session(loaded, overrides=overrides)
-    assert session.config.safety.camera_range_m == 3.0
-    assert session.metadata().variation == overrides
-    for stated in (ring + b"range_m = 4.0\n", ring + b"[robot.safety]\ncamera_range_m = 4.0\n"):
+    assert safety.camera_range_m == 3.0
+    for stated in (ring + b"range_m = 4.0\n" + surface, ring + surface + b"camera_range_m = 4.0\n"):
         loaded = parse_scenario(stated)
         assert real_robot_overrides(loaded) == {} and real_robot_warnings(loaded) == ()
         assert pipeline_config(loaded.scenario).safety.camera_range_m == 4.0
+
+
+def test_a_real_robots_ring_left_unsaid_is_taken_for_centres_with_a_warning() -> None:
+    """The simulated merging ring reports surfaces, and a scenario that leaves
+    ``sonar_reports_surface`` out takes that for its ring; a lab's driver may report a
+    body's centre instead, whose echo, taken for a surface, would be kept a radius too far
+    out. Left out, a real robot's session takes false (it covers either), with a warning,
+    as an override recorded as the session's variation; stated either way, nothing."""
+    ring = (
+        b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\nrange_m = 4.0\n'
+    )
+    simulated = pipeline_config(parse_scenario(ring).scenario).safety
+    assert simulated.sonar_reports_surface is True
+    safety = real_session(
+        ring,
+        {"robot.safety.sonar_reports_surface": "false"},
+        "s.toml: robot.safety.sonar_reports_surface: not set: the safety supervisor takes"
+        " each echo's range for one that may be a body's centre",
+    )
+    assert safety.sonar_reports_surface is False
+    for value in (b"true", b"false"):
+        stated = parse_scenario(ring + b"[robot.safety]\nsonar_reports_surface = " + value + b"\n")
+        assert real_robot_overrides(stated) == {} and real_robot_warnings(stated) == ()
