@@ -45,7 +45,7 @@ down may have made, is kept, stale. While a sonar is down or repeats an old echo
 motion stays inside the camera's view, narrowed so that a child centred just outside it
 beyond the slow zone is not driven into the stop zone (``separation.body_view``); a
 camera too short-ranged to report a child ahead in time leaves none
-(``separation.sighted_range_m``).
+(``separation.sighted_range_m``), and so does one that does not look (offline, frozen).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -347,7 +347,8 @@ class SafetySupervisor:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
             if constraint is not None:
                 constraints.append(constraint)
-        half_view = self._looking_rad if sonars and ring_down else math.pi
+        # (the view only while the camera looks: offline or frozen, it sees nothing there)
+        half_view = (self._looking_rad if seeing else -1.0) if sonars and ring_down else math.pi
         looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking

@@ -136,3 +136,16 @@ def test_with_the_ring_down_a_camera_reaching_the_least_range_sees_the_child_in_
     assert least_m == pytest.approx(1.055)
     nearest, went = toward_a_child_beyond_the_range(least_m + 1e-6, 500)
     assert nearest >= 0.1 and went > 0.3
+
+
+@pytest.mark.parametrize("frozen", [False, True])
+def test_with_the_ring_down_a_camera_that_does_not_look_lets_no_drive(frozen: bool) -> None:
+    """One of two sonars offline and the camera offline (or its latest frame 10 s old):
+    the view the robot is kept to while the ring is down is the camera's, and nothing
+    looks there; a child ahead in the down sonar's sector is reported by no sensor. The
+    robot may only turn (it drove at the blind cap, 0.2 m/s)."""
+    world_map = room(camera=frozen)
+    world_map.sonars += [Sonar(id="left", isonline=True), Sonar(id="right", isonline=False)]
+    framed = {"front": -10_000} if frozen else None
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.4), world_map, config=FRONT, framed=framed)
+    assert verdict.velocity == (0.0, 0.0, 0.4) and verdict.zone is SafetyZone.BLIND
