@@ -380,6 +380,9 @@ camera_fov_rad``) set."""
 REAL_RANGE: Final = {"robot.safety.camera_range_m": repr(ASSUMED["camera_range_m"])}
 """What a session with a real robot changes of a scenario that states no camera range
 (:func:`real_robot_overrides`)."""
+REAL_SURFACE: Final = {"robot.safety.sonar_reports_surface": "false"}
+"""What a session with a real robot changes of a scenario that does not say whether its
+ring's echoes are surfaces (the simulated merging ring's are: :func:`real_robot_overrides`)."""
 
 
 def real_robot_overrides(loaded: LoadedScenario) -> dict[str, str]:
@@ -388,18 +391,29 @@ def real_robot_overrides(loaded: LoadedScenario) -> dict[str, str]:
     supervisor): :data:`REAL_RANGE` when the scenario states neither ``[sensors] range_m``
     nor ``[robot.safety] camera_range_m`` (the simulated camera's 5 m may reach farther than
     the lab's tracker, and a child beyond its range is never reported: a shorter range only
-    keeps more echoes). Not a refusal, unlike the view (:data:`UNSET_VIEW`): it costs stops,
-    not safety (:func:`real_robot_warnings` says so)."""
-    return dict(REAL_RANGE) if _range_unstated(loaded) else {}
+    keeps more echoes); :data:`REAL_SURFACE` when it leaves ``[robot.safety]
+    sonar_reports_surface`` out (the simulated merging ring reports surfaces; a lab driver
+    that reports a body's centre, taken for a surface, would have its echo kept a radius
+    too far: false covers either). Not refusals, unlike the view (:data:`UNSET_VIEW`): they
+    cost stops, not safety (:func:`real_robot_warnings` says so)."""
+    overrides = dict(REAL_RANGE) if _range_unstated(loaded) else {}
+    if loaded.scenario.robot.safety.sonar_reports_surface is None:
+        overrides |= REAL_SURFACE
+    return overrides
 
 
 def real_robot_warnings(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
     """What a session with a real robot assumes that the scenario leaves unstated (its
-    camera's range, :func:`real_robot_overrides`), placed in the file."""
-    if not _range_unstated(loaded):
-        return ()
+    camera's range and its ring's kind of echo, :func:`real_robot_overrides`), placed in
+    the file, in its order."""
+    problems = [(("sensors", "range_m"), UNSET_RANGE)] if _range_unstated(loaded) else []
+    if loaded.scenario.robot.safety.sonar_reports_surface is None:
+        problems.append((("robot", "safety", "sonar_reports_surface"), UNSET_SURFACE))
     locator = TomlLocator(loaded.raw.decode("utf-8"))
-    return (_located(Invalid(("sensors", "range_m"), UNSET_RANGE), str(loaded.source), locator),)
+    errors = [
+        _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
+    ]
+    return tuple(sorted(errors, key=lambda error: (error.line or 0, error.column or 0)))
 
 
 UNSET_RANGE: Final = (
@@ -409,6 +423,15 @@ UNSET_RANGE: Final = (
     " echo of a child it tracks farther away is kept as a body of its own (more stops)"
 )
 """Why a session with a real robot warns of an unstated ``[sensors] range_m``."""
+UNSET_SURFACE: Final = (
+    "not set: the safety supervisor takes each echo's range for one that may be a body's"
+    " centre (false: the echo's centre kept at its range, a child's radius counted twice"
+    " near the robot: more stops); where the lab's sonar driver passes the raw sonar range"
+    " (the nearest surface heard), state true (with [sensors] sonar_beams its sonars);"
+    " where it reports centres, state false"
+)
+"""Why a session with a real robot warns of an unstated ``[robot.safety]
+sonar_reports_surface``."""
 
 
 def _range_unstated(loaded: LoadedScenario) -> bool:

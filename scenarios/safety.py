@@ -18,7 +18,7 @@ from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import arc_chord
 from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
-from oimi.pipeline.act.separation import stopping_way
+from oimi.pipeline.act.separation import sighted_range_m, stopping_way
 from oimi.scenarios.schema import Scenario, SensorSpec, unit_of
 
 NOISE_SIGMAS: Final = 3.0
@@ -289,7 +289,11 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     the person walks on. The ring must reach farther than all that, plus both radii, the
     stop distance and the sensing error; on a ring whose beams merge (``sonar_beam_rad``
     > 0), and by what a drive across may close on an echo's arc (the robot's way, a tick
-    and braking, times ``2 sin(beam / 4)``: ``SafetySupervisor._across``)."""
+    and braking, times ``2 sin(beam / 4)``: ``SafetySupervisor._across``).
+
+    While a sonar is down only the camera sees ahead, and only within its range: one that
+    reports people nearer than :func:`~pipeline.act.separation.sighted_range_m` leaves the
+    robot no linear motion then (it may only turn; with the ring up it drives)."""
     sensors, robot = scenario.sensors, scenario.robot
     config = supervisor_config(scenario)
     assert config.human_speed_mps is not None and config.sensing_error_m is not None
@@ -316,6 +320,21 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             f" {speed!r} and human_speed_mps {walk!r}, and {round(braking_m, 3)!r} m while"
             f" it brakes at max_accel_mps2 {accel!r}{_arc_text(arc_m)}): the robot may touch"
             " someone it has not seen",
+        )
+    assert config.max_frame_age_ms is not None and config.camera_range_m is not None
+    reach_m = bodies_m + config.sensing_error_m + config.stop_distance_m
+    frame_s, tick_s = config.max_frame_age_ms / 1000, scenario.tick_ms / 1000
+    sighted_m = sighted_range_m(reach_m, speed, frame_s, tick_s, accel)
+    if config.camera_range_m < sighted_m:
+        stated = robot.safety.camera_range_m is not None
+        yield (
+            ("robot", "safety", "camera_range_m") if stated else ("sensors", "range_m"),
+            f"the camera reports people within {config.camera_range_m!r} m, less than the"
+            f" {round(sighted_m, 3)!r} m in which the safety supervisor can stop the robot"
+            f" before a child standing in its view whom it has not seen yet (the stop zone's"
+            f" edge {round(reach_m, 3)!r} m, a frame's wait (max_frame_age_ms"
+            f" {config.max_frame_age_ms!r}) and a tick at max_speed_mps {speed!r}, and its"
+            f" braking at max_accel_mps2 {accel!r}): while a sonar is down the robot only turns",
         )
 
 

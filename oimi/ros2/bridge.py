@@ -130,7 +130,7 @@ class BridgeSession(LiveSession):
             seed=seed,
             world=self.body,
             sensors=self.remote_sensors,
-            overrides=real_robot_overrides(loaded),  # the lab camera's range, if left out
+            overrides=real_robot_overrides(loaded),  # camera range, ring's echoes: if left out
         )
         self.network = node.network
         self.on_note = on_note
@@ -251,6 +251,6 @@ def serve_bridge(args: argparse.Namespace) -> Served:
 def admit_real(loaded: LoadedScenario) -> None:
     """Refuse a scenario that assumes less of the robot's people than the supervisor does
     (they are real: ``check_real_people``); say what it assumes of the lab camera's range
-    that the scenario leaves out (``real_robot_warnings``)."""
+    and the ring's echoes that the scenario leaves out (``real_robot_warnings``)."""
     check_real_people(loaded)
     report_warnings(real_robot_warnings(loaded))

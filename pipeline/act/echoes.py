@@ -27,7 +27,9 @@ What else must hold depends on the ring (``sonar_beam_rad``):
   echo's range ``rho``, has its centre within ``rho`` and a body (``human_radius_m`` and
   ``sensing_error_m``) of where the ring took the echo, and that robot and that body may
   have moved apart by the robot's move and a walk between both readings (the reckoning's
-  slip too, where it may have slipped): ``rho + body + moved + walked <= camera_range_m``.
+  slip too, where it may have slipped, since the earlier reading: the move between them is
+  reckoned; it widens the angle as the move does): ``rho + body + moved + walked <=
+  camera_range_m``.
   A child beyond the range, behind or beside the tracked one in the same beam, is never
   reported: without this their echo was dropped and the robot closed on them. A body the
   ring hides reaches no beam but those of nearer bodies: when the echoes of all of them
@@ -224,15 +226,16 @@ class EchoSorter:
     def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which
         made ``echo`` may hold (the coverage rule: the module's docstring; ``slipped``:
-        the heading and distance the reckoning may have slipped since the echo count
-        against it). In the view: its bearing in that frame, within the camera's half view
-        less half a beam, the body's angle and the move's and walk's. In range: what made
+        the heading and distance the reckoning may have slipped since the earlier of both
+        readings count against it, as the move does: the move between them is reckoned).
+        In the view: its bearing in that frame, within the camera's half view less half a
+        beam, the body's angle and the move's, walk's and slip's. In range: what made
         the echo is the nearest body in its beam, its surface at the echo's range ``rho``
         (the echo's own less :attr:`beyond_m`; a driver may give a centre: nearer still),
         so its centre lay within ``rho + body`` (``human_radius_m + sensing_error_m``) of
         the robot then, and within ``moved`` (the robot between both readings) and
-        ``walked`` (a walk between their times) more of the robot at the frame:
-        ``rho + body + moved + walked <= camera_range_m``."""
+        ``walked`` (a walk between their times) more of the robot at the frame (and the
+        slip): ``rho + body + moved + walked (+ slip) <= camera_range_m``."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
@@ -242,16 +245,17 @@ class EchoSorter:
             return False  # a body's disc reaches all round the robot
         moved = math.hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
-        far = rho + moved + walked  # the farthest the body's centre lay from the frame, less a body
+        apart = moved + walked  # how far the body may lie from where the frame looked
         turned = 0.0
-        if slipped:
-            drift = self._reckoning.drift(echo.since)
-            far += drift.distance_m
+        if slipped:  # the move between both readings may have slipped: since the earlier
+            earlier = echo.since if echo.since.at_ms <= human.since.at_ms else human.since
+            drift = self._reckoning.drift(earlier)
+            apart += drift.distance_m
             turned = min(drift.heading_rad, math.pi)
-        if far > self._reach_m:
+        if rho + apart > self._reach_m:  # (its centre from the frame, less a body)
             return False  # it may have stood beyond the camera's range: never reported
         spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
-        spread += math.asin(min(1.0, (moved + walked) / rho)) + turned
+        spread += math.asin(min(1.0, apart / rho)) + turned
         bearing = math.atan2(d_y, d_x) - h_theta
         off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
         return off + spread <= self._half_view

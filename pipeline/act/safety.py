@@ -43,7 +43,9 @@ or one each on an ideal ring); one no longer reported is gone once every sonar h
 since and ``echo_hold_ms`` have passed; one repeated with an old reading, or that a ring now
 down may have made, is kept, stale. While a sonar is down or repeats an old echo, linear
 motion stays inside the camera's view, narrowed so that a child centred just outside it
-beyond the slow zone is not driven into the stop zone (``separation.body_view``).
+beyond the slow zone is not driven into the stop zone (``separation.body_view``); a
+camera too short-ranged to report a child ahead in time leaves none
+(``separation.sighted_range_m``), and so does one that does not look (offline, frozen).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -67,6 +69,7 @@ from oimi.pipeline.act.separation import (
     followed_meeting,
     meeting,
     nearer,
+    sighted_range_m,
     stopping_way,
     within_view,
 )
@@ -157,14 +160,15 @@ class SafetySupervisor:
         self._limited_ms = 0
         """When the supervisor last changed a velocity."""
         radii = config.robot_radius_m + config.human_radius_m + config.sensing_error_m  # type: ignore[operator]  # filled
-        self._looking_rad = body_view(
-            config.camera_fov_rad / 2,  # type: ignore[operator]  # filled
-            radii + config.stop_distance_m,
-            radii + config.slow_distance_m,
-        )
+        reach_m = radii + config.stop_distance_m  # the stop zone's edge, centre to centre
+        view = body_view(config.camera_fov_rad / 2, reach_m, radii + config.slow_distance_m)  # type: ignore[operator]  # filled
+        frame_s, a = config.max_frame_age_ms / 1000, limits.max_accel_mps2  # type: ignore[operator]  # filled
+        least_m = sighted_range_m(reach_m, limits.max_speed_mps, frame_s, self._dt_s, a)
+        self._looking_rad = view if config.camera_range_m >= least_m else -1.0  # type: ignore[operator]  # filled
         """While the ring is down: how far from straight ahead the robot may drive, rad (a
         child centred outside the camera's view beyond the slow zone stays out of the stop
-        zone; negative: nowhere)."""
+        zone; negative: nowhere, as where the camera's range is too short to report a child
+        ahead in time, ``separation.sighted_range_m``)."""
 
     def supervise(
         self,
@@ -343,7 +347,8 @@ class SafetySupervisor:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
             if constraint is not None:
                 constraints.append(constraint)
-        half_view = self._looking_rad if sonars and ring_down else math.pi
+        # (the view only while the camera looks: offline or frozen, it sees nothing there)
+        half_view = (self._looking_rad if seeing else -1.0) if sonars and ring_down else math.pi
         looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking

@@ -302,6 +302,20 @@ def body_view(half_view: float, reach_m: float, beyond_m: float) -> float:
     return half_view - math.asin(min(reach_m / beyond_m, 1.0))
 
 
+def sighted_range_m(reach_m: float, top_mps: float, frame_s: float, dt_s: float, a: float) -> float:
+    """The least range (m, from the robot's centre) within which a camera must report a
+    person's centre for a robot driving inside its view, the sonar ring down, to keep a
+    child standing there out of the stop zone: beyond the range nothing reports them. Their
+    centre comes within the range while the robot drives at up to ``top_mps``; a frame
+    taken since reports them within ``frame_s`` (a camera whose latest frame is older
+    counts as offline: ``max_frame_age_ms``), and the supervisor acts on it in that tick;
+    meanwhile the robot closes ``top_mps * frame_s``, then goes a tick and brakes at ``a``
+    (:func:`stopping_way`). ``reach_m``: the stop zone's edge, centre to centre (both radii,
+    the sensing error, ``stop_distance_m``). 1.055 m with the defaults (0.67 + 0.25 +
+    0.135); a camera reaching less leaves no direction while the ring is down."""
+    return reach_m + top_mps * frame_s + stopping_way(top_mps, dt_s, a)
+
+
 def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]:
     """(v_x, v_y) (body frame) when it points within ``half_view`` rad of straight ahead,
     else its projection onto the nearer edge of that cone (none when it points away, or

@@ -19,6 +19,7 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic
 from oimi.pipeline.messages import MoveCommand
 from oimi.recorder.reader import open_recording
+from oimi.scenarios.loader import REAL_SURFACE
 
 from oimi.cli import main
 
@@ -122,7 +123,17 @@ def test_the_bridge_takes_a_lab_cameras_range_left_out_for_3_m_and_records_it(dr
     result, out = drive
     assert "sensors.range_m (m): not set: the safety supervisor takes" in result["bridge_stderr"]
     variation = open_recording(out / "bridge.mcap").meta.variation
-    assert variation == {"robot.safety.camera_range_m": "3.0"}
+    assert variation == {"robot.safety.camera_range_m": "3.0"} | REAL_SURFACE
+
+
+def test_the_bridge_takes_a_ring_left_unsaid_for_centres_and_records_it(drive):
+    """``ros2_room.toml`` does not say whether its ring's echoes are surfaces (the
+    simulated ring's are): the bridge warns, and its supervisor takes them for what may be
+    centres (``sonar_reports_surface`` false: covers either), recorded as the variation."""
+    result, out = drive
+    warned = "robot.safety.sonar_reports_surface: not set: the safety supervisor takes"
+    assert warned in result["bridge_stderr"]
+    assert open_recording(out / "bridge.mcap").meta.variation.items() >= REAL_SURFACE.items()
 
 
 def test_the_simulated_robot_stands_still_when_cmd_vel_falls_silent(drive):

@@ -14,6 +14,7 @@ pytest.importorskip("rosbags", reason="the ros2 extra (rosbags) is not installed
 from mcap.reader import make_reader
 from oimi.pipeline.events import JoystickInput, SensorUpdates, Topic
 from oimi.recorder.reader import open_recording
+from oimi.scenarios.loader import REAL_SURFACE
 from oimi.scenarios.session import runner
 from rosbags.highlevel import AnyReader
 
@@ -103,8 +104,8 @@ def test_driving_the_pipeline_over_the_bag_gives_the_session_again(exported, tmp
         driven = [m.payload_bytes for m in after.iter_messages([topic])]
         assert driven == recorded, topic
     assert any(isinstance(m.decoded(), SensorUpdates) for m in after.iter_messages())
-    # the lab camera's range, left out of the scenario: the supervisor's own, recorded
-    assert after.meta.variation == {"robot.safety.camera_range_m": "3.0"}
+    # the lab camera's range and ring's echoes, left out of the scenario: the supervisor's own
+    assert after.meta.variation == {"robot.safety.camera_range_m": "3.0"} | REAL_SURFACE
     assert main(["replay", str(again)]) == 0  # and the drive itself redrives
 
 

@@ -308,6 +308,24 @@ def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> Non
     assert parse_scenario(slow_scan).warnings, "a slower scan needs a longer reach"
 
 
+def test_a_camera_too_short_to_drive_on_with_the_ring_down_is_a_located_warning() -> None:
+    """While a sonar is down only the camera sees ahead: one reporting people within less
+    than 0.3 + 0.25 + 0.02 + 0.1 m, 0.5 s of a frame's wait at 0.5 m/s and a tick and
+    braking from it (0.135 m), 1.055 m, leaves the robot only turning then (a warning: the
+    scenario runs, and drives while the ring is up)."""
+    short = b'name = "x"\n[sensors]\nrange_m = 1.05\n'
+    (warning,) = parse_scenario(short, source="s.toml").warnings
+    assert str(warning).startswith(
+        "s.toml:3:1: sensors.range_m (m): the camera reports people within 1.05 m, less than"
+        " the 1.055 m in which the safety supervisor can stop the robot"
+    )
+    assert str(warning).endswith("while a sonar is down the robot only turns")
+    assert parse_scenario(short.replace(b"1.05", b"1.06")).warnings == ()
+    stated = b'name = "x"\n[robot.safety]\ncamera_range_m = 1.0\n'
+    (warning,) = parse_scenario(stated, source="s.toml").warnings
+    assert str(warning).startswith("s.toml:3:1: robot.safety.camera_range_m (m): the camera")
+
+
 def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:
     loaded = parse_scenario(b'name = "x"\n[sensors]\nsonar_range_m = 1.63\n', source="s.toml")
     assert warnings_with(loaded, {}) == () == warnings_with(loaded, {"seed": "2"})
@@ -353,6 +371,19 @@ def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
     check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))
 
 
+def real_session(text: bytes, overrides: dict[str, str], warned: str) -> SafetyConfig:
+    """The supervisor's configuration of a real robot's session (``oimi bridge``) of
+    ``text`` (``s.toml``), which must apply ``overrides``, recorded as its variation, and
+    warn once, starting with ``warned``."""
+    loaded = parse_scenario(text, source="s.toml")
+    assert real_robot_overrides(loaded) == overrides
+    (warning,) = real_robot_warnings(loaded)
+    assert str(warning).startswith(warned)
+    session = Session(loaded, overrides=overrides)
+    assert session.metadata().variation == overrides
+    return session.config.safety
+
+
 def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded() -> None:
     """The simulated camera's 5 m may reach farther than the lab's tracker: a child beyond
     its range is never reported, and the supervisor would take their echo, merged into a
@@ -361,18 +392,38 @@ def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded
     shorter range keeps more echoes, stops, not collisions), as an override recorded as the
     session's variation, so that a redrive rebuilds the same supervisor."""
     ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n'
-    loaded = parse_scenario(ring, source="s.toml")
-    overrides = real_robot_overrides(loaded)
-    assert overrides == {"robot.safety.camera_range_m": "3.0"}
-    (warning,) = real_robot_warnings(loaded)
-    assert str(warning).startswith(
+    surface = b"[robot.safety]\nsonar_reports_surface = true\n"  # (below)
+    safety = real_session(
+        ring + surface,
+        {"robot.safety.camera_range_m": "3.0"},
         "s.toml:3:1: sensors.range_m (m): not set: the safety supervisor takes the robot's"
-        " camera to report people within 3.0 m"
+        " camera to report people within 3.0 m",
     )
-    session = Session(loaded, overrides=overrides)
-    assert session.config.safety.camera_range_m == 3.0
-    assert session.metadata().variation == overrides
-    for stated in (ring + b"range_m = 4.0\n", ring + b"[robot.safety]\ncamera_range_m = 4.0\n"):
+    assert safety.camera_range_m == 3.0
+    for stated in (ring + b"range_m = 4.0\n" + surface, ring + surface + b"camera_range_m = 4.0\n"):
         loaded = parse_scenario(stated)
         assert real_robot_overrides(loaded) == {} and real_robot_warnings(loaded) == ()
         assert pipeline_config(loaded.scenario).safety.camera_range_m == 4.0
+
+
+def test_a_real_robots_ring_left_unsaid_is_taken_for_centres_with_a_warning() -> None:
+    """The simulated merging ring reports surfaces, and a scenario that leaves
+    ``sonar_reports_surface`` out takes that for its ring; a lab's driver may report a
+    body's centre instead, whose echo, taken for a surface, would be kept a radius too far
+    out. Left out, a real robot's session takes false (it covers either), with a warning,
+    as an override recorded as the session's variation; stated either way, nothing."""
+    ring = (
+        b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\nrange_m = 4.0\n'
+    )
+    simulated = pipeline_config(parse_scenario(ring).scenario).safety
+    assert simulated.sonar_reports_surface is True
+    safety = real_session(
+        ring,
+        {"robot.safety.sonar_reports_surface": "false"},
+        "s.toml: robot.safety.sonar_reports_surface: not set: the safety supervisor takes"
+        " each echo's range for one that may be a body's centre",
+    )
+    assert safety.sonar_reports_surface is False
+    for value in (b"true", b"false"):
+        stated = parse_scenario(ring + b"[robot.safety]\nsonar_reports_surface = " + value + b"\n")
+        assert real_robot_overrides(stated) == {} and real_robot_warnings(stated) == ()

@@ -10,10 +10,12 @@ import math
 
 import pytest
 from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
+from oimi.pipeline.act.separation import sighted_range_m
 from oimi.pipeline.events import SafetyZone
 from oimi.pipeline.messages import Sonar
-from supervision import FRONT, room, supervise
+from supervision import FRONT, LIMITS, TICK_MS, room, seen, supervise
 
 STOP_REACH_M = 0.3 + 0.25 + 0.02 + 0.1
 """Centre to centre, the stop zone's edge on a fresh reading: both radii, the sensing error
@@ -88,3 +90,62 @@ def test_a_narrow_camera_with_the_ring_down_lets_no_linear_motion_through() -> N
     assert verdict.velocity == (0.0, 0.0, 0.4) and verdict.zone is SafetyZone.BLIND
     world_map.sonars[0].isonline = True  # the ring back: it sees beside the robot again
     assert supervise(Velocity(0.5, 0.0, 0.4), world_map)[0].velocity == (0.5, 0.0, 0.4)
+
+
+def toward_a_child_beyond_the_range(range_m: float, frame_ms: int, *, down: bool = True):
+    """A child stands 1.4 m ahead (centre); the camera (2.2 rad) frames every ``frame_ms``
+    and reports them only while their centre is within ``range_m``; of a ring of two
+    sonars one is offline (``down``: nothing sees beside the robot; the other keeps the
+    speed from the blind cap). The robot asks for 0.5 m/s straight at them for 3 s: the
+    nearest their surfaces came (the dead reckoning taken for the motion) and how far the
+    robot went, m."""
+    config = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2.2, camera_range_m=range_m)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    child_m, nearest, humans, framed = 1.4, math.inf, [], 0
+    for tick in range(150):
+        now_ms = tick * TICK_MS
+        apart = child_m - supervisor.reckoned_pose[0]
+        nearest = min(nearest, apart - 0.3 - 0.25)
+        if now_ms % frame_ms == 0:
+            framed, humans = now_ms, [seen(apart, at_ms=now_ms)] if apart <= range_m else []
+        world_map = room(*humans)
+        world_map.sonars += [Sonar(id="left", isonline=True), Sonar(id="right", isonline=not down)]
+        request = Velocity(0.5, 0.0, 0.0)
+        supervise(
+            request, world_map, now_ms=now_ms, framed={"front": framed}, supervisor=supervisor
+        )
+    return nearest, supervisor.reckoned_pose[0]
+
+
+def test_with_the_ring_down_a_camera_too_short_to_see_a_child_in_time_lets_no_drive() -> None:
+    """A 0.7 m camera framing at 10 Hz: the child comes into range 0.7 m away, is reported
+    up to a frame later, and the base, at 0.5 m/s, goes 0.135 m more as it brakes: the robot
+    drove into the child (0 m surface to surface), never having seen them in its view.
+    Below ``separation.sighted_range_m`` (1.055 m here) the robot may only turn while the
+    ring is down; with the ring up it drives (the ring sees what the camera cannot)."""
+    nearest, went = toward_a_child_beyond_the_range(0.7, 100)
+    assert nearest >= 0.1 and went == 0.0
+    assert toward_a_child_beyond_the_range(0.7, 100, down=False)[1] > 0.5
+
+
+def test_with_the_ring_down_a_camera_reaching_the_least_range_sees_the_child_in_time() -> None:
+    """The least range's derivation, at its worst: frames only every ``max_frame_age_ms``
+    (500 ms; a camera slower counts as offline). The robot drives, and stops before the
+    stop zone."""
+    least_m = sighted_range_m(0.3 + 0.25 + 0.02 + 0.1, 0.5, 0.5, TICK_MS / 1000, 1.0)
+    assert least_m == pytest.approx(1.055)
+    nearest, went = toward_a_child_beyond_the_range(least_m + 1e-6, 500)
+    assert nearest >= 0.1 and went > 0.3
+
+
+@pytest.mark.parametrize("frozen", [False, True])
+def test_with_the_ring_down_a_camera_that_does_not_look_lets_no_drive(frozen: bool) -> None:
+    """One of two sonars offline and the camera offline (or its latest frame 10 s old):
+    the view the robot is kept to while the ring is down is the camera's, and nothing
+    looks there; a child ahead in the down sonar's sector is reported by no sensor. The
+    robot may only turn (it drove at the blind cap, 0.2 m/s)."""
+    world_map = room(camera=frozen)
+    world_map.sonars += [Sonar(id="left", isonline=True), Sonar(id="right", isonline=False)]
+    framed = {"front": -10_000} if frozen else None
+    verdict, _ = supervise(Velocity(0.5, 0.0, 0.4), world_map, config=FRONT, framed=framed)
+    assert verdict.velocity == (0.0, 0.0, 0.4) and verdict.zone is SafetyZone.BLIND
