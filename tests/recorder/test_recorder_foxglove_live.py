@@ -178,8 +178,9 @@ def test_oimi_serve_foxglove_serves_the_live_session(tmp_path: Path) -> None:
     assert ticks == sorted(ticks) and len(set(ticks)) == 3
 
 
-def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) -> None:
-    path = tmp_path / "blink.mcap"
+def recorded_blink(folder: Path) -> Path:
+    """The library's blink scenario run by ``oimi run`` (20 s, 1,542 messages)."""
+    path = folder / "blink.mcap"
     blink = ROOT / "scenarios" / "library" / "blink.toml"
     run = subprocess.run(
         [sys.executable, "-m", "oimi", "run", blink, "-q", "-o", path],
@@ -188,7 +189,11 @@ def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) 
         timeout=120,
     )
     assert run.returncode == 0, run.stderr
-    process = oimi_process("replay", path, "--foxglove", "0", "--speed", "0")
+    return path
+
+
+def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) -> None:
+    process = oimi_process("replay", recorded_blink(tmp_path), "--foxglove", "0", "--speed", "0")
     started = time.monotonic()
     try:
         port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
@@ -217,16 +222,7 @@ async def receive_everything(port: int) -> int:
 
 
 def test_oimi_replay_foxglove_at_once_drops_nothing_past_the_sdks_backlog(tmp_path: Path) -> None:
-    path = tmp_path / "blink.mcap"
-    blink = ROOT / "scenarios" / "library" / "blink.toml"
-    run = subprocess.run(
-        [sys.executable, "-m", "oimi", "run", blink, "-q", "-o", path],
-        cwd=ROOT,
-        capture_output=True,
-        timeout=120,
-    )
-    assert run.returncode == 0, run.stderr
-    process = oimi_process("replay", path, "--foxglove", "0", "--speed", "0")
+    process = oimi_process("replay", recorded_blink(tmp_path), "--foxglove", "0", "--speed", "0")
     try:
         port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
         received = asyncio.run(receive_everything(port))
