@@ -103,6 +103,8 @@ def test_the_reproduce_command_runs_as_printed_with_the_batchs_extension_and_sam
     assert main([*argv, "--out", str(out), "-q"]) == 1
     command = next(line for line in capsys.readouterr().out.splitlines() if "reproduce:" in line)
     words = shlex.split(command.split("reproduce:", 1)[1])
+    [failure] = ElementTree.parse(out / "junit.xml").getroot().iter("failure")
+    assert failure.text.endswith(f"\nreproduce:{command.split('reproduce:', 1)[1]}")  # for a CI
     for _ in range(2):  # as printed, twice: it never needs the batch's recording moved away
         assert main([*words[1:], "-q"]) == 1, capsys.readouterr()
     again = out / "reproduced" / "popping-s1.mcap"
