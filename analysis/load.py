@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import Final
 
 import msgspec
@@ -280,7 +280,25 @@ class SessionData(msgspec.Struct, kw_only=True, dict=True):
     """The per-tick topics folded by ``analysis.stream`` (``load_session(stream=True)``)."""
 
     def __getitem__(self, name: str) -> pl.DataFrame:
-        return self.tables[name]
+        """A table by name; one that was not loaded raises a ``KeyError`` saying which are,
+        and how to load a topic left out (``/map`` is read only when asked for)."""
+        table = self.tables.get(name)
+        if table is not None:
+            return table
+        loaded = ", ".join(sorted(self.tables))
+        if name in {t.value for t in Topic}:
+            raise KeyError(
+                f"topic {name!r} was not loaded: ask for it (open_recording(path,"
+                f" topics=[..., {name!r}])); loaded: {loaded}"
+            )
+        raise KeyError(f"no table {name!r}; loaded: {loaded}")
+
+    def __iter__(self) -> Iterator[str]:
+        """The tables' names, sorted."""
+        return iter(sorted(self.tables))
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.tables
 
     @property
     def rows(self) -> int:

@@ -13,7 +13,7 @@ import sys
 from collections.abc import Iterable
 
 from oimi import jsonout
-from oimi.extension_args import extensions_of
+from oimi.extension_args import extension_hint, extensions_of
 from oimi.pipeline.errors import LocatedError
 from oimi.scenarios.checks import ConditionCheck, check
 
@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     failed = False
     checked: list[dict[str, object]] = []
+    messages: list[str] = []  # of scripts and conditions: an extension's function, unknown?
     for item in check(
         args.files,
         args.condition,
@@ -71,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
                 report(f"{warning} (warning)")
             if item.error:
                 failed = True
+                messages.append(item.error)
                 report(item.error)
                 report_context(item.context)
             else:
@@ -89,8 +91,12 @@ def run(args: argparse.Namespace) -> int:
             failed = True
             for error in item.errors:
                 report_error(error)
+            if not item.file.endswith(".toml"):  # a scenario names its own extensions
+                messages += [e.message for e in item.errors]
         else:
             print(f"{item.file}: ok")
+    if hint := extension_hint(args, messages):
+        report(hint)
     jsonout.emit(args, {"command": "check", "ok": not failed, "checked": checked})
     return EXIT_BAD_INPUT if failed else EXIT_OK
 

@@ -15,7 +15,7 @@ from functools import partial
 from pathlib import Path
 
 from oimi.cmd_check import report, report_error
-from oimi.extension_args import toolkit_of
+from oimi.extension_args import extension_hint, toolkit_of
 from oimi.pipeline.script import ScriptError, condition_errors, dump_script_json, parse_script
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.recorder.outputs import check_output, check_replace, output_error
@@ -55,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
     for error in errors:
         report_error(error)
     if errors:
+        if hint := extension_hint(args, (e.message for e in errors)):
+            report(hint)
         return EXIT_BAD_INPUT
     text = dump_script_json(parsed.script)
     if args.output is None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 from xml.etree import ElementTree
@@ -94,20 +94,33 @@ class Pacer:
             time.sleep(delay)
 
 
-def write_junit(path: Path, results: Sequence[tuple[str, RunResult]]) -> None:
-    """One test suite per scenario, one test case per expectation."""
+def write_junit(
+    path: Path,
+    results: Sequence[tuple[str, RunResult]],
+    *,
+    reproduce: Mapping[str, str] | None = None,
+) -> None:
+    """One test suite per scenario, one test case per expectation. A failure's text ends
+    with how to run it again (``reproduce``, by suite name); a suite's ``system-err`` holds
+    the session's errors (a rule, function or generator that failed), which a CI shows
+    even when every expectation passed."""
     suites = ElementTree.Element("testsuites")
     for name, result in results:
         failures = sum(not v.ok for v in result.verdicts)
         suite = ElementTree.SubElement(
             suites, "testsuite", name=name, tests=str(len(result.verdicts)), failures=str(failures)
         )
+        again = (reproduce or {}).get(name)
         for verdict in result.verdicts:
             case = ElementTree.SubElement(suite, "testcase", classname=name, name=verdict.name)
             if not verdict.ok:
-                ElementTree.SubElement(
-                    case, "failure", message=verdict.detail
-                ).text = verdict.detail
+                ElementTree.SubElement(case, "failure", message=verdict.detail).text = (
+                    verdict.detail + (f"\nreproduce: {again}" if again else "")
+                )
+        if result.summary.errors:
+            ElementTree.SubElement(suite, "system-err").text = "\n".join(
+                f"ERROR at {error}" for error in result.summary.errors
+            )
     path.parent.mkdir(parents=True, exist_ok=True)
     ElementTree.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
 

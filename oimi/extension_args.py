@@ -4,6 +4,7 @@ batches: the extensions named there, loaded with the installed ones."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Final
 
@@ -35,3 +36,19 @@ def extensions_of(args: argparse.Namespace) -> list[str]:
 def toolkit_of(args: argparse.Namespace) -> Toolkit:
     """The built-ins plus the ``--extension`` and installed extensions."""
     return build_toolkit(load_extensions(extensions_of(args)))
+
+
+EXTENSION_HINT: Final = (
+    "hint: a function an extension adds is known only with that extension loaded:"
+    " --extension MODULE (a module name, a .py file or a package folder; docs/extending.md)"
+)
+
+
+def extension_hint(args: argparse.Namespace, messages: Iterable[str]) -> str | None:
+    """:data:`EXTENSION_HINT` when a script or condition calls an unknown function that is
+    not a near miss of a known one (no "did you mean") and no
+    ``--extension`` was given (None otherwise)."""
+    unknown = ("unknown function " in m and "did you mean" not in m for m in messages)
+    if extensions_of(args) or not any(unknown):
+        return None
+    return EXTENSION_HINT

@@ -66,9 +66,10 @@ MODES = {"redrive": redrive_recording, "rerun": rerun}
 
 def serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
     """Stream the recording to a Foxglove client at its recorded pace, once one connects."""
-    from oimi.recorder.foxglove_live import FoxgloveServer, serve_recording
+    from oimi.recorder.foxglove_live import FoxgloveServer, message_count, serve_recording
 
-    server = FoxgloveServer(port=port)
+    # a client may fall behind by the whole file (at --speed 0 it does): none is dropped
+    server = FoxgloveServer(port=port, backlog=message_count(recording))
     try:
         print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
         sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)

@@ -86,11 +86,20 @@ def failure(error: BaseException) -> str:
     if not theirs:
         return text
     if isinstance(error, Overrun):
-        code = theirs[0][0]
-        where = f"{os.path.basename(code.co_filename)}:{code.co_firstlineno}"
-        return f"{text} (in {code.co_qualname}, {where})"
+        return f"{text} ({defined_at(theirs[0][0])})"
     code, line = theirs[-1]
     return f"{text} ({os.path.basename(code.co_filename)}:{line})"
+
+
+def defined_at(code: object) -> str:
+    """Where a user's function is defined: ``in child_near, functions.py:9`` (its qualified
+    name, its file's base name and the line its definition starts at, its first decorator's
+    if any); empty for one without Python code (a builtin, a compiled function)."""
+    code = getattr(code, "__code__", code)
+    if not hasattr(code, "co_firstlineno"):
+        return ""
+    where = f"{os.path.basename(code.co_filename)}:{code.co_firstlineno}"  # type: ignore[attr-defined]
+    return f"in {code.co_qualname}, {where}"  # type: ignore[attr-defined]
 
 
 _PIPELINE: Final = (os.path.dirname(os.path.abspath(__file__)) + os.sep, "pipeline" + os.sep)

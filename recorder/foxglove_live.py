@@ -65,11 +65,19 @@ def loopback_host(host: str) -> str:
 class FoxgloveServer:
     """A started Foxglove WebSocket server with its own context (channels go only to it)."""
 
-    def __init__(self, *, port: int = DEFAULT_PORT, host: str = "127.0.0.1") -> None:
+    def __init__(
+        self, *, port: int = DEFAULT_PORT, host: str = "127.0.0.1", backlog: int | None = None
+    ) -> None:
+        """``backlog``: how many messages a client may fall behind before the oldest are
+        dropped (the SDK's default, 1024, when None)."""
         self.context = sdk.Context()
         try:
             self._server = sdk.start_server(
-                name="oimi", host=loopback_host(host), port=port, context=self.context
+                name="oimi",
+                host=loopback_host(host),
+                port=port,
+                context=self.context,
+                message_backlog_size=backlog,
             )
         except RuntimeError as error:
             raise RecordingError(
@@ -213,6 +221,17 @@ def serve_recording(
                 raise RecordingError(f"cannot stream: {error}", source=str(path)) from None
     time.sleep(LINGER_S)
     return sent
+
+
+def message_count(path: Path) -> int | None:
+    """How many messages a recording holds (its summary's statistics; None: unknown)."""
+    try:
+        with open(path, "rb") as stream:
+            summary = _summary(make_reader(stream))
+    except OSError:
+        return None
+    statistics = summary.statistics if summary is not None else None
+    return statistics.message_count if statistics is not None else None
 
 
 def _summary(reader: McapReader) -> Summary | None:

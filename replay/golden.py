@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import hashlib
+import shlex
 import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -271,6 +272,16 @@ def golden_path(scenario: Path, directory: Path = GOLDEN_DIR) -> Path:
     return directory / f"{scenario.stem}{SUFFIX}"
 
 
+def regenerate_command(scenario: Path, directory: Path = GOLDEN_DIR) -> str:
+    """The command that rewrites this one golden file on purpose: a library scenario's by
+    name, another's by its path and folder (``make golden`` rewrites only the library's)."""
+    command = "python -m oimi.replay.golden --regenerate"
+    in_library = scenario.resolve() in {s.resolve() for s in library_scenarios()}
+    if in_library and directory.resolve() == GOLDEN_DIR.resolve():
+        return f"{command} {scenario.stem}  (every library scenario: make golden)"
+    return f"{command} {shlex.quote(str(scenario))} --dir {shlex.quote(str(directory))}"
+
+
 class GoldenCheck:
     """The outcome of checking one scenario against its golden file."""
 
@@ -290,7 +301,10 @@ def check(scenario: Path, directory: Path = GOLDEN_DIR) -> GoldenCheck:
     golden = golden_path(scenario, directory)
     if not golden.is_file():
         return GoldenCheck(
-            scenario, golden, f"no golden file {golden} for {scenario.name}: run {REGENERATE}"
+            scenario,
+            golden,
+            f"no golden file {golden} for {scenario.name}:"
+            f" run {regenerate_command(scenario, directory)}",
         )
     expected = golden.read_text(encoding="utf-8")
     actual = project_scenario(scenario)
@@ -311,7 +325,7 @@ def check(scenario: Path, directory: Path = GOLDEN_DIR) -> GoldenCheck:
         scenario,
         golden,
         f"{scenario.name} behaves differently from {golden}; if the change is intended,"
-        f" run {REGENERATE}\n" + "\n".join(diff),
+        f" run {regenerate_command(scenario, directory)}\n" + "\n".join(diff),
     )
 
 

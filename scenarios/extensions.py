@@ -23,6 +23,7 @@ import hashlib
 import importlib
 import importlib.util
 import sys
+import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
@@ -163,8 +164,11 @@ def load_extension(spec: str, *, base: Path | None = None) -> LoadedExtension:
     except ExtensionError:
         raise
     except Exception as error:  # an extension's bug is bad input, named, not a traceback
+        home = root if Path(module.__file__ or "").name == "__init__.py" else _file(module)
         raise ExtensionError(
-            f"extension {spec!r}: register failed: {type(error).__name__}: {error}", source=spec
+            f"extension {spec!r}: register failed: {type(error).__name__}: {error}"
+            + _where(error, home),
+            source=spec,
         ) from None
     return LoadedExtension(
         name=ext.name,
@@ -348,15 +352,34 @@ def _import(spec: str, base: Path | None) -> ModuleType:
         module_spec.loader.exec_module(module)
     except Exception as error:
         del sys.modules[name]
+        where = "" if isinstance(error, SyntaxError) else _where(error, path)  # it says where
         raise ExtensionError(
-            f"extension {spec!r} failed to import: {type(error).__name__}: {error}", source=spec
+            f"extension {spec!r} failed to import: {type(error).__name__}: {error}{where}",
+            source=spec,
         ) from None
     return module
 
 
+def _file(module: ModuleType) -> Path:
+    return Path(module.__file__ or ".").resolve()
+
+
 def _root(module: ModuleType) -> Path:
-    file = Path(module.__file__ or ".").resolve()
-    return file.parent
+    return _file(module).parent
+
+
+def _where(error: BaseException, home: Path) -> str:
+    """`` (rules.py:8)``: the innermost line of the extension's own code (``home``: its
+    file, or its package's folder) that ``error`` came through; empty when none."""
+    lines = [
+        (Path(frame.f_code.co_filename), line)
+        for frame, line in traceback.walk_tb(error.__traceback__)
+    ]
+    if home.is_dir():
+        mine = [(f.relative_to(home).as_posix(), n) for f, n in lines if f.is_relative_to(home)]
+    else:
+        mine = [(f.name, n) for f, n in lines if f == home]
+    return f" ({mine[-1][0]}:{mine[-1][1]})" if mine else ""
 
 
 def _sources(

@@ -172,7 +172,11 @@ def write_report(rows: Sequence[ResultRow], out_dir: Path) -> BatchReport:
     """Write the table, JUnit, summary and comparison page of a finished batch."""
     written = results.write_results(results.results_frame(rows), out_dir)
     junit = out_dir / JUNIT
-    console.write_junit(junit, [(row.task.name, row.result) for row in rows])
+    console.write_junit(
+        junit,
+        [(row.task.name, row.result) for row in rows],
+        reproduce={row.task.name: results.reproduce_command(row) for row in rows if not row.ok},
+    )
     text = results.summary_text(rows)
     (out_dir / SUMMARY).write_text(text + "\n", encoding="utf-8")
     comparison = write_comparison(rows, out_dir / REPORT)

@@ -25,9 +25,12 @@ import polars as pl
 
 from oimi.batch.tasks import ResultRow
 from oimi.pipeline.plurals import counted
+from oimi.recorder.world_sampling import DEFAULT_WORLD_EVERY_N_TICKS
 
 PARQUET: Final = "results.parquet"
 CSV: Final = "results.csv"
+REPRODUCED: Final = "reproduced"
+"""The folder under ``--out`` where a failing run's reproduce command writes."""
 
 _TYPES: Final = {bool: pl.Boolean, int: pl.Int64, float: pl.Float64, str: pl.String}
 
@@ -95,12 +98,20 @@ def write_results(frame: pl.DataFrame, out_dir: Path) -> list[Path]:
 
 
 def reproduce_command(row: ResultRow) -> str:
-    """The ``oimi run`` command that runs this one task again."""
+    """The ``oimi run`` command that runs this one task again, with everything that decides
+    its recording (extensions, world sampling), into ``OUT/reproduced/`` (the batch's own
+    recording stays as it was; running the command twice replaces only its own file)."""
     task = row.task
     words = ["oimi", "run", task.scenario, "--seed", str(task.seed)]
     for key, value in task.overrides:
         words += ["--param", f"{key}={value}"]
-    words += ["-o", str(task.mcap)]
+    for extension in task.extensions:
+        words += ["--extension", extension]
+    if task.allow_outside_paths:
+        words.append("--allow-outside-paths")
+    if task.world_every_n_ticks != DEFAULT_WORLD_EVERY_N_TICKS:
+        words += ["--world-every", str(task.world_every_n_ticks)]
+    words += ["-o", str(Path(task.out_dir) / REPRODUCED / task.mcap.name), "--overwrite"]
     return shlex.join(words)
 
 

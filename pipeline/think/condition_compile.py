@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Callable, Sequence
 
+from oimi.pipeline.errors import defined_at
 from oimi.pipeline.think.condition_ast import (
     ALL_FIELDS,
     CLASS_FIELDS,
@@ -233,7 +234,7 @@ class _Compiler:
 
     def criterion(self, node: Criterion, cls: str) -> Callable[[Run, Bound], bool]:
         if isinstance(node, Call):
-            return _truth(self.call(node, Family.B, cls), node.name)
+            return _truth(self.call(node, Family.B, cls), self.registry.get(node.name))
         left = node.left
         if not (isinstance(left, FieldRef) and left.alias == THIS):
             raise located("the left of a comparison must be ?THIS>&field", left.pos)
@@ -264,7 +265,7 @@ class _Compiler:
         if not left_side and not isinstance(node, EvalClause):
             raise located("assignments (CLASS, VAR, ATT) belong before '!'", node.pos)
         if isinstance(node, EvalClause):
-            holds = _truth(self.call(node.call, Family.E), node.call.name)
+            holds = _truth(self.call(node.call, Family.E), self.registry.get(node.call.name))
             return lambda run: GO if holds(run, None) else FAIL
         if isinstance(node, ClassClause):
             self.read(*STORE_READS, ENTITY_READS[node.cls])
@@ -279,9 +280,14 @@ class _Compiler:
         return _assign_step(f"{node.alias}${node.att}", node.scope, call, node.alias)
 
 
-def _truth(call: Getter, name: str) -> Callable[[Run, Bound | None], bool]:
+def _truth(call: Getter, spec: FunctionSpec | None) -> Callable[[Run, Bound | None], bool]:
     """A B or E call's truth: ``True`` or ``False`` (a missing argument: ``False``); any
-    other result is the function's mistake, raised as a ``TypeError`` naming it."""
+    other result is the function's mistake, raised as a ``TypeError`` naming it and where
+    it is defined (``child_near returned 2.5, not True or False (in child_near,
+    functions.py:9)``)."""
+    assert spec is not None  # the call was compiled: its function is registered
+    name, where = spec.name, defined_at(spec.fn)
+    place = f" ({where})" if where else ""
 
     def holds(run: Run, this: Bound | None) -> bool:
         found = call(run, this)
@@ -289,7 +295,7 @@ def _truth(call: Getter, name: str) -> Callable[[Run, Bound | None], bool]:
             return True
         if found is False or found is MISSING:
             return False
-        raise TypeError(f"{name} returned {found!r:.60}, not True or False")
+        raise TypeError(f"{name} returned {found!r:.60}, not True or False{place}")
 
     return holds
 

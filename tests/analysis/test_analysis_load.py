@@ -162,3 +162,14 @@ def test_a_file_that_is_not_a_recording_is_refused(tmp_path: Path) -> None:
     bad.write_text("these are notes, not a recording")
     with pytest.raises(RecordingError, match="not an MCAP file"):
         load_session(bad)
+
+
+def test_a_table_not_loaded_is_refused_naming_the_loaded_ones_and_how_to_load_it(
+    walk_mcap: Path,
+) -> None:
+    data = load_session(walk_mcap)
+    assert "/log" in data and "/map" not in data and list(data) == sorted(data.tables)
+    with pytest.raises(KeyError, match=r"topic '/map' was not loaded: ask for it .*topics=.*/log"):
+        data["/map"]
+    with pytest.raises(KeyError, match=r"no table '/logs'; loaded: .*/log, "):
+        data["/logs"]

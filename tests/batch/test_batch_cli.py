@@ -92,6 +92,25 @@ def test_a_failing_expectation_exits_1_and_names_the_run_and_its_reproduction(
     assert recording.metadata["scenario"]["seed"] == "1"
 
 
+def test_the_reproduce_command_runs_as_printed_with_the_batchs_extension_and_sampling(
+    tmp_path: Path, capsys
+) -> None:
+    scenario = write_scenario(tmp_path, "popping", at_least_m=9.0)
+    scenario.write_text(scenario.read_text().replace('"greeting"', '"bubbles"'))  # the extension's
+    bubbles = Path(__file__).resolve().parents[2] / "examples" / "bubbles" / "bubbles"
+    out = tmp_path / "out"
+    argv = ["batch", str(scenario), "--extension", str(bubbles), "--world-every", "1"]
+    assert main([*argv, "--out", str(out), "-q"]) == 1
+    command = next(line for line in capsys.readouterr().out.splitlines() if "reproduce:" in line)
+    words = shlex.split(command.split("reproduce:", 1)[1])
+    [failure] = ElementTree.parse(out / "junit.xml").getroot().iter("failure")
+    assert failure.text.endswith(f"\nreproduce:{command.split('reproduce:', 1)[1]}")  # for a CI
+    for _ in range(2):  # as printed, twice: it never needs the batch's recording moved away
+        assert main([*words[1:], "-q"]) == 1, capsys.readouterr()
+    again = out / "reproduced" / "popping-s1.mcap"
+    assert again.read_bytes() == (out / "popping-s1.mcap").read_bytes()
+
+
 def test_the_printed_pass_rate_reads_as_a_percentage(capsys) -> None:
     """It printed '100.000' and '66.667', three decimals of a share of a few seeds."""
     groups = pl.DataFrame(

@@ -13,6 +13,7 @@ from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.errors import RuleSyntaxError
 
 from oimi.cli import main
+from oimi.extension_args import EXTENSION_HINT
 
 ROOT = Path(__file__).parents[2]
 ACTIVITIES = ROOT / "scenarios" / "library" / "activities"
@@ -172,6 +173,13 @@ def test_an_alias_no_clause_binds_is_a_warning_naming_the_nearest_bound_one(caps
     assert capsys.readouterr().err == ""
 
 
+def test_an_unknown_function_hints_at_extensions_unless_it_is_a_near_miss(capsys):
+    assert main(["check", "--condition", "! {E: pops_at_least (2)}"]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == EXTENSION_HINT
+    assert main(["check", "--condition", "! {E: closer_thn (1)}"]) == 2
+    assert "hint:" not in capsys.readouterr().err, "a typo's suggestion is enough"
+
+
 def test_a_condition_over_several_lines_is_placed_at_its_line_and_column(capsys):
     text = "{CLASS #Human U ?c}\n ! {E: nearr (?c, 1)}"
     assert main(["check", "--condition", text]) == 2
@@ -191,7 +199,8 @@ def test_check_places_a_bad_jump_condition_in_the_script_file(tmp_path, capsys):
     column = start + inner - 1
     lines = capsys.readouterr().err.splitlines()
     assert lines[0].startswith(f"{script}:4:{column}: ")
-    assert lines[1:] == [f"    {line}", "    " + " " * (column - 1) + "^"], "the line, a caret"
+    assert lines[1:3] == [f"    {line}", "    " + " " * (column - 1) + "^"], "the line, a caret"
+    assert lines[3:] == [EXTENSION_HINT], "then, once, where such a function may come from"
 
 
 def test_check_places_a_bad_json_condition_at_its_value(tmp_path, capsys):

@@ -109,6 +109,9 @@ def test_two_different_extensions_with_one_module_name_are_refused_naming_both(
 def test_compile_needs_the_extension_for_its_functions() -> None:
     refused = oimi_cli("compile", str(SONG))
     assert refused.returncode == 2 and "unknown function 'pops_at_least'" in refused.stderr
+    assert refused.stderr.rstrip().endswith(
+        "--extension MODULE (a module name, a .py file or a package folder; docs/extending.md)"
+    ), "a hint"
     done = oimi_cli("compile", str(SONG), "--extension", str(PACKAGE))
     assert done.returncode == 0, done.stderr
     assert msgspec.json.decode(done.stdout)["activityname"] == "bubble_song"

@@ -178,8 +178,9 @@ def test_oimi_serve_foxglove_serves_the_live_session(tmp_path: Path) -> None:
     assert ticks == sorted(ticks) and len(set(ticks)) == 3
 
 
-def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) -> None:
-    path = tmp_path / "blink.mcap"
+def recorded_blink(folder: Path) -> Path:
+    """The library's blink scenario run by ``oimi run`` (20 s, 1,542 messages)."""
+    path = folder / "blink.mcap"
     blink = ROOT / "scenarios" / "library" / "blink.toml"
     run = subprocess.run(
         [sys.executable, "-m", "oimi", "run", blink, "-q", "-o", path],
@@ -188,7 +189,11 @@ def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) 
         timeout=120,
     )
     assert run.returncode == 0, run.stderr
-    process = oimi_process("replay", path, "--foxglove", "0", "--speed", "0")
+    return path
+
+
+def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) -> None:
+    process = oimi_process("replay", recorded_blink(tmp_path), "--foxglove", "0", "--speed", "0")
     started = time.monotonic()
     try:
         port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
@@ -199,3 +204,31 @@ def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) 
     assert ticks == [0, 2, 4, 6, 8, 10]  # as recorded: every second tick
     assert re.search(r"foxglove: \d+ messages streamed", out)
     assert time.monotonic() - started < 60
+
+
+async def receive_everything(port: int) -> int:
+    """Subscribe to every channel; count the messages until the server closes."""
+    received = 0
+    async with connect(port) as ws:
+        client = Client(ws)
+        await client.until_advertised(len(MCAP_TOPICS))
+        await client.subscribe(MCAP_TOPICS)
+        try:
+            while True:
+                await client.message()
+                received += 1
+        except (websockets.ConnectionClosed, TimeoutError):
+            return received
+
+
+def test_oimi_replay_foxglove_at_once_drops_nothing_past_the_sdks_backlog(tmp_path: Path) -> None:
+    process = oimi_process("replay", recorded_blink(tmp_path), "--foxglove", "0", "--speed", "0")
+    try:
+        port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
+        received = asyncio.run(receive_everything(port))
+    finally:
+        out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    sent = int(re.search(r"foxglove: (\d+) messages streamed", out)[1])  # type: ignore[index]
+    assert sent > 1024, "more than the SDK's default backlog"
+    assert received == sent

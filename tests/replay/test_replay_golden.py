@@ -15,6 +15,7 @@ from oimi.replay.golden import (
     digest_recording,
     project_scenario,
     regenerate,
+    regenerate_command,
     stale_goldens,
 )
 from oimi.scenarios.loader import load_scenario
@@ -34,10 +35,20 @@ def test_every_golden_file_belongs_to_a_library_scenario() -> None:
     assert not stale, f"golden files without a scenario: {stale}; run make golden"
 
 
-def test_a_scenario_without_a_golden_file_says_to_run_make_golden(tmp_path: Path) -> None:
+def test_a_scenario_without_a_golden_file_says_how_to_write_that_one(tmp_path: Path) -> None:
     result = check(SHORT, tmp_path)
     assert not result.ok
-    assert "no golden file" in result.problem and "run make golden" in result.problem
+    assert "no golden file" in result.problem
+    assert f"run python -m oimi.replay.golden --regenerate {SHORT} --dir {tmp_path}" in (
+        result.problem
+    )
+
+
+def test_a_library_scenarios_golden_is_regenerated_by_name_or_with_make_golden() -> None:
+    greeting = next(s for s in library_scenarios() if s.stem == "greeting")
+    assert regenerate_command(greeting) == (
+        "python -m oimi.replay.golden --regenerate greeting  (every library scenario: make golden)"
+    )
 
 
 def test_a_one_line_rule_change_fails_with_a_diff_naming_the_rule(
@@ -51,7 +62,7 @@ def test_a_one_line_rule_change_fails_with_a_diff_naming_the_rule(
     monkeypatch.setattr(library.ChildTooClose, "condition_text", closer)
     result = check(SHORT, tmp_path)
     assert not result.ok
-    assert "run make golden" in result.problem
+    assert f"--regenerate {SHORT} --dir {tmp_path}\n" in result.problem  # not make golden
     changed = [
         line
         for line in result.problem.splitlines()

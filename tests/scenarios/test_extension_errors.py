@@ -164,3 +164,30 @@ def test_a_behaviour_without_a_name_or_a_factory_is_refused(
 ) -> None:
     path = extension(tmp_path, "behbad", f"def register(ext):\n    {call}\n")
     assert refused(path).message == f"{said} (extension 'behbad' (behbad.py))"
+
+
+def test_a_failing_import_names_the_line_of_the_extension_that_failed(tmp_path: Path) -> None:
+    package = tmp_path / "broken"
+    package.mkdir()
+    (package / "__init__.py").write_text("from .rules import X\n\n\ndef register(ext):\n    pass\n")
+    (package / "rules.py").write_text("import os\nimport no_such_module_for_oimi\nX = 1\n")
+    with pytest.raises(ExtensionError) as caught:
+        load_extension(str(package))
+    assert str(caught.value).endswith(
+        "failed to import: ModuleNotFoundError: No module named 'no_such_module_for_oimi'"
+        " (rules.py:2)"
+    )
+
+
+def test_a_register_that_fails_names_its_line_in_the_extension(tmp_path: Path) -> None:
+    path = extension(
+        tmp_path,
+        "unmarked",
+        "def f(ctx):\n    return True\n\ndef register(ext):\n    ext.function(f)\n",
+    )
+    with pytest.raises(ExtensionError) as caught:
+        load_extension(str(path))
+    assert str(caught.value).endswith(
+        "register failed: ValueError: f is not marked with @boolean, @string or @evaluation"
+        " (unmarked.py:11)"
+    )

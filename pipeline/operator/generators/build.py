@@ -6,6 +6,8 @@ Jumps name labels; :meth:`ScriptBuilder.build` turns them into the thesis's
 
 from __future__ import annotations
 
+import difflib
+
 from oimi.pipeline.messages import (
     Action,
     AudioOut,
@@ -21,7 +23,7 @@ from oimi.pipeline.messages import (
     Script,
     TerminusBlock,
 )
-from oimi.pipeline.operator.generator import Colour, GeneratorError
+from oimi.pipeline.operator.generator import Colour, GeneratorFailure
 from oimi.pipeline.think.rulecodes import RuleCode
 
 RuleSpec = tuple[int, str, RuleAction]
@@ -97,7 +99,9 @@ class _Jump:
 
 
 class ScriptBuilder:
-    """Goals, actions and blocks appended in reading order; labels resolved at build."""
+    """Goals, actions and blocks appended in reading order; labels resolved at build. Its
+    errors (a jump to an unknown label, a label used twice) are the generator's bugs:
+    :class:`GeneratorFailure`, logged at ERROR, not a refusal."""
 
     def __init__(self, activityname: str):
         self._name = activityname
@@ -120,11 +124,11 @@ class ScriptBuilder:
     def _add(self, block: Block | _Jump, label: str) -> None:
         goals = self._goals
         if not goals:
-            raise GeneratorError("block added before any goal", source=self._name)
+            raise GeneratorFailure("block added before any goal", source=self._name)
         actions = goals[-1][1]
         if label:
             if label in self._labels:
-                raise GeneratorError(f"label {label!r} used twice", source=self._name)
+                raise GeneratorFailure(f"label {label!r} used twice", source=self._name)
             self._labels[label] = (
                 f"goal{len(goals) - 1}/act{len(actions) - 1}/blk{len(actions[-1])}"
             )
@@ -151,7 +155,9 @@ class ScriptBuilder:
         if not label:
             return ""
         if label not in self._labels:
-            raise GeneratorError(f"jump to unknown label {label!r}", source=self._name)
+            close = difflib.get_close_matches(label, list(self._labels), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise GeneratorFailure(f"jump to unknown label {label!r}{hint}", source=self._name)
         return self._labels[label]
 
     def _block(self, b: Block | _Jump) -> Block:

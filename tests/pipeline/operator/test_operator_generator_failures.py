@@ -271,3 +271,25 @@ def test_a_refusal_of_its_own_or_a_bad_option_is_no_failure() -> None:
     reply = h.handle(GetReady(id=3), now_ms=0).reply
     assert not reply.ok and reply.reason == "picky: not today"
     assert h.take_failures() == []
+
+
+class Mislabelled(BaseGenerator):
+    """Jumps to a label it misspelt: the builder's error is the generator's bug."""
+
+    name = "mislabelled"
+
+    def build(self, values: Mapping[str, OptionValue]) -> Script:
+        b = ScriptBuilder(self.name)
+        b.goal("g")
+        b.jump("! {TRUE}", false="mroe")
+        b.instruction(leds=(led((0.0, 0.0, 1.0), duration_ms=100),), label="more")
+        return b.build()
+
+
+def test_a_builder_error_is_a_failure_that_suggests_the_label_meant() -> None:
+    h = GeneratorHandler(Catalogue({"mislabelled": Mislabelled}))
+    assert h.handle(Add(id=1, activity="mislabelled"), now_ms=0).reply.ok
+    reply = h.handle(GetReady(id=2), now_ms=0).reply
+    said = "mislabelled: jump to unknown label 'mroe'; did you mean 'more'?"
+    assert not reply.ok and reply.reason == said
+    assert h.take_failures() == [failure("mislabelled", said)], "logged at ERROR"

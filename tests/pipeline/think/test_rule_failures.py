@@ -134,7 +134,11 @@ def test_a_removed_failing_rule_comes_back_with_c() -> None:
     ("answer_is", "reported"),
     [
         ("raise", "ZeroDivisionError: no answer (test_rule_failures.py:"),
-        ("maybe", "TypeError: answer returned 'maybe', not True or False; removed"),
+        (
+            "maybe",
+            "TypeError: answer returned 'maybe', not True or False"
+            " (in answer, test_rule_failures.py:20); removed",
+        ),
     ],
 )
 def test_a_condition_whose_function_raises_or_answers_wrongly_removes_the_rule(
@@ -155,11 +159,12 @@ def test_a_function_answering_true_or_false_is_not_a_failure() -> None:
         assert decision.fired is fired and chain.take_failures() == []
 
 
-def test_a_boolean_criterion_answering_a_str_is_a_type_error_naming_it() -> None:
+def test_a_boolean_criterion_answering_a_str_is_a_type_error_naming_it_and_its_place() -> None:
     condition = compile_condition("{CLASS #Human L ?h B: odd ()} ! {TRUE}", registry=FUNCTIONS)
     world = WorldMap()
     world.humans.append(Human(id="h1", creationtime=0))
-    with pytest.raises(TypeError, match=r"^odd returned 'odd', not True or False$"):
+    wrong = r"^odd returned 'odd', not True or False \(in odd, test_rule_failures.py:28\)$"
+    with pytest.raises(TypeError, match=wrong):
         condition.evaluate(world, now_ms=0)
 
 
