@@ -14,6 +14,7 @@ checks with units and the located errors share the TOML position scan.
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import re
 import tomllib
@@ -30,7 +31,10 @@ from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.operator.handler import generate_script
 from oimi.pipeline.plurals import counted
+from oimi.pipeline.script.validate import jump_failures
 from oimi.pipeline.sense.producer import MAX_ENTITIES
+from oimi.pipeline.think.conditions import compile_condition
+from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.extensions import (
     ExtensionError,
@@ -43,6 +47,7 @@ from oimi.scenarios.fields import suggestion
 from oimi.scenarios.profile import THESIS_ROBOT
 from oimi.scenarios.safety import coverage_gaps, unknown_people, unsafe_assumptions
 from oimi.scenarios.schema import (
+    ActivitySpec,
     BehaviourEvent,
     BehaviourSegment,
     Custom,
@@ -673,7 +678,7 @@ def _check_activities(
     if catalogue is None:
         catalogue = toolkit.registries.catalogue(scripts)
     generated = [
-        _check_generator(catalogue, activity.generator, activity.options, index)
+        _check_generator(catalogue, activity, index, toolkit.registries.functions)
         for index, activity in enumerate(scenario.activities)
         if activity.generator is not None
     ]
@@ -773,22 +778,33 @@ def _scripts_in(folder: Path) -> list[Path]:
 
 
 def _check_generator(
-    catalogue: Catalogue, name: str, options: Mapping[str, str], index: int
+    catalogue: Catalogue, activity: ActivitySpec, index: int, functions: FunctionRegistry
 ) -> Script:
+    """The script the activity's generator makes at Get Ready (without a map), its jump
+    conditions compiled against ``functions`` as the Block Reader will load it."""
     where: PathKey = ("activities", index)
+    name, options = typing.cast(str, activity.generator), activity.options
     if name not in catalogue:
         known = ", ".join(sorted(catalogue.names())) or "none"
         raise Invalid((*where, "generator"), f"unknown generator {name!r} (known: {known})")
     try:  # as Get Ready would (without a map): what it raises or returns is checked
         with watching():  # and a loop that does not end stopped, as in a tick
             generator = guarded(name, "create", catalogue.create, name)
-            return generate_script(name, generator, options, None)
+            script = generate_script(name, generator, options, None)
     except GeneratorError as error:
         if error.option in options:
             place: PathKey = (*where, "options", error.option)
         else:  # a bad option, or the generator failed
             place = (*where, "options" if error.option else "generator")
         raise Invalid(place, f"generator {name!r}: {error.message}") from None
+    compile_jump = functools.partial(compile_condition, registry=functions)
+    for path, error in jump_failures(script, compile_jump):  # else it would never load
+        raise Invalid(
+            (*where, "generator"),
+            f"generator {name!r} made a script that does not load: the jump at {path}:"
+            f" {error.message} (column {error.column} of its condition)",
+        )
+    return script
 
 
 # ------------------------------------------------------------------- checking

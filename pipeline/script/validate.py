@@ -65,19 +65,27 @@ def condition_errors(
 ) -> list[LocatedError]:
     """Compile every jump condition; errors placed at their position in the script file."""
     errors: list[LocatedError] = []
-    for path, block in iter_blocks(parsed.script):
-        if not isinstance(block, JumpBlock):
-            continue
-        try:
-            compile_condition(block.toparse)
-        except LocatedError as error:
-            sourcemap = parsed.sourcemap
-            where = sourcemap.text_position(f"{path}.toparse", error.column - 1)
-            line, column = where or sourcemap.locate(path)
-            placed = type(error)(error.message, source=sourcemap.source, line=line, column=column)
-            placed.context = sourcemap.lines.context(line, column)
-            errors.append(placed)
+    sourcemap = parsed.sourcemap
+    for path, error in jump_failures(parsed.script, compile_condition):
+        where = sourcemap.text_position(f"{path}.toparse", error.column - 1)
+        line, column = where or sourcemap.locate(path)
+        placed = type(error)(error.message, source=sourcemap.source, line=line, column=column)
+        placed.context = sourcemap.lines.context(line, column)
+        errors.append(placed)
     return errors
+
+
+def jump_failures(
+    script: Script, compile_condition: Callable[[str], object]
+) -> Iterator[tuple[str, LocatedError]]:
+    """``(goalX/actY/blkZ, error)`` for each jump condition that does not compile (placed in
+    the condition's text)."""
+    for path, block in iter_blocks(script):
+        if isinstance(block, JumpBlock):
+            try:
+                compile_condition(block.toparse)
+            except LocatedError as error:
+                yield path, error
 
 
 def iter_blocks(script: Script) -> Iterator[tuple[str, object]]:

@@ -191,3 +191,30 @@ def test_a_register_that_fails_names_its_line_in_the_extension(tmp_path: Path) -
         "register failed: ValueError: f is not marked with @boolean, @string or @evaluation"
         " (unmarked.py:11)"
     )
+
+
+def test_a_generated_jump_calling_an_unknown_function_is_refused_at_the_activity(
+    tmp_path: Path,
+) -> None:
+    """Its script would never load (the Block Reader compiles its jumps): the check says so
+    at the activity, as it does for a script file's jump."""
+    extension(
+        tmp_path,
+        "genjump",
+        "from oimi.pipeline.operator.generators.build import ScriptBuilder\n\n"
+        "class G(BaseGenerator):\n    name = 'jumpy'\n\n    def build(self, values):\n"
+        "        b = ScriptBuilder(self.name)\n        b.goal('g')\n"
+        "        b.jump('! {E: nearr (?THIS, 1)}', false='end')\n"
+        "        b.terminus(label='end')\n        return b.build()\n\n"
+        "def register(ext):\n    ext.generator(G)\n",
+    )
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(
+        'name = "s"\nextensions = ["genjump.py"]\n\n[[activities]]\ngenerator = "jumpy"\n'
+    )
+    with pytest.raises(ScenarioError) as caught:
+        load_scenario(scenario)
+    assert str(caught.value).startswith(
+        f"{scenario}:5:1: activities[0].generator: generator 'jumpy' made a script that does"
+        " not load: the jump at goal0/act0/blk0: unknown function 'nearr'; did you mean 'near'?"
+    )
