@@ -745,7 +745,15 @@ def _find_script(
     activity folders; confined to those unless ``allow_outside``."""
     script = Path(name)
     if script.suffix not in SCRIPT_SUFFIXES:
-        raise Invalid(where, f"script {name!r} is not a .json or .txt file")
+        found = [  # the file meant, as the scenario would name it
+            f"{under}{name}{suffix}"
+            for root in (folder, LIBRARY_DIR, *extra)
+            for under in ("", "activities/")
+            for suffix in SCRIPT_SUFFIXES
+            if (root / f"{under}{name}{suffix}").is_file()
+        ]
+        hint = f"; did you mean {found[0]!r}?" if found else ""
+        raise Invalid(where, f"script {name!r} is not a .json or .txt file{hint}")
     roots = (folder.resolve(), LIBRARY_DIR.resolve(), *(p.resolve() for p in extra))
     for candidate in (folder / script, LIBRARY_DIR / script, *(p / script for p in extra)):
         resolved = candidate.resolve()

@@ -72,6 +72,13 @@ ERRORS = [
     ),
     ("script kind", '[[activities]]\nscript = "a.py"\n', r"not a .json or .txt file", 3),
     (
+        "script without its suffix",
+        '[[activities]]\nscript = "example_act"\n',
+        r"script 'example_act' is not a .json or .txt file;"
+        r" did you mean 'activities/example_act.txt'\?",
+        3,
+    ),
+    (
         "unknown generator",
         '[[activities]]\ngenerator = "disco"\n',
         r"unknown generator 'disco' \(known: example_act, greeting, joint_attention, test_dance\)",
