@@ -132,13 +132,14 @@ def print_result(result: RunResult, *, live: bool = False) -> None:
         f"  safety: max speed {s.max_speed_mps:.2f} m/s, closest (surface to surface)"
         f" {closest or '-'}, {counted(s.contact_episodes, 'contact episode')}"
         f" ({s.robot_initiated_contacts} robot-initiated,{pushed}"
-        f" fastest closing {s.max_closing_speed_mps:.2f} m/s),"
-        f" {counted(s.rejected_inputs, 'rejected input')}"
+        f" fastest closing {s.max_closing_speed_mps:.2f} m/s)"
     )
     print(
         f"  safety supervisor: {counted(s.safety_interventions, 'intervention')}, "
         f"{counted(s.protective_stops, 'protective stop')}"
     )
+    which = " (updates, commands, scripts or rules refused or removed: /log says which)"
+    print(f"  rejected inputs: {s.rejected_inputs}{which if s.rejected_inputs else ''}")
     for error in s.errors[:MAX_ERRORS_SHOWN]:
         print(f"  ERROR at {error}")
     if len(s.errors) > MAX_ERRORS_SHOWN:

@@ -122,3 +122,11 @@ def test_the_summary_names_an_activity_that_ran_though_the_operator_cleared_it()
     printed = oimi("run", "-q", LIBRARY / "operator_controls.toml", "--no-record").stdout
     assert "  activity test_dance: completed (no longer selected)\n" in printed
     assert "idle_activity" not in printed
+
+
+def test_the_summary_counts_rejected_inputs_on_their_own_line_not_with_safety() -> None:
+    """A script refused or a rule that raised is no safety figure."""
+    printed = oimi("run", "-q", LIBRARY / "blink.toml", "--no-record").stdout
+    safety = next(line for line in printed.splitlines() if line.startswith("  safety: "))
+    assert "rejected" not in safety
+    assert "  rejected inputs: 0\n" in printed
