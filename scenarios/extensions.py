@@ -32,7 +32,7 @@ from types import MappingProxyType, ModuleType
 from typing import Final
 
 import msgspec
-from oimi.pipeline.errors import named
+from oimi.pipeline.errors import defined_at, named
 from oimi.pipeline.operator.generators import default_catalogue
 from oimi.pipeline.registries import GeneratorFactory, Registries
 from oimi.pipeline.think.functions import spec_of
@@ -246,7 +246,9 @@ def build_toolkit(extensions: Iterable[LoadedExtension] = ()) -> Toolkit:
     for ext in extensions:
         added, origin, source = ext.added, ext.added.label, ext.origin
         for fn in added.functions:
-            _claim(functions, spec_of(fn).name, origin, "function", source=source)
+            where = defined_at(fn)  # its def's line, for the author to rename it
+            mine = f"{origin} ({where})" if where else origin
+            _claim(functions, spec_of(fn).name, mine, "function", source=source)
         for cls in added.rules:
             _claim(rules, cls.rulecode, f"{cls.__name__} ({origin})", "rule code", source=source)
             if cls.rulecode < USER_RULE_CODES:

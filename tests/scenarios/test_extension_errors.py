@@ -218,3 +218,17 @@ def test_a_generated_jump_calling_an_unknown_function_is_refused_at_the_activity
         f"{scenario}:5:1: activities[0].generator: generator 'jumpy' made a script that does"
         " not load: the jump at goal0/act0/blk0: unknown function 'nearr'; did you mean 'near'?"
     )
+
+
+def test_a_function_name_clash_names_where_each_function_is_defined(tmp_path: Path) -> None:
+    body = "@evaluation('wavy')\ndef mine(ctx) -> bool:\n    return True\n\n"
+    register = "def register(ext):\n    ext.function(mine)\n"
+    first = extension(tmp_path, "first", body + register)
+    second = extension(tmp_path, "second", body + register)
+    error = refused(second, first)
+    assert error.message.startswith(
+        "function 'wavy' of extension 'second' (second.py) (in mine, second.py:7) collides with"
+        " extension 'first' (first.py) (in mine, first.py:7)"
+    )
+    clash = extension(tmp_path, "builtin", body.replace("wavy", "touched") + register)
+    assert "(in mine, builtin.py:7) collides with oimi (built-in)" in refused(clash).message
