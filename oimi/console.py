@@ -99,24 +99,34 @@ def write_junit(
     results: Sequence[tuple[str, RunResult]],
     *,
     reproduce: Mapping[str, str] | None = None,
+    crashed: Mapping[str, str] | None = None,
 ) -> None:
     """One test suite per scenario, one test case per expectation. A failure's text ends
-    with how to run it again (``reproduce``, by suite name); a suite's ``system-err`` holds
+    with how to run it again (``reproduce``, by suite name); a run that crashed
+    (``crashed``: its traceback, by suite name) has its failing verdict as an ``error``,
+    as a CI tells a broken test from a failed one; a suite's ``system-err`` holds
     the session's errors (a rule, function or generator that failed), which a CI shows
     even when every expectation passed."""
     suites = ElementTree.Element("testsuites")
     for name, result in results:
-        failures = sum(not v.ok for v in result.verdicts)
+        trace = (crashed or {}).get(name)
+        failed = sum(not v.ok for v in result.verdicts)
+        errors, failures = (failed, 0) if trace else (0, failed)
         suite = ElementTree.SubElement(
-            suites, "testsuite", name=name, tests=str(len(result.verdicts)), failures=str(failures)
+            suites,
+            "testsuite",
+            name=name,
+            tests=str(len(result.verdicts)),
+            failures=str(failures),
+            errors=str(errors),
         )
         again = (reproduce or {}).get(name)
         for verdict in result.verdicts:
             case = ElementTree.SubElement(suite, "testcase", classname=name, name=verdict.name)
             if not verdict.ok:
-                ElementTree.SubElement(case, "failure", message=verdict.detail).text = (
-                    verdict.detail + (f"\nreproduce: {again}" if again else "")
-                )
+                text = (trace or verdict.detail) + (f"\nreproduce: {again}" if again else "")
+                kind = "error" if trace else "failure"
+                ElementTree.SubElement(case, kind, message=verdict.detail).text = text
         if result.summary.errors:
             ElementTree.SubElement(suite, "system-err").text = "\n".join(
                 f"ERROR at {error}" for error in result.summary.errors

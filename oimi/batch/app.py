@@ -176,6 +176,7 @@ def write_report(rows: Sequence[ResultRow], out_dir: Path) -> BatchReport:
         junit,
         [(row.task.name, row.result) for row in rows],
         reproduce={row.task.name: results.reproduce_command(row) for row in rows if not row.ok},
+        crashed={row.task.name: row.error for row in rows if row.error},
     )
     text = results.summary_text(rows)
     (out_dir / SUMMARY).write_text(text + "\n", encoding="utf-8")

@@ -23,17 +23,37 @@ def result(*verdicts: Verdict, errors: tuple[str, ...] = ()) -> RunResult:
     return RunResult(summary=summary, verdicts=verdicts)
 
 
+FAILED = Verdict(name="greets", ok=False, detail="reached never")
+
+
+def suites(folder: Path, a: Verdict, b: RunResult, **given: dict[str, str]) -> ElementTree.Element:
+    """The JUnit file of two runs, ``a-s1`` (one verdict) and ``b-s1``, written and read."""
+    path = folder / "junit.xml"
+    write_junit(path, [("a-s1", result(a)), ("b-s1", b)], **given)
+    return ElementTree.parse(path).getroot()
+
+
 def test_a_failure_ends_with_its_reproduction_and_errors_go_to_system_err(tmp_path: Path) -> None:
-    path = tmp_path / "junit.xml"
-    failed = Verdict(name="greets", ok=False, detail="reached never")
     passed = Verdict(name="waved", ok=True, detail="fired 4")
-    write_junit(
-        path,
-        [("a-s1", result(failed)), ("b-s1", result(passed, errors=(ERROR,)))],
+    a, b = suites(
+        tmp_path,
+        FAILED,
+        result(passed, errors=(ERROR,)),
         reproduce={"a-s1": "oimi run a.toml --seed 1"},
     )
-    a, b = ElementTree.parse(path).getroot()
     assert a.find("testcase/failure").text == "reached never\nreproduce: oimi run a.toml --seed 1"
     assert a.find("system-err") is None
     assert b.find("testcase/failure") is None, "errors alone fail no expectation"
     assert b.find("system-err").text == f"ERROR at {ERROR}"
+
+
+def test_a_run_that_crashed_is_an_error_with_its_traceback_not_a_failure(tmp_path: Path) -> None:
+    crash = Verdict(name="run completed", ok=False, detail="ValueError: boom")
+    trace = "Traceback (most recent call last):\nValueError: boom"
+    a, b = suites(tmp_path, crash, result(FAILED), crashed={"a-s1": trace})
+    assert (a.get("errors"), a.get("failures")) == ("1", "0")
+    assert a.find("testcase/failure") is None
+    error = a.find("testcase/error")
+    assert error.get("message") == "ValueError: boom"
+    assert error.text.startswith("Traceback (most recent call last):")
+    assert (b.get("errors"), b.get("failures")) == ("0", "1")
