@@ -54,10 +54,20 @@ there (:attr:`EchoSorter.beyond_m`), at the same bearing, and its arc is that of
 centres, its chord ``2 (rho + r) sin(beam / 4)``. It is a disc, not the point heard: a robot
 moving across the ray comes nearer a disc tangent at a point than to that point. A body
 whose disc only reaches into the beam (its nearest point in another beam) is heard where
-the beam's edge enters it, its centre beyond that edge, off this arc: the beam holding its
-nearest point hears it nearer, and that echo's disc holds it (as with a ring of centres;
-one behind a nearer body there is hidden in that beam, below). What makes an echo a
-tracked human's is unchanged: its gate and the coverage rule take the surface's range,
+the beam's edge enters it, its centre beyond that edge, off this arc (up to ``r sqrt 2``
+from its end; ``r`` from a ring of centres' arc); the beam holding its nearest point may
+hear a nearer body instead. It is bounded all the same, point by point, not by its centre:
+each point ``X`` of any body lies in some beam, whose range ``rho <= |X|`` (the nearest
+surface in it); the echo's arc holds ``Y``, at ``X``'s bearing, ``|Y| = rho + beyond_m``.
+If ``|X| <= |Y| + r``, ``|X - Y| <= r`` (``|X| >= rho >= |Y| - r``), so from the robot at
+``P`` ``|P - X| >= |P - Y| - r >= off_arc(P) - r``; farther, ``X`` lies on ``Y``'s ray
+beyond it and ``|P - X| >= |P - Y|`` while ``P`` lies within ``|Y|`` of where the robot
+was at the scan (a scan every 200 ms). The supervisor's distance (the arc's less a body,
+or the disc's less its chord, ``|P - M| - chord <= |P - Y|``, ``M`` the arc's point on the
+axis) is then never more than the robot's from any body in the beam beyond the range: a
+child whose only echo clips their edge, behind a nearer body, too
+(``tests/pipeline/act/test_act_safety_masked.py``). What makes an echo a tracked human's is
+unchanged: its gate and the coverage rule take the surface's range,
 ``rho`` (the centre within a body of it; an edge's centre out of the beam by at most the
 angle a body subtends at ``rho``).
 

@@ -38,24 +38,39 @@ def behind(bearing_deg: float, distance_m: float = 1.2) -> tuple[float, float]:
     return (distance_m * math.cos(bearing), distance_m * math.sin(bearing))
 
 
-def approach(children: dict[str, tuple[float, float]], target: str, missed: range):
-    """The robot asks to drive at 0.5 m/s straight at child ``target`` for 2.2 s among
-    standing ``children`` (their echoes ``echo-<name>``); the ring misses ``target`` on the
-    scans taken within ``missed`` (ms). Each tick's verdict and closing speed on the target,
-    and the nearest the robot's disc came to theirs, m (surface to surface)."""
-    supervisor = SafetySupervisor(RING, LIMITS, tick_ms=TICK_MS)
+def approach(
+    children: dict[str, tuple[float, float]],
+    target: str,
+    missed: range,
+    *,
+    config: SafetyConfig = RING,
+    posts: tuple[tuple[float, float], ...] = (),
+    seconds: float = 2.2,
+):
+    """The robot asks to drive at 0.5 m/s straight at child ``target`` for ``seconds`` among
+    standing ``children`` (their echoes ``echo-<name>``) and ``posts`` (fixed 5 cm poles,
+    ``echo-post<i>``, ahead of the children for the ring); the ring misses ``target`` on the
+    scans taken within ``missed`` (ms). Each tick's verdict, closing speed on the target and
+    the robot's disc's gap to theirs (surface to surface, m); the nearest it came; and each
+    scan's echoes of the target (their ids: ``echo-<target>`` from the beam holding their
+    nearest point, ``echo-<target>.s<K>`` from a beam that only clips their edge)."""
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
     echoes: dict[str, Obstacle] = {}
     heard: dict[tuple[str, str], int] = {}
-    bodies = [(f"echo-{name}", x, y, CHILD_M, False) for name, (x, y) in children.items()]
+    bodies = [(f"echo-post{i}", x, y, 0.05, True) for i, (x, y) in enumerate(posts)]
+    bodies += [(f"echo-{name}", x, y, CHILD_M, False) for name, (x, y) in children.items()]
     goal = children[target]
-    scan_ms, nearest, ticks = 0, math.inf, []
-    for tick in range(110):
+    scan_ms, nearest, ticks, scans = 0, math.inf, [], []
+    for tick in range(round(seconds * 1000) // TICK_MS):
         now_ms = tick * TICK_MS
         x, y, theta = supervisor.reckoned_pose
-        nearest = min(nearest, math.dist((x, y), goal) - 0.3 - CHILD_M)
+        gap = math.dist((x, y), goal) - 0.3 - CHILD_M
+        nearest = min(nearest, gap)
         if tick % SCAN_TICKS == 0:
             scan_ms = now_ms
-            for ident, e_x, e_y in beam_echoes(bodies, (x, y, theta), BEAMS, 3.0):
+            found = beam_echoes(bodies, (x, y, theta), BEAMS, 3.0)
+            scans.append([i for i, _, _ in found if i.split(".")[0] == f"echo-{target}"])
+            for ident, e_x, e_y in found:
                 if ident.startswith(f"echo-{target}") and now_ms in missed:
                     continue  # a dropout: this scan misses the target
                 rho = math.hypot(e_x - x, e_y - y)
@@ -79,8 +94,8 @@ def approach(children: dict[str, tuple[float, float]], target: str, missed: rang
         ).verdict
         allowed = verdict.velocity
         closing = allowed.v_x * math.cos(at) + allowed.v_y * math.sin(at)
-        ticks.append((now_ms, verdict, closing))
-    return ticks, nearest
+        ticks.append((now_ms, verdict, closing, gap))
+    return ticks, nearest, scans
 
 
 def test_a_child_the_ring_misses_beside_a_child_it_hears_stays_held() -> None:
@@ -94,8 +109,8 @@ def test_a_child_the_ring_misses_beside_a_child_it_hears_stays_held() -> None:
     they left it either). Held, the missed child binds every verdict while they are
     missed, and slows the robot to a stop before the ring hears them again."""
     children = {"0": behind(150.0), "1": behind(180.0)}
-    ticks, nearest = approach(children, "0", range(400, 1201))
-    missed = [(verdict, closing) for now_ms, verdict, closing in ticks if 400 < now_ms < 1400]
+    ticks, nearest, _ = approach(children, "0", range(400, 1201))
+    missed = [(verdict, closing) for now_ms, verdict, closing, _ in ticks if 400 < now_ms < 1400]
     assert all(verdict.human == "Obstacle/echo-0" for verdict, _ in missed)
     assert all(closing <= RING.slow_speed_mps + 1e-9 for _, closing in missed)
     assert any(verdict.zone is SafetyZone.STOP for verdict, _ in missed)
