@@ -16,17 +16,36 @@ if TYPE_CHECKING:
     import polars as pl
 
 
-class Progress:
+class _Line:
+    """A status line on stderr: on a terminal redrawn in place, elsewhere printed."""
+
+    def __init__(self, label: str, stream=None) -> None:
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.live = self.stream.isatty()
+
+    def bar(self, done: int, total: int) -> str:
+        return f"{self.label} [{'#' * (done * 30 // max(total, 1)):<30}]"
+
+    def show(self, line: str) -> None:
+        self.stream.write(f"\r{line}\033[K" if self.live else line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.live:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+class Progress(_Line):
     """A one-line progress bar on stderr: simulated time, share done and speed-up.
 
     On a terminal it redraws in place; elsewhere (CI logs) it prints a line per quarter.
     """
 
     def __init__(self, label: str, tick_ms: int, *, stream=None) -> None:
-        self.label = label
+        super().__init__(label, stream)
         self.tick_ms = tick_ms
-        self.stream = stream or sys.stderr
-        self.live = self.stream.isatty()
         self.start = time.perf_counter()
         self.shown = -1
 
@@ -43,42 +62,22 @@ class Progress:
         self.shown = share
         elapsed = max(time.perf_counter() - self.start, 1e-9)
         simulated = tick * self.tick_ms / 1000
-        bar = "#" * (tick * 30 // max(total, 1))
-        line = (
-            f"{self.label} [{bar:<30}] {tick * 100 // max(total, 1):3d}% "
+        self.show(
+            f"{self.bar(tick, total)} {tick * 100 // max(total, 1):3d}% "
             f"{simulated:7.1f} s simulated, {simulated / elapsed:6.0f}x real time"
         )
-        if self.live:
-            self.stream.write("\r" + line)
-        else:
-            self.stream.write(line + "\n")
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.live:
-            self.stream.write("\n")
-            self.stream.flush()
 
 
-class Count:
+class Count(_Line):
     """Items done of a total on stderr (``analyse [####   ] 3/10 sessions  (NAME)``): on a
     terminal redrawn in place, elsewhere a line per item."""
 
     def __init__(self, label: str, noun: str, *, stream=None) -> None:
-        self.label, self.noun = label, noun
-        self.stream = stream or sys.stderr
-        self.live = self.stream.isatty()
+        super().__init__(label, stream)
+        self.noun = noun
 
     def __call__(self, done: int, total: int, name: str) -> None:
-        bar = "#" * (done * 30 // max(total, 1))
-        line = f"{self.label} [{bar:<30}] {done}/{total} {self.noun}  ({name})"
-        self.stream.write(f"\r{line}\033[K" if self.live else line + "\n")
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.live:
-            self.stream.write("\n")
-            self.stream.flush()
+        self.show(f"{self.bar(done, total)} {done}/{total} {self.noun}  ({name})")
 
 
 class Pacer:

@@ -36,7 +36,8 @@ def replay(
             progress.close()
     print(format_report(comparison))
     if foxglove is not None:
-        serve_to_foxglove(recording, foxglove, speed=speed)
+        messages = sum(opened.summary.values())  # a client may fall that far behind
+        serve_to_foxglove(recording, foxglove, speed=speed, backlog=messages)
     return comparison
 
 
@@ -64,12 +65,15 @@ def rerun(recording: Recording, *, watch: Watch | None = None) -> Comparison:
 MODES = {"redrive": redrive_recording, "rerun": rerun}
 
 
-def serve_to_foxglove(recording: Path, port: int, *, speed: float) -> None:
-    """Stream the recording to a Foxglove client at its recorded pace, once one connects."""
-    from oimi.recorder.foxglove_live import FoxgloveServer, message_count, serve_recording
+def serve_to_foxglove(
+    recording: Path, port: int, *, speed: float, backlog: int | None = None
+) -> None:
+    """Stream the recording to a Foxglove client at its recorded pace, once one connects;
+    ``backlog``: how many messages the client may fall behind (at ``--speed 0`` it falls
+    behind by the whole file: its message count drops none)."""
+    from oimi.recorder.foxglove_live import FoxgloveServer, serve_recording
 
-    # a client may fall behind by the whole file (at --speed 0 it does): none is dropped
-    server = FoxgloveServer(port=port, backlog=message_count(recording))
+    server = FoxgloveServer(port=port, backlog=backlog)
     try:
         print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
         sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)

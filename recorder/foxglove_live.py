@@ -223,17 +223,6 @@ def serve_recording(
     return sent
 
 
-def message_count(path: Path) -> int | None:
-    """How many messages a recording holds (its summary's statistics; None: unknown)."""
-    try:
-        with open(path, "rb") as stream:
-            summary = _summary(make_reader(stream))
-    except OSError:
-        return None
-    statistics = summary.statistics if summary is not None else None
-    return statistics.message_count if statistics is not None else None
-
-
 def _summary(reader: McapReader) -> Summary | None:
     try:
         return reader.get_summary()

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Sequence
 from typing import Any
 
 from msgspec import inspect
+from oimi.pipeline.texts import did_you_mean
 from oimi.scenarios.schema import Scenario
 
 
@@ -34,8 +34,7 @@ def fields_at(path: Sequence[str | int], document: Any) -> tuple[str, ...]:
 def suggestion(key: str, path: Sequence[str | int], document: Any) -> str:
     """``"; did you mean NAME?"`` for an unknown ``key`` of the table at ``path`` that is
     close to one it takes (else "")."""
-    close = difflib.get_close_matches(key, fields_at(path, document), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]}?" if close else ""
+    return did_you_mean(key, fields_at(path, document), shown=str)
 
 
 def _child(node: Any, key: str | int) -> Any:

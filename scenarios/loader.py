@@ -33,6 +33,7 @@ from oimi.pipeline.operator.handler import generate_script
 from oimi.pipeline.plurals import counted
 from oimi.pipeline.script.validate import jump_failures
 from oimi.pipeline.sense.producer import MAX_ENTITIES
+from oimi.pipeline.texts import did_you_mean
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.scenarios.errors import ScenarioError
@@ -769,8 +770,7 @@ def _find_script(
     near = [
         p.name for root in (folder, LIBRARY_DIR, *extra) for p in _scripts_in(root / script.parent)
     ]
-    close = difflib.get_close_matches(script.name, near, n=1)
-    hint = f"; did you mean {str(script.with_name(close[0]))!r}?" if close else ""
+    hint = did_you_mean(script.name, near, shown=lambda name: repr(str(script.with_name(name))))
     raise Invalid(
         where,
         f"script file {name!r} not found in the scenario's folder ({folder.resolve()}) nor in"

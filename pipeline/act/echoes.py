@@ -221,6 +221,11 @@ class EchoSorter:
         beyond = max(apart - self._beam_rad / 2, 0.0)  # from the arc's nearer end
         return math.sqrt(max(rho * rho + far * far - 2 * rho * far * math.cos(beyond), 0.0))
 
+    def centre_m(self, reading: Entity) -> float:
+        """How far from the robot (where it was then) a reading places a body's centre: its
+        range, and :attr:`beyond_m` more for an echo (a ring of surfaces' heard a surface)."""
+        return reading.positionrho + (self.beyond_m if type(reading) is Obstacle else 0.0)
+
     def arc_m(self, reading: Entity) -> float:
         """How far what made a reading may lie from where it places it, beyond its errors: 0
         for a human (the camera gives a bearing); for an echo of a merging ring, the chord

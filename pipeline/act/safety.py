@@ -450,10 +450,10 @@ class SafetySupervisor:
     def _anchor(self, key: str, human: Entity, now_ms: int) -> None:
         """Place a new reading in the odometry frame, with the pose the robot had when it
         was taken (looked for every tick, so that a reading is placed while that pose is
-        kept), and no later than ``now_ms``, when it came (an echo of a ring of surfaces: a
-        body's radius beyond its range, ``EchoSorter.beyond_m``)."""
+        kept), and no later than ``now_ms``, when it came, its centre where
+        ``EchoSorter.centre_m`` places it (an echo of a ring of surfaces: beyond its range)."""
         stamp_ms = human.positionchangetime
-        rho = human.positionrho + (self._echoes.beyond_m if type(human) is Obstacle else 0.0)
+        rho = self._echoes.centre_m(human)
         at_ms = min(stamp_ms, now_ms)
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose

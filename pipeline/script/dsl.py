@@ -40,6 +40,7 @@ from oimi.pipeline.script.errors import ScriptError
 from oimi.pipeline.script.numbers import not_a_number, parse_float, parse_int
 from oimi.pipeline.script.sourcemap import LineIndex, ParsedScript, Position, SourceMap, decode_text
 from oimi.pipeline.script.validate import block_path, script_errors
+from oimi.pipeline.texts import did_you_mean
 
 RULE_FIELDS: Final = ("rulecode", "id", "intopic", "outtopic", "action", "mutexcmd")
 
@@ -561,8 +562,7 @@ class _Builder:
                 targets.append("")
                 continue
             if label.value not in labels:
-                close = difflib.get_close_matches(label.value, list(labels), n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
+                hint = did_you_mean(label.value, labels)
                 self.error(f"jump to unknown label {label.value!r}{hint}", label.at)
             targets.append(labels[label.value][0])
         return targets[0], targets[1]
@@ -650,8 +650,7 @@ def _describe(
         return "unterminated comment: this '%' has no closing '%'"
     if expected & _BLOCK_KINDS and not at_end:
         word = word.removesuffix(":")  # the colon after the type is not part of it
-        close = difflib.get_close_matches(word, _BLOCK_TYPES, n=1)
-        hint = f"; did you mean {close[0]}?" if close else ""
+        hint = did_you_mean(word, _BLOCK_TYPES, shown=str)
         return (
             f"unknown block type {word!r}; expected blk_inst, blk_jump, blk_terminus or"
             f" blk_sensor{hint}"

@@ -7,10 +7,10 @@ read (:attr:`Condition.reads`: the map fields, the clock, the alias and variable
 
 from __future__ import annotations
 
-import difflib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 from oimi.pipeline.errors import defined_at
+from oimi.pipeline.texts import did_you_mean
 from oimi.pipeline.think.condition_ast import (
     ALL_FIELDS,
     CLASS_FIELDS,
@@ -63,11 +63,6 @@ from oimi.pipeline.think.functions import (
 from oimi.pipeline.think.stdlib import default_registry
 
 
-def _suggest(name: str, options: Sequence[str]) -> str:
-    close = difflib.get_close_matches(name, options, n=1)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 class _Compiler:
     def __init__(self, registry: FunctionRegistry):
         self.registry = registry
@@ -99,7 +94,9 @@ class _Compiler:
                 )
             return fields[ref.field]
         if ref.field not in ALL_FIELDS:
-            raise located(f"unknown field '&{ref.field}'{_suggest(ref.field, ALL_FIELDS)}", ref.pos)
+            raise located(
+                f"unknown field '&{ref.field}'{did_you_mean(ref.field, ALL_FIELDS)}", ref.pos
+            )
         return None
 
     def operand(
@@ -195,7 +192,7 @@ class _Compiler:
         spec = self.registry.get(call.name)
         if spec is None:
             raise located(
-                f"unknown function {call.name!r}{_suggest(call.name, self.registry.names())}",
+                f"unknown function {call.name!r}{did_you_mean(call.name, self.registry.names())}",
                 call.name_pos,
             )
         if spec.family is not family:

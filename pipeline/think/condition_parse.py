@@ -6,7 +6,6 @@ terminal names lark reports are translated by one table (``TERMINALS``).
 
 from __future__ import annotations
 
-import difflib
 import functools
 import json
 import re
@@ -16,6 +15,7 @@ from typing import Final
 
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
+from oimi.pipeline.texts import did_you_mean
 from oimi.pipeline.think.condition_ast import (
     IDENT,
     THIS,
@@ -114,8 +114,7 @@ class _ToAst(Transformer):
         cls = str(cls_token)[1:]
         if cls not in CLASS_NAMES:
             known = ", ".join(f"#{c}" for c in CLASS_NAMES)
-            close = difflib.get_close_matches(cls, CLASS_NAMES, n=1)
-            hint = f"; did you mean #{close[0]}?" if close else ""
+            hint = did_you_mean(cls, CLASS_NAMES, shown=lambda name: f"#{name}")
             raise located(
                 f"unknown class {str(cls_token)!r} (expected {known}){hint}", token_pos(cls_token)
             )

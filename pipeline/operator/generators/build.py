@@ -6,8 +6,6 @@ Jumps name labels; :meth:`ScriptBuilder.build` turns them into the thesis's
 
 from __future__ import annotations
 
-import difflib
-
 from oimi.pipeline.messages import (
     Action,
     AudioOut,
@@ -24,6 +22,7 @@ from oimi.pipeline.messages import (
     TerminusBlock,
 )
 from oimi.pipeline.operator.generator import Colour, GeneratorFailure
+from oimi.pipeline.texts import did_you_mean
 from oimi.pipeline.think.rulecodes import RuleCode
 
 RuleSpec = tuple[int, str, RuleAction]
@@ -155,8 +154,7 @@ class ScriptBuilder:
         if not label:
             return ""
         if label not in self._labels:
-            close = difflib.get_close_matches(label, list(self._labels), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = did_you_mean(label, self._labels)
             raise GeneratorFailure(f"jump to unknown label {label!r}{hint}", source=self._name)
         return self._labels[label]
 
