@@ -292,8 +292,9 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     and braking, times ``2 sin(beam / 4)``: ``SafetySupervisor._across``).
 
     While a sonar is down only the camera sees ahead, and only within its range: one that
-    reports people nearer than :func:`~pipeline.act.separation.sighted_range_m` leaves the
-    robot no linear motion then (it may only turn; with the ring up it drives)."""
+    reports people nearer than :func:`~pipeline.act.separation.sighted_range_m` (a child
+    walking at the robot seen in time) leaves the robot no linear motion then (it may only
+    turn; with the ring up it drives)."""
     sensors, robot = scenario.sensors, scenario.robot
     config = supervisor_config(scenario)
     assert config.human_speed_mps is not None and config.sensing_error_m is not None
@@ -324,17 +325,18 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     assert config.max_frame_age_ms is not None and config.camera_range_m is not None
     reach_m = bodies_m + config.sensing_error_m + config.stop_distance_m
     frame_s, tick_s = config.max_frame_age_ms / 1000, scenario.tick_ms / 1000
-    sighted_m = sighted_range_m(reach_m, speed, frame_s, tick_s, accel)
+    sighted_m = sighted_range_m(reach_m, speed, walk, frame_s, tick_s, accel)
     if config.camera_range_m < sighted_m:
         stated = robot.safety.camera_range_m is not None
         yield (
             ("robot", "safety", "camera_range_m") if stated else ("sensors", "range_m"),
             f"the camera reports people within {config.camera_range_m!r} m, less than the"
             f" {round(sighted_m, 3)!r} m in which the safety supervisor can stop the robot"
-            f" before a child standing in its view whom it has not seen yet (the stop zone's"
-            f" edge {round(reach_m, 3)!r} m, a frame's wait (max_frame_age_ms"
+            f" before a child walking at it in its view whom it has not seen yet (the stop"
+            f" zone's edge {round(reach_m, 3)!r} m, a frame's wait (max_frame_age_ms"
             f" {config.max_frame_age_ms!r}) and a tick at max_speed_mps {speed!r}, and its"
-            f" braking at max_accel_mps2 {accel!r}): while a sonar is down the robot only turns",
+            f" braking at max_accel_mps2 {accel!r}, the child walking on at human_speed_mps"
+            f" {walk!r}): while a sonar is down the robot only turns",
         )
 
 

@@ -163,7 +163,7 @@ class SafetySupervisor:
         reach_m = radii + config.stop_distance_m  # the stop zone's edge, centre to centre
         view = body_view(config.camera_fov_rad / 2, reach_m, radii + config.slow_distance_m)  # type: ignore[operator]  # filled
         frame_s, a = config.max_frame_age_ms / 1000, limits.max_accel_mps2  # type: ignore[operator]  # filled
-        least_m = sighted_range_m(reach_m, limits.max_speed_mps, frame_s, self._dt_s, a)
+        least_m = sighted_range_m(reach_m, limits.max_speed_mps, self._walk, frame_s, self._dt_s, a)
         self._looking_rad = view if config.camera_range_m >= least_m else -1.0  # type: ignore[operator]  # filled
         """While the ring is down: how far from straight ahead the robot may drive, rad (a
         child centred outside the camera's view beyond the slow zone stays out of the stop

@@ -120,8 +120,9 @@ class SafetyConfig(Message):
     echo is taken for a tracked human only where the camera's frame would have reported
     any body that may have made it (:mod:`~pipeline.act.echoes`); a child beyond the range,
     never reported, merged into the tracked child's echo, would otherwise be driven into.
-    While a sonar is down, a range shorter than ``separation.sighted_range_m`` (1.055 m by
-    default) leaves no linear motion: a child ahead beyond it would be seen too late.
+    While a sonar is down, a range shorter than ``separation.sighted_range_m`` (2.075 m by
+    default) leaves no linear motion: a child ahead beyond it, walking at the robot, would
+    be seen too late.
     None: the scenario's camera's ``range_m`` (3.0 without a scenario, and on a real robot
     whose scenario states no ``range_m``: ``oimi bridge``; a scenario may not set it
     beyond its camera's)."""

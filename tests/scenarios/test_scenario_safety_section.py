@@ -311,16 +311,20 @@ def test_a_sonar_ring_too_short_for_the_supervisor_is_a_located_warning() -> Non
 def test_a_camera_too_short_to_drive_on_with_the_ring_down_is_a_located_warning() -> None:
     """While a sonar is down only the camera sees ahead: one reporting people within less
     than 0.3 + 0.25 + 0.02 + 0.1 m, 0.5 s of a frame's wait at 0.5 m/s and a tick and
-    braking from it (0.135 m), 1.055 m, leaves the robot only turning then (a warning: the
-    scenario runs, and drives while the ring is up)."""
-    short = b'name = "x"\n[sensors]\nrange_m = 1.05\n'
+    braking from it (0.135 m), and a child's walk at 1 m/s meanwhile (1.02 m), 2.075 m,
+    leaves the robot only turning then (a warning: the scenario runs, and drives while the
+    ring is up)."""
+    short = b'name = "x"\n[sensors]\nrange_m = 2.07\n'
     (warning,) = parse_scenario(short, source="s.toml").warnings
     assert str(warning).startswith(
-        "s.toml:3:1: sensors.range_m (m): the camera reports people within 1.05 m, less than"
-        " the 1.055 m in which the safety supervisor can stop the robot"
+        "s.toml:3:1: sensors.range_m (m): the camera reports people within 2.07 m, less than"
+        " the 2.075 m in which the safety supervisor can stop the robot before a child"
+        " walking at it"
     )
     assert str(warning).endswith("while a sonar is down the robot only turns")
-    assert parse_scenario(short.replace(b"1.05", b"1.06")).warnings == ()
+    assert parse_scenario(short.replace(b"2.07", b"2.08")).warnings == ()
+    slower = short + b"[robot]\nmax_speed_mps = 0.4\n"
+    assert parse_scenario(slower).warnings == (), "a slower robot is seen in time"
     stated = b'name = "x"\n[robot.safety]\ncamera_range_m = 1.0\n'
     (warning,) = parse_scenario(stated, source="s.toml").warnings
     assert str(warning).startswith("s.toml:3:1: robot.safety.camera_range_m (m): the camera")

@@ -92,49 +92,76 @@ def test_a_narrow_camera_with_the_ring_down_lets_no_linear_motion_through() -> N
     assert supervise(Velocity(0.5, 0.0, 0.4), world_map)[0].velocity == (0.5, 0.0, 0.4)
 
 
-def toward_a_child_beyond_the_range(range_m: float, frame_ms: int, *, down: bool = True):
-    """A child stands 1.4 m ahead (centre); the camera (2.2 rad) frames every ``frame_ms``
-    and reports them only while their centre is within ``range_m``; of a ring of two
-    sonars one is offline (``down``: nothing sees beside the robot; the other keeps the
-    speed from the blind cap). The robot asks for 0.5 m/s straight at them for 3 s: the
-    nearest their surfaces came (the dead reckoning taken for the motion) and how far the
-    robot went, m."""
+def toward_a_child_beyond_the_range(
+    range_m: float, frame_ms: int, *, down: bool = True, walk_mps: float = 0.0, phase_ms: int = 0
+) -> tuple[float, float, float]:
+    """A child 1.4 m ahead (centre; 3 m when walking at the robot at ``walk_mps``); the
+    camera (2.2 rad) frames every ``frame_ms`` (from ``phase_ms``) and reports them only
+    while their centre is within ``range_m``; of a ring of two sonars one is offline
+    (``down``: nothing sees beside the robot; the other keeps the speed from the blind cap).
+    The robot asks for 0.5 m/s straight at them for 3 s (until a walking child reaches its
+    stop zone): the nearest their surfaces came (the dead reckoning taken for the motion),
+    how far the robot went, m, and its speed in the tick the child reached its stop zone
+    (0.0: it was at rest, or they never did), m/s."""
     config = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2.2, camera_range_m=range_m)
     supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
-    child_m, nearest, humans, framed = 1.4, math.inf, [], 0
+    start_m = 3.0 if walk_mps else 1.4
+    nearest, humans, framed, went = math.inf, [], -10_000, 0.0
     for tick in range(150):
         now_ms = tick * TICK_MS
-        apart = child_m - supervisor.reckoned_pose[0]
+        apart = start_m - walk_mps * now_ms / 1000 - supervisor.reckoned_pose[0]
         nearest = min(nearest, apart - 0.3 - 0.25)
-        if now_ms % frame_ms == 0:
+        if nearest <= 0.1 and walk_mps:  # a walking child in the stop zone: how it drove
+            return nearest, supervisor.reckoned_pose[0], went / (TICK_MS / 1000)
+        if (now_ms - phase_ms) % frame_ms == 0:
             framed, humans = now_ms, [seen(apart, at_ms=now_ms)] if apart <= range_m else []
         world_map = room(*humans)
         world_map.sonars += [Sonar(id="left", isonline=True), Sonar(id="right", isonline=not down)]
         request = Velocity(0.5, 0.0, 0.0)
+        before = supervisor.reckoned_pose[0]
         supervise(
             request, world_map, now_ms=now_ms, framed={"front": framed}, supervisor=supervisor
         )
-    return nearest, supervisor.reckoned_pose[0]
+        went = supervisor.reckoned_pose[0] - before
+    return nearest, supervisor.reckoned_pose[0], 0.0
 
 
 def test_with_the_ring_down_a_camera_too_short_to_see_a_child_in_time_lets_no_drive() -> None:
     """A 0.7 m camera framing at 10 Hz: the child comes into range 0.7 m away, is reported
     up to a frame later, and the base, at 0.5 m/s, goes 0.135 m more as it brakes: the robot
     drove into the child (0 m surface to surface), never having seen them in its view.
-    Below ``separation.sighted_range_m`` (1.055 m here) the robot may only turn while the
-    ring is down; with the ring up it drives (the ring sees what the camera cannot)."""
-    nearest, went = toward_a_child_beyond_the_range(0.7, 100)
+    Below ``separation.sighted_range_m`` the robot may only turn while the ring is down;
+    with the ring up it drives (the ring sees what the camera cannot)."""
+    nearest, went, _ = toward_a_child_beyond_the_range(0.7, 100)
     assert nearest >= 0.1 and went == 0.0
     assert toward_a_child_beyond_the_range(0.7, 100, down=False)[1] > 0.5
 
 
+def test_with_the_ring_down_a_camera_too_short_to_see_a_walking_child_in_time_lets_no_drive():
+    """A 1.6 m camera sees a child standing ahead in time (1.055 m would do), but not one
+    walking at the robot at 1 m/s: taken for standing, the robot still drove at 0.34 m/s
+    when the child reached its stop zone (at 0.5 m/s with a 1.3 m camera). The least range
+    counts their walk: the robot may only turn, and is at rest when they come."""
+    for phase_ms in range(0, 500, 20):
+        nearest, went, speed = toward_a_child_beyond_the_range(
+            1.6, 500, walk_mps=1.0, phase_ms=phase_ms
+        )
+        assert went == 0.0 and speed == 0.0 and nearest <= 0.1
+
+
 def test_with_the_ring_down_a_camera_reaching_the_least_range_sees_the_child_in_time() -> None:
     """The least range's derivation, at its worst: frames only every ``max_frame_age_ms``
-    (500 ms; a camera slower counts as offline). The robot drives, and stops before the
-    stop zone."""
-    least_m = sighted_range_m(0.3 + 0.25 + 0.02 + 0.1, 0.5, 0.5, TICK_MS / 1000, 1.0)
-    assert least_m == pytest.approx(1.055)
-    nearest, went = toward_a_child_beyond_the_range(least_m + 1e-6, 500)
+    (500 ms; a camera slower counts as offline), at every phase of the child's coming into
+    range. The robot drives, and is at rest before a child walking at it at
+    ``human_speed_mps`` reaches its stop zone; it stops short of a child standing."""
+    least_m = sighted_range_m(STOP_REACH_M, 0.5, 1.0, 0.5, TICK_MS / 1000, 1.0)
+    assert least_m == pytest.approx(0.67 + 0.25 + 0.135 + 1.02)
+    for phase_ms in range(0, 500, 20):
+        nearest, went, speed = toward_a_child_beyond_the_range(
+            least_m + 1e-6, 500, walk_mps=1.0, phase_ms=phase_ms
+        )
+        assert went > 0.3 and speed == 0.0, phase_ms
+    nearest, went, _ = toward_a_child_beyond_the_range(least_m + 1e-6, 500)
     assert nearest >= 0.1 and went > 0.3
 
 
