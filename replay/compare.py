@@ -336,13 +336,11 @@ def compare_ticks(
     """Run ``step(tick)`` from tick 0 for as long as the recording lasts, the comparator
     receiving what it emits; stop at the first divergence. A user's code that holds a
     tick is stopped by the watchdog, as it was when the session ran. ``watch(tick,
-    total)`` hears the progress before the first tick, every :data:`WATCH_TICKS` ticks and
-    at the end, when the session's ``total`` ticks are known."""
+    total)`` hears the progress every :data:`WATCH_TICKS` ticks and at the end, when the
+    session's ``total`` ticks are known."""
     tick = 0
     divergence = None
     watch = watch if total else None
-    if watch is not None:
-        watch(0, total)  # type: ignore[arg-type]
     try:
         with watching() as watchdog:
             while comparator.pull_through(tick):

@@ -460,15 +460,6 @@ def test_replay_shows_its_progress_on_stderr_unless_quiet(
     assert capsys.readouterr().err == ""
 
 
-def test_redrive_tells_its_progress_from_before_its_first_tick(recording: Path) -> None:
-    """At 0 % first (a bar shows at once, and ``oimi bench`` times redrive from there, as it
-    times the run from its first tick), at 100 % last."""
-    heard: list[tuple[int, int]] = []
-    comparison = redrive(recording, watch=lambda done, total: heard.append((done, total)))
-    assert comparison.ok and heard[0] == (0, comparison.ticks)
-    assert heard[-1] == (comparison.ticks, comparison.ticks)
-
-
 def test_an_identical_report_lists_the_count_per_topic() -> None:
     report = format_report(
         Comparison(mode="redrive", recording="x.mcap", ticks=3, compared={"/map": 2, "/log": 0})
