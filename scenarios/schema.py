@@ -44,6 +44,9 @@ MAX_SESSION_S: Final = 86_400.0
 """Longest session (and battery), s: one day."""
 MAX_RATE_HZ: Final = 1000.0
 """Fastest sensor rate: the clock ticks at most every millisecond."""
+MIN_RATE_HZ: Final = 0.001
+"""Slowest camera rate: a frame every 1,000 s (the safety supervisor keeps readings and its
+odometry for a few of its periods; a slower camera is no sensor for it)."""
 MAX_HUMAN_SPEED_MPS: Final = 10.0
 """Faster than any child or therapist runs."""
 MAX_MASS_KG: Final = 1000.0
@@ -67,7 +70,7 @@ PositiveInt = Annotated[int, Meta(gt=0)]
 RoomSize = Annotated[float, Meta(gt=0, le=MAX_ROOM_M)]
 BodySize = Annotated[float, Meta(ge=0, le=MAX_ROOM_M)]
 """A size that may be zero (a box's sides when it is a disc)."""
-Rate = Annotated[float, Meta(gt=0, le=MAX_RATE_HZ)]
+Rate = Annotated[float, Meta(ge=MIN_RATE_HZ, le=MAX_RATE_HZ)]
 ScanRate = Annotated[int, Meta(gt=0, le=int(MAX_RATE_HZ))]
 SessionTime = Annotated[float, Meta(gt=0, le=MAX_SESSION_S)]
 Span = Annotated[float, Meta(ge=0, le=MAX_SESSION_S)]

@@ -134,6 +134,12 @@ ERRORS = [
     ),
     ("tick rate", "tick_hz = 60\n", r"tick_hz \(Hz\): 60 must divide 1000", 2),
     ("no tick rate", "tick_hz = 0\n", r"tick_hz \(Hz\): must be >= 1, got 0", 2),
+    (  # its period sized the supervisor's odometry history: an OverflowError (fuzz, 2413)
+        "camera slower than a frame in 1,000 s",
+        "[sensors]\nrate_hz = 1e-300\n",
+        r"sensors.rate_hz \(Hz\): must be >= 0.001, got 1e-300",
+        3,
+    ),
     (
         "unknown operator command",
         '[[events]]\nat_s = 1.0\nkind = "operator"\ncommand = { cmd = "strat" }\n',
