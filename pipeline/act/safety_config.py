@@ -32,9 +32,6 @@ ASSUMED: Final[dict[str, float]] = {
     # driver unless stated (oimi bridge): an echo's range may be a centre's
 }
 """What the supervisor assumes for each assumption a configuration leaves open (None)."""
-MAX_AGE_MS: Final = 86_400_000
-"""Longest age or hold the supervisor is told (a day, the longest session): it keeps its
-odometry for a few of them."""
 
 
 class SafetyConfig(Message):
@@ -157,8 +154,6 @@ def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
             continue
         if not math.isfinite(value) or value < 0:
             yield name, f"safety {name} must be a non-negative number, got {value!r}"
-        elif name.endswith("_ms") and value > MAX_AGE_MS:
-            yield name, f"safety {name} must be at most {MAX_AGE_MS} ms (a day), got {value!r}"
     if config.slow_distance_m < config.stop_distance_m:
         yield (
             "slow_distance_m",
