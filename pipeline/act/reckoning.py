@@ -22,6 +22,7 @@ A reading's position is uncertain by what was counted since it was taken
 from __future__ import annotations
 
 import math
+import sys
 from collections import deque
 from collections.abc import Sequence
 from typing import Final, NamedTuple
@@ -84,8 +85,9 @@ class DeadReckoning:
         """The base's velocity as the reckoning takes it, in the odometry frame."""
         self.path_m = 0.0
         """The length of the path the reckoning took the base along so far."""
-        self._history: deque[_State] = deque(maxlen=kept_ms // tick_ms + 3)
-        """Recent ticks' states at their start, oldest first."""
+        self._history: deque[_State] = deque(maxlen=min(kept_ms // tick_ms + 3, sys.maxsize))
+        """Recent ticks' states at their start, oldest first (as many as ``kept_ms`` spans:
+        for ages beyond any session, every state)."""
         self.slip = Slip()
         """The slip counted so far."""
         self._slips: deque[tuple[int, Slip]] = deque(maxlen=64)

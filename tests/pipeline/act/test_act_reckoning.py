@@ -328,3 +328,13 @@ def test_a_report_ahead_of_the_clock_is_not_counted_when_the_clock_reaches_it() 
         reckoned.advance(Velocity(0.0, 0.0, 0.0))
     assert since is not None
     assert reckoned.drift(since).distance_m == pytest.approx(1.5), "1.5 s of a 1 m/s push"
+
+
+def test_ages_beyond_any_session_keep_every_state() -> None:
+    """A status age of 10**23 ms (a scenario may state it) sized the history past a C size:
+    an OverflowError built no supervisor (``--param robot.safety.max_status_age_ms=1`` and
+    23 zeros)."""
+    config = SafetyConfig(robot_radius_m=0.3, max_status_age_ms=10**23)
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    verdict, _ = supervise(Velocity(0.3, 0.0, 0.0), room(), supervisor=supervisor)
+    assert verdict.velocity == (0.3, 0.0, 0.0)
