@@ -45,6 +45,9 @@ def test_a_broken_expectation_exits_1_and_is_named(tmp_path: Path) -> None:
         case.get("name") for case in root.iter("testcase") if case.find("failure") is not None
     ]
     assert any("greets at once" in (name or "") for name in failed)
+    [suite] = root.iter("testsuite")
+    assert float(suite.get("time")) > 0, "the run's wall-clock seconds, which a CI shows"
+    assert all(case.get("time") for case in suite.iter("testcase"))
 
 
 def test_a_malformed_scenario_exits_2_with_file_line_col(tmp_path: Path) -> None:
