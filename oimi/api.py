@@ -14,6 +14,7 @@ Errors are the toolkit's located errors (``ScenarioError``, ``ScriptError``,
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,6 +113,7 @@ def run(
     ``world_every_n_ticks``: how often the recording keeps ``/world/state``
     (``recorder.world_sampling``; 1: every tick). Ctrl-C stops the run between two
     ticks (``KeyboardInterrupt``) with the recording finished."""
+    started = time.perf_counter()  # the JUnit file's durations; nothing recorded reads it
     loaded = (
         scenario
         if isinstance(scenario, LoadedScenario)
@@ -137,7 +139,8 @@ def run(
                 watcher.close()
     if xml is not None:
         named = loaded.source if isinstance(scenario, LoadedScenario) else Path(scenario)
-        console.write_junit(xml, [(named.stem, result)])
+        took = {named.stem: time.perf_counter() - started}
+        console.write_junit(xml, [(named.stem, result)], seconds=took)
     return RunOutcome(result=result, recording=mcap)
 
 

@@ -18,6 +18,7 @@ from oimi.arg_types import add_world_every_argument
 from oimi.batch.spec import parse_param
 from oimi.cmd_check import add_outside_paths_argument, report_warnings
 from oimi.extension_args import extensions_of
+from oimi.pipeline.events import ActivityState
 from oimi.pipeline.plurals import counted
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.loader import warnings_with
@@ -108,13 +109,25 @@ def _episodes(episodes: int, fired: int) -> str:
     return f" ({counted(episodes, 'episode')})"
 
 
+def selected_state(state: str, ran: str | None) -> str:
+    """How the summary says a selected activity's ``state``, given its last state on
+    ``/reader/progress`` (``ran``, None when it never started): one that never started and
+    one that started and was interrupted are both ``not_yet_completed`` to the selection."""
+    if ran is None:
+        said = "selected" if state == ActivityState.NOT_YET_COMPLETED else state
+        return f"{said}, never started"
+    if ran == "interrupted" and state == ActivityState.NOT_YET_COMPLETED:
+        return f"{state} (started, interrupted)"
+    return state
+
+
 def print_result(result: RunResult, *, live: bool = False) -> None:
     """The end-of-run summary and each expectation's verdict (``live``: a live session's,
     to which the scenario's scripted expectations do not apply)."""
     s = result.summary
     print(f"scenario {s.scenario} (seed {s.seed}): {s.ticks} ticks, {s.duration_s:.1f} s simulated")
     for name, state in s.activities.items():
-        print(f"  activity {name}: {state}")
+        print(f"  activity {name}: {selected_state(state, s.ran.get(name))}")
     for name, state in s.ran.items():
         if name not in s.activities:
             print(f"  activity {name}: {state} (no longer selected)")

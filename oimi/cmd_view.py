@@ -8,8 +8,9 @@ viewer starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analy
 off; ``--web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
 :mod:`oimi.web_viewer` so the page asks nothing of another machine. A
 damaged MCAP (a killed run) is converted up to its damage, and how much was
-recovered is printed. Exit 0 on success, 1 when the viewer cannot run, 2 on a
-missing or unreadable recording.
+recovered is printed. Exit 0 on success, 1 when the viewer exits with an error, 2 on a
+missing or unreadable recording or a viewer that cannot run here as asked (no display
+for a window, a ``--web-port`` in use), saying what to do instead.
 """
 
 from __future__ import annotations

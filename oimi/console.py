@@ -99,8 +99,13 @@ def write_junit(
     *,
     reproduce: Mapping[str, str] | None = None,
     crashed: Mapping[str, str] | None = None,
+    seconds: Mapping[str, float] | None = None,
 ) -> None:
-    """One test suite per scenario, one test case per expectation. A failure's text ends
+    """One test suite per scenario, one test case per expectation. ``seconds`` (by suite
+    name) is the wall-clock time of a run, which a CI shows as durations: the suite's
+    ``time``, shared evenly among its test cases (the expectations are checked together at
+    the end of the run), so that the cases add up to the suite; a suite without it (a run
+    an earlier batch finished) has no ``time``. A failure's text ends
     with how to run it again (``reproduce``, by suite name); a run that crashed
     (``crashed``: its traceback, by suite name) has its failing verdict as an ``error``,
     as a CI tells a broken test from a failed one; a suite's ``system-err`` holds
@@ -119,9 +124,15 @@ def write_junit(
             failures=str(failures),
             errors=str(errors),
         )
+        took = (seconds or {}).get(name)
+        share = {} if took is None else {"time": f"{took / max(len(result.verdicts), 1):.3f}"}
+        if took is not None:
+            suite.set("time", f"{took:.3f}")
         again = (reproduce or {}).get(name)
         for verdict in result.verdicts:
-            case = ElementTree.SubElement(suite, "testcase", classname=name, name=verdict.name)
+            case = ElementTree.SubElement(
+                suite, "testcase", classname=name, name=verdict.name, **share
+            )
             if not verdict.ok:
                 text = (trace or verdict.detail) + (f"\nreproduce: {again}" if again else "")
                 kind = "error" if trace else "failure"

@@ -68,16 +68,29 @@ MODES = {"redrive": redrive_recording, "rerun": rerun}
 def serve_to_foxglove(
     recording: Path, port: int, *, speed: float, backlog: int | None = None
 ) -> None:
-    """Stream the recording to a Foxglove client at its recorded pace, once one connects;
+    """Stream the recording to a Foxglove client at its recorded pace, once one connects,
+    then keep serving while a client is subscribed (it may still be receiving), until it
+    leaves, Ctrl-C (which ends the command as it would have ended) or ``DRAIN_LIMIT_S``;
     ``backlog``: how many messages the client may fall behind (at ``--speed 0`` it falls
     behind by the whole file: its message count drops none)."""
-    from oimi.recorder.foxglove_live import FoxgloveServer, serve_recording
+    from oimi.recorder.foxglove_live import DRAIN_LIMIT_S, FoxgloveServer, serve_recording
 
     server = FoxgloveServer(port=port, backlog=backlog)
     try:
         print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
         sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)
-        print(f"foxglove: {sent} messages streamed", flush=True)
+        print(
+            f"foxglove: {sent} messages streamed; serving until the client disconnects"
+            f" (Ctrl-C to stop; at most {DRAIN_LIMIT_S / 60:.0f} min)",
+            flush=True,
+        )
+        try:
+            left = server.wait_while_subscribed()
+        except KeyboardInterrupt:
+            print("foxglove: stopped (Ctrl-C)", flush=True)
+        else:
+            if not left:
+                print("foxglove: stopped with a client still connected (time limit)")
     finally:
         server.close()
 

@@ -15,7 +15,8 @@ EPILOG: Final = (
     "  oimi run scenarios/library/greeting.toml    # run and record one scenario\n"
     "  oimi info out/greeting.mcap                 # what a recording holds\n"
     "  oimi COMMAND --help                         # one command's options\n"
-    "\nexit status: 0 ok, 1 an expectation or comparison failed, 2 bad input."
+    "\nexit status: 0 ok; 1 an expectation or comparison failed (view: the viewer did);\n"
+    "2 bad input, or what this machine cannot do as given (no display, a port in use)."
 )
 
 
@@ -69,7 +70,7 @@ COMMANDS: Final[dict[str, Usage]] = {
     "view": Usage(
         "open a recording in the Rerun viewer",
         "An MCAP recording is converted first. --save writes a Rerun file without opening a"
-        " viewer.",
+        " viewer; --web serves the viewer to a browser (without a display, use either).",
         ("oimi view out/greeting.rrd", "oimi view out/greeting.mcap --save out/greeting.rrd"),
     ),
     "analyse": Usage(

@@ -9,6 +9,8 @@ starts bound to 127.0.0.1 (Rerun's default is 0.0.0.0) with Rerun's analytics of
 ``web`` serves the web viewer on 127.0.0.1 instead of opening a window, through
 :mod:`oimi.web_viewer` so the page asks nothing of another machine. A damaged MCAP
 (a killed run) is converted up to its damage, and how much was recovered is printed.
+A viewer this machine cannot run as asked (no display for a window, a port in use, no
+viewer binary) is ``ViewerError``: bad input (exit 2), saying what to do instead.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Final
 
+from oimi.pipeline.errors import LocatedError
 from oimi.recorder.errors import RecordingError
 from oimi.recorder.outputs import (
     OutputError,
@@ -58,6 +61,10 @@ SUFFIXES: Final = (".mcap", ".rrd")
 RRD_SUFFIX: Final = ".rrd"
 
 
+class ViewerError(LocatedError):
+    """The viewer cannot run here as asked; the message says what to do instead."""
+
+
 def view(
     source: Path,
     *,
@@ -68,9 +75,10 @@ def view(
     web_port: int,
 ) -> int:
     """Write ``source`` as Rerun's recording to ``save``, or show it in the viewer until it
-    is closed: ``EXIT_OK``, or ``EXIT_FAILED`` when the viewer cannot run; a missing or
+    is closed: ``EXIT_OK``, or ``EXIT_FAILED`` when the viewer fails; a missing or
     unreadable recording, or a ``save`` refused by :func:`check_save`, raises
-    ``RecordingError``."""
+    ``RecordingError``, and a viewer that cannot run here (no display) ``ViewerError``,
+    both before anything is converted."""
     _check_readable(source)
     if save is not None:
         check_save(source, save, overwrite=overwrite)
@@ -82,8 +90,7 @@ def view(
         return EXIT_OK
     problem = display_problem(web=web, environ=os.environ, platform=sys.platform)
     if problem is not None:
-        print(f"oimi view: {problem}", file=sys.stderr)
-        return EXIT_FAILED
+        raise ViewerError(problem, source="oimi view")
     with tempfile.TemporaryDirectory(prefix="oimi-view-") as folder:
         rrd = source
         if source.suffix.lower() == ".mcap":
@@ -188,7 +195,8 @@ def viewer_environment(environ: Mapping[str, str], *, web: bool = False) -> dict
 
 
 def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> int:
-    """Run the viewer on ``rrd`` until it is closed (or Ctrl-C)."""
+    """Run the viewer on ``rrd`` until it is closed (or Ctrl-C): ``EXIT_FAILED`` when it
+    exits with an error; ``ViewerError`` when it cannot start."""
     page = None
     if web:
         grpc = port or DEFAULT_GRPC_PORT
@@ -196,11 +204,11 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
         try:
             page = PrivateViewer(web_port, assets_port=assets, grpc_port=grpc)
         except OSError as error:
-            print(
-                f"oimi view: cannot listen on {BIND_ADDRESS}:{web_port}: {error.strerror}",
-                file=sys.stderr,
-            )
-            return EXIT_FAILED
+            raise ViewerError(
+                f"cannot listen on {BIND_ADDRESS}:{web_port}: {error.strerror}"
+                " (choose another with --web-port)",
+                source="oimi view",
+            ) from None
         command = viewer_command(rrd, port=grpc, web=True, web_port=assets)
         page.start()
         print(f"web viewer: {page.url} (Ctrl-C to stop)")
@@ -212,8 +220,11 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
         environment = viewer_environment(os.environ, web=web)
         status = run_viewer(command, environment)
     except OSError as error:
-        print(f"oimi view: cannot start the Rerun viewer: {error}", file=sys.stderr)
-        return EXIT_FAILED
+        raise ViewerError(
+            f"cannot start the Rerun viewer: {error} (--save OUT.rrd writes the recording"
+            " without one)",
+            source="oimi view",
+        ) from None
     finally:
         if page is not None:
             page.shutdown()

@@ -44,8 +44,12 @@ STATIC_SCENE_EVERY_NS: Final = 1_000_000_000
 second, so that a client that joins late draws them."""
 
 
-LINGER_S: Final = 1.0
-"""How long :func:`serve_recording` waits after the last message, for clients to drain."""
+DRAIN_LIMIT_S: Final = 600.0
+"""How long ``oimi replay --foxglove`` keeps serving after the last message while a client
+is still subscribed: the SDK holds what a slow client has not yet received, and tells
+nobody when it has (the protocol has no acknowledgement), so the server stays up until the
+clients leave, Ctrl-C, or this."""
+POLL_S: Final = 0.05
 
 
 def loopback_host(host: str) -> str:
@@ -84,6 +88,7 @@ class FoxgloveServer:
                 f"cannot start the Foxglove server on {host}:{port}: {error}", source="foxglove"
             ) from None
         self.host = host
+        self._channels: list[sdk.Channel] = []
 
     @property
     def port(self) -> int:
@@ -95,12 +100,29 @@ class FoxgloveServer:
         return f"ws://{self.host}:{self.port}"
 
     def channel(self, topic: str, schema: str, data: bytes, encoding: str) -> sdk.Channel:
-        return sdk.Channel(
+        made = sdk.Channel(
             topic,
             schema=sdk.Schema(name=schema, encoding=SCHEMA_ENCODING, data=data),
             message_encoding=encoding,
             context=self.context,
         )
+        self._channels.append(made)
+        return made
+
+    def subscribed(self) -> bool:
+        """Whether a client is subscribed to one of the channels (a client that leaves
+        drops its subscriptions)."""
+        return any(channel.has_sinks() for channel in self._channels)
+
+    def wait_while_subscribed(self, *, limit_s: float = DRAIN_LIMIT_S) -> bool:
+        """Keep serving until no client is subscribed (True) or ``limit_s`` has passed
+        (False): what a client has not yet received is sent meanwhile."""
+        end = time.monotonic() + limit_s
+        while self.subscribed():
+            if time.monotonic() >= end:
+                return False
+            time.sleep(POLL_S)
+        return True
 
     def close(self) -> None:
         self._server.stop()
@@ -184,7 +206,8 @@ def serve_recording(
 
     ``wait_for_client()`` is polled before the first message until it returns False
     (stop waiting) or a client has subscribed. A damaged file is streamed up to the
-    damage. Returns the number of messages sent.
+    damage. Returns the number of messages sent, as soon as the last is handed to the
+    server (a slow client may still be receiving: :meth:`FoxgloveServer.wait_while_subscribed`).
     """
     channels: dict[int, sdk.Channel] = {}
 
@@ -219,7 +242,6 @@ def serve_recording(
         except (McapError, ValueError, EOFError, struct.error) as error:
             if sent == 0:
                 raise RecordingError(f"cannot stream: {error}", source=str(path)) from None
-    time.sleep(LINGER_S)
     return sent
 
 
@@ -237,5 +259,5 @@ def _wait(channels: dict[int, sdk.Channel], go_on: Callable[[], bool] | None) ->
     while not any(c.has_sinks() for c in channels.values()):
         if not go_on():
             return
-        time.sleep(0.05)
+        time.sleep(POLL_S)
     time.sleep(0.2)

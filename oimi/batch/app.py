@@ -12,7 +12,7 @@ import argparse
 import contextlib
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -36,7 +36,7 @@ from oimi.batch.spec import (
     parse_seed_range,
     scenario_files,
 )
-from oimi.batch.tasks import ResultRow, finished_row, run_task
+from oimi.batch.tasks import ResultRow, finished_row, timed_task
 from oimi.cmd_check import report_warnings
 from oimi.extension_args import extensions_of
 from oimi.recorder.outputs import check_output
@@ -80,6 +80,7 @@ def run_batch(args: argparse.Namespace) -> BatchReport | Interrupted:
     out_dir = check_output(args.out, folder=True).resolve()
     tasks = collect_tasks(args, out_dir)
     done: dict[int, ResultRow] = {}
+    seconds: dict[str, float] = {}  # the runs of this batch (not the resumed ones)
     if args.resume:
         for index, task in enumerate(tasks):
             if (row := finished_row(task)) is not None:
@@ -94,14 +95,15 @@ def run_batch(args: argparse.Namespace) -> BatchReport | Interrupted:
     try:
         if todo:
             with executor_for(args) as executor:
-                for position, row in executor.map(run_task, [tasks[i] for i in todo]):
+                for position, (row, took) in executor.map(timed_task, [tasks[i] for i in todo]):
                     done[todo[position]] = row
+                    seconds[row.task.name] = took
                     progress.finished(row)
     except KeyboardInterrupt:
         progress.close()
         return Interrupted(finished=len(done), total=len(tasks))
     progress.close()
-    return write_report([done[index] for index in range(len(tasks))], out_dir)
+    return write_report([done[index] for index in range(len(tasks))], out_dir, seconds=seconds)
 
 
 def collect_tasks(args: argparse.Namespace, out_dir: Path) -> list[Task]:
@@ -168,8 +170,11 @@ def executor_for(args: argparse.Namespace) -> Iterator[Executor]:
         executor.close()
 
 
-def write_report(rows: Sequence[ResultRow], out_dir: Path) -> BatchReport:
-    """Write the table, JUnit, summary and comparison page of a finished batch."""
+def write_report(
+    rows: Sequence[ResultRow], out_dir: Path, *, seconds: Mapping[str, float] | None = None
+) -> BatchReport:
+    """Write the table, JUnit, summary and comparison page of a finished batch; ``seconds``
+    (by run name) are the JUnit file's durations."""
     written = results.write_results(results.results_frame(rows), out_dir)
     junit = out_dir / JUNIT
     console.write_junit(
@@ -177,6 +182,7 @@ def write_report(rows: Sequence[ResultRow], out_dir: Path) -> BatchReport:
         [(row.task.name, row.result) for row in rows],
         reproduce={row.task.name: results.reproduce_command(row) for row in rows if not row.ok},
         crashed={row.task.name: row.error for row in rows if row.error},
+        seconds=seconds,
     )
     text = results.summary_text(rows)
     (out_dir / SUMMARY).write_text(text + "\n", encoding="utf-8")

@@ -12,6 +12,7 @@ when that file exists (``finished_row``), which is what ``--resume`` checks.
 from __future__ import annotations
 
 import os
+import time
 import traceback
 from pathlib import Path
 
@@ -74,6 +75,14 @@ def run_task(task: Task) -> ResultRow:
         raise
     _write_atomically(task.result_file, msgspec.json.encode(row))
     return row
+
+
+def timed_task(task: Task) -> tuple[ResultRow, float]:
+    """``run_task`` and its wall-clock seconds, for the JUnit file only (the row and its file
+    hold no wall-clock value)."""
+    started = time.perf_counter()
+    row = run_task(task)
+    return row, time.perf_counter() - started
 
 
 def crashed_row(task: Task, error: str) -> ResultRow:

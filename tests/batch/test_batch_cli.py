@@ -131,6 +131,7 @@ def test_a_resumed_batch_skips_finished_runs(tmp_path: Path, capsys) -> None:
     out = tmp_path / "out"
     assert main(argv) == 0
     first = pl.read_csv(out / "results.csv")
+    assert all(float(suite.get("time")) > 0 for suite in junit_suites(out)), "CI durations"
     lost = out / "beta-s2.mcap"
     lost.unlink()  # as if the batch was interrupted before this run finished
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.mcap")}
@@ -140,6 +141,13 @@ def test_a_resumed_batch_skips_finished_runs(tmp_path: Path, capsys) -> None:
     assert lost.is_file()
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.mcap") if p != lost} == stamps
     assert_frame_equal(pl.read_csv(out / "results.csv"), first)
+    # only the run of this batch has a wall-clock time (the results table has none)
+    timed = [suite.get("name") for suite in junit_suites(out) if suite.get("time")]
+    assert timed == ["beta-s2"]
+
+
+def junit_suites(out: Path) -> list[ElementTree.Element]:
+    return list(ElementTree.parse(out / "junit.xml").getroot().iter("testsuite"))
 
 
 def test_a_finished_run_of_other_inputs_is_not_taken_for_this_one(tmp_path: Path) -> None:

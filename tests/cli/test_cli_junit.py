@@ -26,7 +26,7 @@ def result(*verdicts: Verdict, errors: tuple[str, ...] = ()) -> RunResult:
 FAILED = Verdict(name="greets", ok=False, detail="reached never")
 
 
-def suites(folder: Path, a: Verdict, b: RunResult, **given: dict[str, str]) -> ElementTree.Element:
+def suites(folder: Path, a: Verdict, b: RunResult, **given: dict) -> ElementTree.Element:
     """The JUnit file of two runs, ``a-s1`` (one verdict) and ``b-s1``, written and read."""
     path = folder / "junit.xml"
     write_junit(path, [("a-s1", result(a)), ("b-s1", b)], **given)
@@ -57,3 +57,13 @@ def test_a_run_that_crashed_is_an_error_with_its_traceback_not_a_failure(tmp_pat
     assert error.get("message") == "ValueError: boom"
     assert error.text.startswith("Traceback (most recent call last):")
     assert (b.get("errors"), b.get("failures")) == ("0", "1")
+
+
+def test_a_runs_seconds_are_its_suites_time_shared_by_its_cases(tmp_path: Path) -> None:
+    """A CI shows durations from ``time``: the cases of a suite add up to the suite; a run
+    finished by an earlier batch (no seconds) has no ``time`` rather than a made-up one."""
+    passed = Verdict(name="waved", ok=True, detail="fired 4")
+    a, b = suites(tmp_path, FAILED, result(passed, FAILED), seconds={"b-s1": 3.0})
+    assert a.get("time") is None and a.find("testcase").get("time") is None
+    assert b.get("time") == "3.000"
+    assert [case.get("time") for case in b.iter("testcase")] == ["1.500", "1.500"]

@@ -8,6 +8,9 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from cli_process import ROOT, oimi
+from oimi.scenarios.session.runner import RunResult, Summary
+
+from oimi.cmd_run import print_result
 
 LIBRARY = ROOT / "scenarios" / "library"
 
@@ -45,6 +48,9 @@ def test_a_broken_expectation_exits_1_and_is_named(tmp_path: Path) -> None:
         case.get("name") for case in root.iter("testcase") if case.find("failure") is not None
     ]
     assert any("greets at once" in (name or "") for name in failed)
+    [suite] = root.iter("testsuite")
+    assert float(suite.get("time")) > 0, "the run's wall-clock seconds, which a CI shows"
+    assert all(case.get("time") for case in suite.iter("testcase"))
 
 
 def test_a_malformed_scenario_exits_2_with_file_line_col(tmp_path: Path) -> None:
@@ -122,6 +128,40 @@ def test_the_summary_names_an_activity_that_ran_though_the_operator_cleared_it()
     printed = oimi("run", "-q", LIBRARY / "operator_controls.toml", "--no-record").stdout
     assert "  activity test_dance: completed (no longer selected)\n" in printed
     assert "idle_activity" not in printed
+
+
+def test_the_summary_says_which_selected_activity_never_started_or_was_interrupted(
+    capsys,
+) -> None:
+    """``oimi run``'s and ``oimi serve``'s summary: the selection alone says
+    ``not_yet_completed`` both of an activity never started and of one interrupted."""
+    selection = {
+        "greeting": "completed",
+        "dance": "not_yet_completed",
+        "blink": "not_yet_completed",
+        "chase": "current",
+    }
+    ran = {"greeting": "completed", "dance": "interrupted", "ball": "completed"}
+    summary = Summary(
+        scenario="s", seed=1, ticks=10, duration_s=0.2, activities=selection,
+        goals_reached={}, rules_fired={}, min_distance_m={}, max_speed_mps=0.0, contacts=0,
+        rejected_inputs=0, ran=ran,
+    )  # fmt: skip
+    print_result(RunResult(summary=summary, verdicts=()), live=True)
+    lines = [line for line in capsys.readouterr().out.splitlines() if "activity " in line]
+    assert lines == [
+        "  activity greeting: completed",
+        "  activity dance: not_yet_completed (started, interrupted)",
+        "  activity blink: selected, never started",
+        "  activity chase: current, never started",
+        "  activity ball: completed (no longer selected)",
+    ]
+
+
+def test_a_run_that_ends_before_an_activity_starts_says_it_never_started() -> None:
+    scenario = LIBRARY / "three_activity_session.toml"
+    printed = oimi("run", "-q", scenario, "--no-record", "--param", "duration_s=8").stdout
+    assert "  activity test_dance: selected, never started\n" in printed
 
 
 def test_the_summary_counts_rejected_inputs_on_their_own_line_not_with_safety() -> None:

@@ -147,15 +147,28 @@ def test_bad_recordings_are_refused_with_exit_2_naming_the_file(
     assert re.search(message, err), err
 
 
-def test_without_a_display_it_suggests_save_or_the_web_viewer(
+def test_without_a_display_it_is_bad_input_and_suggests_save_or_the_web_viewer(
     mcap: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """Exit 2, as for any command this machine cannot do as given (1 is a failed check)."""
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr(sys, "platform", "linux")
-    assert main(["view", str(mcap)]) == 1
+    assert main(["view", str(mcap)]) == 2
     err = capsys.readouterr().err
-    assert "no display" in err and "--save OUT.rrd" in err and "127.0.0.1 with --web" in err
+    assert err.startswith("oimi view: no display")
+    assert "--save OUT.rrd" in err and "127.0.0.1 with --web" in err
+
+
+def test_a_web_port_in_use_is_bad_input_naming_the_option(
+    mcap: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(cmd_view, "run_viewer", lambda command, env: pytest.fail("started"))
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        assert main(["view", str(mcap), "--web", "--web-port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert f"oimi view: cannot listen on 127.0.0.1:{port}" in err and "--web-port" in err
 
 
 def test_display_problem_only_for_a_native_window_on_linux_without_display() -> None:

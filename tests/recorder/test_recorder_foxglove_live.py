@@ -7,10 +7,12 @@ from __future__ import annotations
 import asyncio
 import json
 import re
+import socket
 import struct
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import msgspec
@@ -18,7 +20,8 @@ import pytest
 import websockets
 from oimi.pipeline.events import Topic
 from oimi.recorder.errors import RecordingError
-from oimi.recorder.foxglove_live import FoxgloveLiveSink, loopback_host
+from oimi.recorder.foxglove_live import FoxgloveLiveSink, FoxgloveServer, loopback_host
+from oimi.recorder.reader import open_recording
 from oimi.recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
 from recorder_synthetic import SCENE, TICK_NS, session, world_state
 
@@ -56,8 +59,8 @@ class Client:
                 return self.subscriptions[sub], time_ns, frame[13:]
 
 
-def connect(port: int) -> websockets.connect:
-    return websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS)
+def connect(port: int, **options: object) -> websockets.connect:
+    return websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, **options)
 
 
 MCAP_TOPICS = [*(t.value for t in Topic), *(f.value for f in FoxgloveTopic)]
@@ -206,29 +209,103 @@ def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) 
     assert time.monotonic() - started < 60
 
 
-async def receive_everything(port: int) -> int:
-    """Subscribe to every channel; count the messages until the server closes."""
+async def receive_everything(
+    port: int, expected: int, *, stalled: Callable[[], object] = lambda: None
+) -> int:
+    """Subscribe to every channel, call ``stalled()`` before reading anything (a client that
+    falls behind), then count the messages until ``expected`` or the server closes."""
     received = 0
-    async with connect(port) as ws:
-        client = Client(ws)
-        await client.until_advertised(len(MCAP_TOPICS))
-        await client.subscribe(MCAP_TOPICS)
-        try:
-            while True:
-                await client.message()
-                received += 1
-        except (websockets.ConnectionClosed, TimeoutError):
-            return received
+    with socket.socket() as sock:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # little held for us
+        sock.connect(("127.0.0.1", port))
+        async with connect(port, sock=sock) as ws:
+            client = Client(ws)
+            await client.until_advertised(len(MCAP_TOPICS))
+            await client.subscribe(MCAP_TOPICS)
+            stalled()
+            try:
+                while received < expected:
+                    await client.message()
+                    received += 1
+            except (websockets.ConnectionClosed, TimeoutError):
+                pass
+    return received
 
 
 def test_oimi_replay_foxglove_at_once_drops_nothing_past_the_sdks_backlog(tmp_path: Path) -> None:
-    process = oimi_process("replay", recorded_blink(tmp_path), "--foxglove", "0", "--speed", "0")
+    recording = recorded_blink(tmp_path)
+    process = oimi_process("replay", recording, "--foxglove", "0", "--speed", "0")
     try:
         port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
-        received = asyncio.run(receive_everything(port))
+        received = asyncio.run(receive_everything(port, message_count(recording)))
     finally:
         out, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
     sent = int(re.search(r"foxglove: (\d+) messages streamed", out)[1])  # type: ignore[index]
     assert sent > 1024, "more than the SDK's default backlog"
     assert received == sent
+
+
+def message_count(recording: Path) -> int:
+    return sum(open_recording(recording).summary.values())
+
+
+def test_oimi_replay_foxglove_serves_a_slow_client_until_it_has_everything(
+    tmp_path: Path,
+) -> None:
+    """A client that reads nothing for a while after the server streamed a large file
+    (more than the sockets hold) still receives all of it: the server waits for it to
+    leave (it stopped 1 s after the last message)."""
+    recording = tmp_path / "busy.mcap"
+    busy = ROOT / "scenarios" / "library" / "busy_playroom.toml"
+    argv = ["run", busy, "-q", "-o", recording, "--world-every", "1", "--param", "duration_s=120"]
+    run = subprocess.run([sys.executable, "-m", "oimi", *argv], cwd=ROOT, capture_output=True)
+    assert run.returncode == 0, run.stderr
+    process = oimi_process("replay", recording, "--foxglove", "0", "--speed", "0")
+    said: list[str] = []
+
+    def stalled() -> None:  # blocks the client's loop: it reads nothing meanwhile
+        said.append(first_line_matching(process, r"foxglove: \d+ messages streamed.*")[0])
+        time.sleep(1.5)
+
+    try:
+        port = int(first_line_matching(process, r"foxglove: ws://127\.0\.0\.1:(\d+)")[1])
+        expected = message_count(recording)
+        received = asyncio.run(receive_everything(port, expected, stalled=stalled))
+    finally:
+        out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert received == expected > 10_000
+    assert said == [
+        f"foxglove: {expected} messages streamed; serving until the client disconnects"
+        " (Ctrl-C to stop; at most 10 min)"
+    ]
+    assert "time limit" not in out
+
+
+def test_the_server_serves_a_subscribed_client_until_it_leaves_or_the_limit() -> None:
+    server = FoxgloveServer(port=0)
+    channel = server.channel("/x", "x", b"{}", "json")
+
+    async def subscribed_then_gone() -> tuple[bool, float, bool, float]:
+        async with connect(server.port) as ws:
+            client = Client(ws)
+            await client.until_advertised(1)
+            await client.subscribe(["/x"])
+            for _ in range(200):
+                if channel.has_sinks():
+                    break
+                await asyncio.sleep(0.01)
+            started = time.monotonic()
+            held = await asyncio.to_thread(server.wait_while_subscribed, limit_s=0.3)
+            waited = time.monotonic() - started
+        started = time.monotonic()
+        left = await asyncio.to_thread(server.wait_while_subscribed, limit_s=10)
+        return held, waited, left, time.monotonic() - started
+
+    try:
+        held, waited, left, then = asyncio.run(subscribed_then_gone())
+    finally:
+        server.close()
+    assert not held and 0.3 <= waited < 5, "a client that stays: the limit"
+    assert left and then < 5, "a client that left: at once"
