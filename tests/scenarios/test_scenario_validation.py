@@ -50,13 +50,13 @@ BAD = [
     (
         "camera rate negative",
         "[sensors]\nrate_hz = -1\n",
-        "sensors.rate_hz (Hz): must be > 0.0, got -1",
+        "sensors.rate_hz (Hz): must be >= 0.001, got -1",
         3,
     ),
     (
         "camera rate zero",
         "[sensors]\nrate_hz = 0\n",
-        "sensors.rate_hz (Hz): must be > 0.0, got 0",
+        "sensors.rate_hz (Hz): must be >= 0.001, got 0",
         3,
     ),
     (
