@@ -215,7 +215,10 @@ def _take(kept: Any, patch: dict[str, Any]) -> dict[str, Any]:
     keeps the readings it kept (they are copies already) and copies those added."""
     for name, value in patch.items():
         if type(value) is Appended:
-            setattr(kept, name, getattr(kept, name)[value.dropped :] + _copy(value.added))
+            added = value.added  # (joined to a new list: its items alone need copies)
+            if not _SHARED.issuperset(map(type, added)):
+                added = _copy(added)
+            setattr(kept, name, getattr(kept, name)[value.dropped :] + added)
         elif name != "id":
             setattr(kept, name, value if type(value) in _SHARED else _copy(value))
     return patch
