@@ -50,6 +50,10 @@ class Placed(NamedTuple):
     path_m: float
 
 
+_NO_SLIP: Final = Slip()
+"""No slip counted (one value for every reading placed before any report: a NamedTuple
+built anew runs its ``__new__`` as Python)."""
+
 _State = tuple[int, tuple[float, float, float], float]
 """A tick's time, ms, and the pose and the path's length (m) at its start (plain tuples:
 one a tick)."""
@@ -117,7 +121,7 @@ class DeadReckoning:
         slip counted up to the last report that covers it and the path driven up to then
         (for a time older than what is kept, none: all that was counted since the start)."""
         at_ms, pose, path_m = self._state_at(time_ms)
-        slip = Slip()
+        slip = _NO_SLIP
         for until_ms, counted in reversed(self._slips):
             if until_ms <= time_ms:
                 slip = counted
