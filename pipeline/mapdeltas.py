@@ -58,6 +58,8 @@ _REPEATS: Final[dict[type, tuple[tuple[str, tuple[str, ...]], ...]]] = {
 fields (the Map Producer copies an added pose onto an entity's ``positionrho``,
 ``positiontheta`` and ``positionchangetime``: the update table's ``mirrors``)."""
 _encode: Final = msgspec.json.Encoder().encode
+_astuple: Final = msgspec.structs.astuple
+_Raw: Final = msgspec.Raw
 _UNSET: Final[Any] = object()
 
 
@@ -172,10 +174,10 @@ class MapDeltas:
         for row in live:
             old = kept.get(row.id)
             if old is None:
-                rows.append(msgspec.Raw(_encode(row)))
+                rows.append(_Raw(_encode(row)))
                 old = _copy(row)
             elif old != row:
-                rows.append(msgspec.Raw(_encode(_unrepeated(row, _take(old, _patch(old, row))))))
+                rows.append(_Raw(_encode(_unrepeated(row, _take(old, _patch(old, row))))))
             fresh[row.id] = old
         self._ids[table] = fresh
         if len(fresh) == len(kept) == len(live) and list(fresh) == list(kept):
@@ -194,9 +196,9 @@ def _patch(old: Any, new: Any) -> dict[str, Any]:
     """A row's (same id) or a section's change from ``old`` to ``new``: the fields that
     differ, a list that kept a run of its old items at its start as what it dropped and
     added."""
-    patch: dict[str, Any] = {"id": new.id} if "id" in new.__struct_fields__ else {}
-    olds, news = msgspec.structs.astuple(old), msgspec.structs.astuple(new)
-    for name, before, after in zip(new.__struct_fields__, olds, news, strict=True):
+    names = new.__struct_fields__
+    patch: dict[str, Any] = {"id": new.id} if "id" in names else {}
+    for name, before, after in zip(names, _astuple(old), _astuple(new), strict=True):
         if before == after:
             continue
         if type(after) is list and type(before) is list:
@@ -213,9 +215,12 @@ def _take(kept: Any, patch: dict[str, Any]) -> dict[str, Any]:
     keeps the readings it kept (they are copies already) and copies those added."""
     for name, value in patch.items():
         if type(value) is Appended:
-            setattr(kept, name, getattr(kept, name)[value.dropped :] + _copy(value.added))
+            added = value.added  # (joined to a new list: its items alone need copies)
+            if not _SHARED.issuperset(map(type, added)):
+                added = _copy(added)
+            setattr(kept, name, getattr(kept, name)[value.dropped :] + added)
         elif name != "id":
-            setattr(kept, name, _copy(value))
+            setattr(kept, name, value if type(value) in _SHARED else _copy(value))
     return patch
 
 
@@ -243,10 +248,14 @@ def _dropped(before: list[Any], after: list[Any]) -> int | None:
     if not after:
         return None
     first, size = after[0], len(before)
-    for dropped in range(size):
-        if before[dropped] == first and after[: size - dropped] == before[dropped:]:
+    dropped = -1
+    while True:  # (each item equal to ``first``, in order: a C-level search)
+        try:
+            dropped = before.index(first, dropped + 1)
+        except ValueError:
+            return None
+        if after[: size - dropped] == before[dropped:]:
             return dropped
-    return None
 
 
 def _applied(row: Any, patch: Any, repeats: bool) -> Any:

@@ -51,6 +51,10 @@ class Placed(NamedTuple):
     path_m: float
 
 
+_NO_SLIP: Final = Slip()
+"""No slip counted (one value for every reading placed before any report: a NamedTuple
+built anew runs its ``__new__`` as Python)."""
+
 _State = tuple[int, tuple[float, float, float], float]
 """A tick's time, ms, and the pose and the path's length (m) at its start (plain tuples:
 one a tick)."""
@@ -83,6 +87,9 @@ class DeadReckoning:
         """The robot's pose in its own start frame (m, m, rad)."""
         self._moving = Velocity()
         """The base's velocity as the reckoning takes it, in the odometry frame."""
+        self._rested: Velocity | None = None
+        """The velocity the last step reached standing (a target of zeros, reached): a
+        step under that very velocity again leaves every value as it is (:meth:`advance`)."""
         self.path_m = 0.0
         """The length of the path the reckoning took the base along so far."""
         self._history: deque[_State] = deque(maxlen=min(kept_ms // tick_ms + 3, sys.maxsize))
@@ -116,7 +123,7 @@ class DeadReckoning:
         slip counted up to the last report that covers it and the path driven up to then
         (for a time older than what is kept, none: all that was counted since the start)."""
         at_ms, pose, path_m = self._state_at(time_ms)
-        slip = Slip()
+        slip = _NO_SLIP
         for until_ms, counted in reversed(self._slips):
             if until_ms <= time_ms:
                 slip = counted
@@ -203,6 +210,8 @@ class DeadReckoning:
         """One tick of the base towards ``velocity`` (body frame, turned into the odometry
         frame with the heading at the start of the step), changing by the largest
         accelerations at most: it rolls and spins on after a cut."""
+        if velocity is self._rested:  # standing, told to stand: the step would change nothing
+            return
         x, y, theta = self.pose
         cos, sin = math.cos(theta), math.sin(theta)
         target = Velocity(
@@ -210,9 +219,13 @@ class DeadReckoning:
             sin * velocity.v_x + cos * velocity.v_y,
             velocity.v_theta,
         )
-        v_x, v_y, omega = self._moving = ramp_velocity(
+        moving = self._moving = ramp_velocity(
             self._moving, target, self._limits, dt_ms=self._tick_ms
         )
+        v_x, v_y, omega = moving
+        # (reached and all zero: the pose, never -0.0, stays; the next target, made of the
+        # same bits, is reached again at once)
+        self._rested = velocity if moving is target and not (v_x or v_y or omega) else None
         dt = self._dt_s
         theta += dt * omega
         self.pose = (x + dt * v_x, y + dt * v_y, theta)

@@ -138,6 +138,9 @@ class SafetySupervisor:
         down or repeating itself, stops at ``max_data_age_ms``)."""
         self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
         """Where a protective stop ends: halfway from the stop zone to the slow zone's edge."""
+        self._standing = Supervised(Verdict(Velocity()))
+        """The last tick's answer to a request that stood (no linear velocity) with no
+        event: handed on while the request is the same object (the actuator's, unchanged)."""
         self._reckoning = DeadReckoning(
             limits,
             tick_ms=tick_ms,
@@ -205,7 +208,7 @@ class SafetySupervisor:
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
-            return Supervised(verdict)
+            return self._standing if verdict is self._standing.verdict else Supervised(verdict)
         assert self._episode is not None
         zone, human, source = self._episode
         if phase is SafetyPhase.END:
@@ -263,8 +266,12 @@ class SafetySupervisor:
         beats: Mapping[tuple[str, str], int],
         now_ms: int,
     ) -> Verdict:
-        if requested.v_x == 0.0 and requested.v_y == 0.0:
-            return Verdict(requested)  # a stand (or a turn on the spot) is braked to straight
+        if requested.v_x == 0.0 and requested.v_y == 0.0:  # a stand (or a turn on the spot)
+            standing = self._standing.verdict  # is braked to straight: not limited
+            if standing.velocity is not requested:
+                standing = Verdict(requested)
+                self._standing = Supervised(standing)
+            return standing
         config = self.config
         cameras, sonars = world_map.cameras, world_map.sonars
         max_age = config.max_status_age_ms

@@ -28,6 +28,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Final
 
+import msgspec
 from oimi.pipeline.errors import named
 from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking, Entity, WorldMap
 
@@ -64,9 +65,9 @@ class ArgKind(enum.Enum):
     ANY = "any value"
 
 
-@dataclass(frozen=True, slots=True)
-class FunctionContext:
-    """What every rule function sees besides its arguments."""
+class FunctionContext(msgspec.Struct, frozen=True):
+    """What every rule function sees besides its arguments (a Struct: built in C, once for
+    each evaluation that calls a function; a frozen dataclass's ``__init__`` ran as Python)."""
 
     world_map: WorldMap
     now_ms: int
