@@ -17,8 +17,13 @@ from collections.abc import Iterator
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import arc_chord
-from oimi.pipeline.act.safety_config import ASSUMED, SafetyConfig
-from oimi.pipeline.act.separation import sighted_range_m, stopping_way
+from oimi.pipeline.act.safety_config import (
+    ASSUMED,
+    SafetyConfig,
+    centre_reach_m,
+    least_camera_range_m,
+)
+from oimi.pipeline.act.separation import stopping_way
 from oimi.scenarios.schema import Scenario, SensorSpec, unit_of
 
 NOISE_SIGMAS: Final = 3.0
@@ -305,7 +310,8 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
     closing_m = (speed + walk) * delay_s
     braking_m = speed**2 / (2 * accel) + walk * speed / accel
     bodies_m = config.robot_radius_m + config.human_radius_m
-    least = bodies_m + config.stop_distance_m + config.sensing_error_m + closing_m + braking_m
+    reach_m = centre_reach_m(config, config.stop_distance_m)
+    least = reach_m + closing_m + braking_m
     assert config.sonar_beam_rad is not None
     arc_m = arc_chord(stopping_way(speed, 1 / scenario.tick_hz, accel), config.sonar_beam_rad)
     least += arc_m
@@ -323,9 +329,7 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             " someone it has not seen",
         )
     assert config.max_frame_age_ms is not None and config.camera_range_m is not None
-    reach_m = bodies_m + config.sensing_error_m + config.stop_distance_m
-    frame_s, tick_s = config.max_frame_age_ms / 1000, scenario.tick_ms / 1000
-    sighted_m = sighted_range_m(reach_m, speed, walk, frame_s, tick_s, accel)
+    sighted_m = least_camera_range_m(config, speed, accel, scenario.tick_ms / 1000)
     if config.camera_range_m < sighted_m:
         stated = robot.safety.camera_range_m is not None
         yield (

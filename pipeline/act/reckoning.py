@@ -95,7 +95,7 @@ class DeadReckoning:
         self._history: deque[_State] = deque(maxlen=min(kept_ms // tick_ms + 3, sys.maxsize))
         """Recent ticks' states at their start, oldest first (as many as ``kept_ms`` spans:
         for ages beyond any session, every state)."""
-        self.slip = Slip()
+        self.slip = _NO_SLIP
         """The slip counted so far."""
         self._slips: deque[tuple[int, Slip]] = deque(maxlen=64)
         """Up to when each recent report was counted, ms, and the slip counted up to then."""

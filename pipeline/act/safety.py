@@ -43,9 +43,9 @@ or one each on an ideal ring); one no longer reported is gone once every sonar h
 since and ``echo_hold_ms`` have passed; one repeated with an old reading, or that a ring now
 down may have made, is kept, stale. While a sonar is down or repeats an old echo, linear
 motion stays inside the camera's view, narrowed so that a child centred just outside it
-beyond the slow zone is not driven into the stop zone (``separation.body_view``); a
-camera too short-ranged to report a child ahead in time leaves none
-(``separation.sighted_range_m``), and so does one that does not look (offline, frozen).
+beyond the slow zone is not driven into the stop zone; a camera too short-ranged to report
+a child ahead in time leaves none (``safety_config.ring_down_view_rad``), and so does one
+that does not look (offline, frozen).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -60,16 +60,14 @@ from typing import Final, NamedTuple
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
 from oimi.pipeline.act.limits import RobotLimits, Velocity
 from oimi.pipeline.act.reckoning import DeadReckoning
-from oimi.pipeline.act.safety_config import SafetyConfig, safety_problems
+from oimi.pipeline.act.safety_config import SafetyConfig, ring_down_view_rad, safety_problems
 from oimi.pipeline.act.separation import (
     Constraint,
-    body_view,
     braking_cap,
     clear_gap,
     followed_meeting,
     meeting,
     nearer,
-    sighted_range_m,
     stopping_way,
     within_view,
 )
@@ -162,16 +160,11 @@ class SafetySupervisor:
         """The intervention episode under way: its worst zone, that zone's human, the source."""
         self._limited_ms = 0
         """When the supervisor last changed a velocity."""
-        radii = config.robot_radius_m + config.human_radius_m + config.sensing_error_m  # type: ignore[operator]  # filled
-        reach_m = radii + config.stop_distance_m  # the stop zone's edge, centre to centre
-        view = body_view(config.camera_fov_rad / 2, reach_m, radii + config.slow_distance_m)  # type: ignore[operator]  # filled
-        frame_s, a = config.max_frame_age_ms / 1000, limits.max_accel_mps2  # type: ignore[operator]  # filled
-        least_m = sighted_range_m(reach_m, limits.max_speed_mps, self._walk, frame_s, self._dt_s, a)
-        self._looking_rad = view if config.camera_range_m >= least_m else -1.0  # type: ignore[operator]  # filled
-        """While the ring is down: how far from straight ahead the robot may drive, rad (a
-        child centred outside the camera's view beyond the slow zone stays out of the stop
-        zone; negative: nowhere, as where the camera's range is too short to report a child
-        ahead in time, ``separation.sighted_range_m``)."""
+        self._looking_rad = ring_down_view_rad(
+            config, limits.max_speed_mps, limits.max_accel_mps2, self._dt_s
+        )
+        """While the ring is down: how far from straight ahead the robot may drive, rad
+        (negative: nowhere)."""
 
     def supervise(
         self,

@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from typing import Final
 
 import msgspec
+from oimi.pipeline.act.separation import body_view, sighted_range_m
 from oimi.pipeline.messages import Message
 
 ASSUMED: Final[dict[str, float]] = {
@@ -144,6 +145,36 @@ class SafetyConfig(Message):
         values = ASSUMED | given
         left_open = {name: values[name] for name in values if getattr(self, name) is None}
         return msgspec.structs.replace(self, **left_open)
+
+
+def centre_reach_m(config: SafetyConfig, surface_m: float) -> float:
+    """How far from the robot's centre a person's centre is on a fresh reading when their
+    surfaces are ``surface_m`` apart (a filled ``config``: both radii and the sensing
+    error), m: ``stop_distance_m``'s is the stop zone's edge."""
+    radii = config.robot_radius_m + config.human_radius_m + config.sensing_error_m  # type: ignore[operator]  # filled
+    return radii + surface_m
+
+
+def least_camera_range_m(config: SafetyConfig, top_mps: float, a: float, dt_s: float) -> float:
+    """:func:`~pipeline.act.separation.sighted_range_m` for a filled ``config`` (its stop
+    zone's edge, walk and frame wait) and a robot at up to ``top_mps`` braking at ``a``."""
+    frame_s = config.max_frame_age_ms / 1000  # type: ignore[operator]  # filled
+    walk = config.human_speed_mps
+    reach_m = centre_reach_m(config, config.stop_distance_m)
+    return sighted_range_m(reach_m, top_mps, walk, frame_s, dt_s, a)  # type: ignore[arg-type]  # filled
+
+
+def ring_down_view_rad(config: SafetyConfig, top_mps: float, a: float, dt_s: float) -> float:
+    """While a sonar is down, how far from straight ahead the robot may drive, rad (a filled
+    ``config``): the camera's half view narrowed so that a child centred outside it beyond
+    the slow zone stays out of the stop zone (``separation.body_view``); negative, nowhere,
+    where the camera's range is too short to report a child ahead in time
+    (:func:`least_camera_range_m`)."""
+    reach_m = centre_reach_m(config, config.stop_distance_m)
+    slow_m = centre_reach_m(config, config.slow_distance_m)
+    view = body_view(config.camera_fov_rad / 2, reach_m, slow_m)  # type: ignore[operator]  # filled
+    least_m = least_camera_range_m(config, top_mps, a, dt_s)
+    return view if config.camera_range_m >= least_m else -1.0  # type: ignore[operator]  # filled
 
 
 def safety_problems(config: SafetyConfig) -> Iterator[tuple[str, str]]:
