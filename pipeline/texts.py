@@ -16,4 +16,9 @@ def did_you_mean(word: str, options: Iterable[str], *, shown: Callable[[str], st
     """``; did you mean 'x'?`` naming the option nearest ``word`` (``shown`` as it is
     written), or ``""`` when none is near (difflib's closeness, 0.6)."""
     close = difflib.get_close_matches(word, list(options), n=1)
-    return f"; did you mean {shown(close[0])}?" if close else ""
+    return meant(close[0], shown=shown) if close else ""
+
+
+def meant(option: str, *, shown: Callable[[str], str] = repr) -> str:
+    """``; did you mean 'x'?`` for an ``option`` known to be the one meant."""
+    return f"; did you mean {shown(option)}?"

@@ -13,7 +13,6 @@ checks with units and the located errors share the TOML position scan.
 
 from __future__ import annotations
 
-import difflib
 import functools
 import math
 import re
@@ -33,7 +32,7 @@ from oimi.pipeline.operator.handler import generate_script
 from oimi.pipeline.plurals import counted
 from oimi.pipeline.script.validate import jump_failures
 from oimi.pipeline.sense.producer import MAX_ENTITIES
-from oimi.pipeline.texts import did_you_mean
+from oimi.pipeline.texts import did_you_mean, meant
 from oimi.pipeline.think.conditions import compile_condition
 from oimi.pipeline.think.functions import FunctionRegistry
 from oimi.scenarios.errors import ScenarioError
@@ -706,13 +705,9 @@ def _check_expected_names(
                 for key, names in _names([parsed.script]).items():
                     known[key] |= names
     typos = [
-        Invalid(
-            ("expect", index, key),
-            f"no script {_HAS[key]} {key} {name!r}; did you mean {close[0]!r}?",
-        )
+        Invalid(("expect", index, key), f"no script {_HAS[key]} {key} {name!r}{hint}")
         for index, key, name in missing
-        if name not in known[key]
-        and (close := difflib.get_close_matches(name, sorted(known[key]), n=1))
+        if name not in known[key] and (hint := did_you_mean(name, sorted(known[key])))
     ]
     if typos:
         typos[0].others = tuple(typos[1:])
@@ -753,7 +748,7 @@ def _find_script(
             for suffix in SCRIPT_SUFFIXES
             if (root / f"{under}{name}{suffix}").is_file()
         ]
-        hint = f"; did you mean {found[0]!r}?" if found else ""
+        hint = meant(found[0]) if found else ""
         raise Invalid(where, f"script {name!r} is not a .json or .txt file{hint}")
     roots = (folder.resolve(), LIBRARY_DIR.resolve(), *(p.resolve() for p in extra))
     for candidate in (folder / script, LIBRARY_DIR / script, *(p / script for p in extra)):

@@ -10,7 +10,6 @@ method of the same class, and the located-error helpers they share sit beside th
 
 from __future__ import annotations
 
-import difflib
 import functools
 import json
 import re
@@ -428,10 +427,11 @@ class _Builder:
 
     def second_name(self, item: NameItem) -> NoReturn:
         word = item.name.value
-        close = difflib.get_close_matches(word, ["alfa:", "omega:", "goal:", "action"], n=1)
-        hint = f"; did you mean [{close[0]}...]?" if close else ""
-        if close == ["action"]:
-            hint = "; did you mean [action]?"
+        hint = did_you_mean(
+            word,
+            ["alfa:", "omega:", "goal:", "action"],
+            shown=lambda item: "[action]" if item == "action" else f"[{item}...]",
+        )
         self.error(f"unknown item [{word}]: the activity name was already given{hint}", item.at)
 
     def rule(self, item: RuleItem, path: str) -> RuleMessage:
