@@ -92,7 +92,7 @@ def needs(scenario: Scenario) -> dict[str, Need]:
         " robot",
     )
     dropout = sensors.dropout_probability
-    if 0 < dropout < 1:  # (a ring that never detects anything has no echo to hold)
+    if 0 < dropout < 1:  # (sensors that never detect anything: coverage_gaps says so)
         scans = scans_to_see(dropout)
         hold_ms = _whole_ms(scans / sensors.sonar_scan_hz)
         found["echo_hold_ms"] = Need(
@@ -100,6 +100,14 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             f"{scans} of the sonar ring's scans ({hold_ms} ms at sonar_scan_hz"
             f" {sensors.sonar_scan_hz!r}) that all miss a body with dropout_probability"
             f" {dropout!r}: the supervisor would forget a child it has just stopped seeing",
+        )
+        miss_ms = _whole_ms((scans - 1) / sensors.rate_hz)
+        found["camera_miss_ms"] = Need(
+            miss_ms,
+            f"{scans - 1} of the camera's frames ({miss_ms} ms at rate_hz {sensors.rate_hz!r})"
+            f" that may all miss a child after the first with dropout_probability"
+            f" {dropout!r}: with a sonar down the supervisor would count on seeing a child"
+            " ahead sooner than it can",
         )
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
@@ -329,6 +337,7 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             " someone it has not seen",
         )
     assert config.max_frame_age_ms is not None and config.camera_range_m is not None
+    assert config.camera_miss_ms is not None
     sighted_m = least_camera_range_m(config, speed, accel, scenario.tick_ms / 1000)
     if config.camera_range_m < sighted_m:
         stated = robot.safety.camera_range_m is not None
@@ -338,7 +347,8 @@ def coverage_gaps(scenario: Scenario) -> Iterator[tuple[tuple[str, ...], str]]:
             f" {round(sighted_m, 3)!r} m in which the safety supervisor can stop the robot"
             f" before a child walking at it in its view whom it has not seen yet (the stop"
             f" zone's edge {round(reach_m, 3)!r} m, a frame's wait (max_frame_age_ms"
-            f" {config.max_frame_age_ms!r}) and a tick at max_speed_mps {speed!r}, and its"
+            f" {config.max_frame_age_ms!r}{_misses_text(config.camera_miss_ms)}) and a tick"
+            f" at max_speed_mps {speed!r}, and its"
             f" braking at max_accel_mps2 {accel!r}, the child walking on at human_speed_mps"
             f" {walk!r}): while a sonar is down the robot only turns",
         )
@@ -348,6 +358,12 @@ def _arc_text(arc_m: float) -> str:
     if not arc_m:
         return ""
     return f", and {round(arc_m, 3)!r} m it may close on an echo's arc (sonar_beam_rad)"
+
+
+def _misses_text(miss_ms: int) -> str:
+    if not miss_ms:
+        return ""
+    return f" and camera_miss_ms {miss_ms!r} of frames that miss a child"
 
 
 def _scans_text(scans: float, dropout: float) -> str:

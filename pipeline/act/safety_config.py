@@ -27,6 +27,8 @@ ASSUMED: Final[dict[str, float]] = {
     "echo_hold_ms": 2000,  # unless a scenario's ring misses bodies (dropouts): ten scans
     "max_scan_age_ms": 500,  # unless a scenario's ring scans slower: two of its scans
     "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
+    "camera_miss_ms": 0,  # unless a scenario's camera drops people (dropouts): the frames
+    # that may all miss a child; a real robot's person tracker that misses people states it
     "sonar_beam_rad": math.pi / 3,  # a pipeline without a scenario, or a real robot's
     # ring (oimi bridge): wide, cheap sonars (60 degrees)
     "sonar_reports_surface": False,  # a pipeline without a scenario, or a real robot's
@@ -104,6 +106,14 @@ class SafetyConfig(Message):
     saw nobody still says it is on, and would otherwise pass for one that sees an empty
     room, ms; None: the longer of 500 and two of a scenario's camera frames (a scenario may
     not set it below that)."""
+    camera_miss_ms: int | None = None
+    """How long the camera's frames may all miss a child in its view after the first frame
+    that could have reported them, ms: while a sonar is down, a child ahead is seen that
+    much later, and the camera's least range (``least_camera_range_m``) grows by what the
+    robot and the child close in meanwhile. None: 0 (a camera that reports everyone in its
+    view on every frame), or the frames that all miss a body with a scenario's
+    ``dropout_probability`` but for a chance of :data:`~scenarios.safety.MISSED`, less the
+    first (a scenario may not set it below that)."""
     sonar_beam_rad: float | None = None
     """How wide one sonar's beam of the ring is, rad: a sonar reports the nearest body in
     its beam, so a child beside one the camera tracks may be merged into that child's echo,
@@ -157,8 +167,10 @@ def centre_reach_m(config: SafetyConfig, surface_m: float) -> float:
 
 def least_camera_range_m(config: SafetyConfig, top_mps: float, a: float, dt_s: float) -> float:
     """:func:`~pipeline.act.separation.sighted_range_m` for a filled ``config`` (its stop
-    zone's edge, walk and frame wait) and a robot at up to ``top_mps`` braking at ``a``."""
-    frame_s = config.max_frame_age_ms / 1000  # type: ignore[operator]  # filled
+    zone's edge, walk and frame wait: a frame's age and the frames that may miss a child)
+    and a robot at up to ``top_mps`` braking at ``a``."""
+    wait_ms = config.max_frame_age_ms + config.camera_miss_ms  # type: ignore[operator]  # filled
+    frame_s = wait_ms / 1000
     walk = config.human_speed_mps
     reach_m = centre_reach_m(config, config.stop_distance_m)
     return sighted_range_m(reach_m, top_mps, walk, frame_s, dt_s, a)  # type: ignore[arg-type]  # filled

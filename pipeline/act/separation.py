@@ -305,19 +305,19 @@ def body_view(half_view: float, reach_m: float, beyond_m: float) -> float:
 def sighted_range_m(
     reach_m: float, top_mps: float, walk_mps: float, frame_s: float, dt_s: float, a: float
 ) -> float:
-    """The least range (m, from the robot's centre) within which a camera must report a
-    person's centre for a robot driving inside its view, the sonar ring down, to be at rest
-    before a child there, walking at it at ``walk_mps``, can reach the stop zone: beyond the
-    range nothing reports them. Their centre comes within the range while the robot drives
-    at up to ``top_mps``; a frame taken since reports them within ``frame_s`` (a camera
-    whose latest frame is older counts as offline: ``max_frame_age_ms``), and the supervisor
-    acts on it in that tick; meanwhile both close in at their speeds, then the robot goes a
-    tick and brakes at ``a`` (:func:`stopping_way`) while the child walks on. ``reach_m``:
-    the stop zone's edge, centre to centre (both radii, the sensing error,
-    ``stop_distance_m``). 2.075 m with the defaults (0.67 + 0.25 + 0.135 + 1.02); a camera
-    reaching less leaves no direction while the ring is down. (Taking the child for
-    standing, 1.055 m, let a robot at 0.5 m/s still drive at full speed when a child
-    walking at 1 m/s reached its stop zone.)"""
+    """The least range (m, from the robot's centre) within which a camera must report a person's
+    centre for a robot driving inside its view, the sonar ring down, to be at rest before a
+    child there, walking at it at ``walk_mps``, can reach the stop zone: beyond the range
+    nothing reports them. Their centre comes within the range while the robot drives at up to
+    ``top_mps``; a frame taken since reports them within ``frame_s`` (a camera whose latest
+    frame is older counts as offline: ``max_frame_age_ms``; frames that may miss them add
+    ``camera_miss_ms``), and the supervisor acts on it in that tick; meanwhile both close in at
+    their speeds, then the robot goes a tick and brakes at ``a`` (:func:`stopping_way`) while
+    the child walks on. ``reach_m``: the stop zone's edge, centre to centre (both radii, the
+    sensing error, ``stop_distance_m``). 2.075 m with the defaults (0.67 + 0.25 + 0.135 + 1.02);
+    a camera reaching less leaves no direction while the ring is down. (Taking the child for
+    standing, 1.055 m, let a robot at 0.5 m/s still drive at full speed when a child walking at
+    1 m/s reached its stop zone.)"""
     waited_s = frame_s + dt_s + top_mps / a  # the frame's wait, the tick, the braking
     return reach_m + top_mps * frame_s + stopping_way(top_mps, dt_s, a) + walk_mps * waited_s
 

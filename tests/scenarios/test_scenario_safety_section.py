@@ -162,6 +162,9 @@ def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
         # 0.5 ** 20 < 1e-6 <= 0.5 ** 19: twenty scans at 5 Hz, or at 2 Hz
         ("echo_hold_ms", 2000, "[sensors]\ndropout_probability = 0.5", 4000),
         ("echo_hold_ms", 2000, "[sensors]\ndropout_probability = 0.5\nsonar_scan_hz = 2", 10_000),
+        # the camera's 19 frames after the first that may all miss a child, at 10 Hz, at 4
+        ("camera_miss_ms", 0, "[sensors]\ndropout_probability = 0.5", 1900),
+        ("camera_miss_ms", 0, "[sensors]\ndropout_probability = 0.5\nrate_hz = 4", 4750),
     ],
 )
 def test_left_out_a_time_covers_what_the_scenarios_sensors_need(
@@ -204,6 +207,14 @@ def test_left_out_a_time_covers_what_the_scenarios_sensors_need(
             4000,
             "1500 is below 20 of the sonar ring's scans (4000 ms at sonar_scan_hz 5) that all"
             " miss a body with dropout_probability 0.5",
+        ),
+        (
+            "camera_miss_ms = 1500",
+            "dropout_probability = 0.5",
+            1900,
+            "1500 is below 19 of the camera's frames (1900 ms at rate_hz 10.0) that may all"
+            " miss a child after the first with dropout_probability 0.5: with a sonar down the"
+            " supervisor would count on seeing a child ahead sooner than it can",
         ),
     ],
 )
@@ -328,6 +339,19 @@ def test_a_camera_too_short_to_drive_on_with_the_ring_down_is_a_located_warning(
     stated = b'name = "x"\n[robot.safety]\ncamera_range_m = 1.0\n'
     (warning,) = parse_scenario(stated, source="s.toml").warnings
     assert str(warning).startswith("s.toml:3:1: robot.safety.camera_range_m (m): the camera")
+
+
+def test_a_camera_that_may_miss_a_child_needs_a_longer_range_with_the_ring_down() -> None:
+    """Detections dropped at 0.02: the camera may miss a child on 3 frames after the first
+    (300 ms at 10 Hz), in which the robot at 0.5 m/s and the child at 1 m/s close in by
+    0.45 m more: 2.525 m, not 2.075 m, and the warning names the misses."""
+    lossy = b'name = "x"\n[sensors]\ndropout_probability = 0.02\nrange_m = 2.52\n'
+    (warning,) = parse_scenario(lossy, source="s.toml").warnings
+    assert "less than the 2.525 m in which" in str(warning)
+    assert "(max_frame_age_ms 500 and camera_miss_ms 300 of frames that miss a child)" in str(
+        warning
+    )
+    assert parse_scenario(lossy.replace(b"2.52", b"2.53")).warnings == ()
 
 
 def test_overrides_are_checked_for_the_sonar_rings_reach_too() -> None:

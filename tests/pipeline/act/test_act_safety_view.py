@@ -93,19 +93,30 @@ def test_a_narrow_camera_with_the_ring_down_lets_no_linear_motion_through() -> N
 
 
 def toward_a_child_beyond_the_range(
-    range_m: float, frame_ms: int, *, down: bool = True, walk_mps: float = 0.0, phase_ms: int = 0
+    range_m: float,
+    frame_ms: int,
+    *,
+    down: bool = True,
+    walk_mps: float = 0.0,
+    phase_ms: int = 0,
+    missed: int = 0,
+    miss_ms: int | None = None,
 ) -> tuple[float, float, float]:
-    """A child 1.4 m ahead (centre; 3 m when walking at the robot at ``walk_mps``); the
+    """A child 1.4 m ahead (centre; 3 m, or 1 m beyond the range, when walking at the
+    robot at ``walk_mps``); the
     camera (2.2 rad) frames every ``frame_ms`` (from ``phase_ms``) and reports them only
-    while their centre is within ``range_m``; of a ring of two sonars one is offline
+    while their centre is within ``range_m``, and not on the first ``missed`` frames that
+    could (``miss_ms``: the supervisor's ``camera_miss_ms``); of a ring of two sonars one is offline
     (``down``: nothing sees beside the robot; the other keeps the speed from the blind cap).
     The robot asks for 0.5 m/s straight at them for 3 s (until a walking child reaches its
     stop zone): the nearest their surfaces came (the dead reckoning taken for the motion),
     how far the robot went, m, and its speed in the tick the child reached its stop zone
     (0.0: it was at rest, or they never did), m/s."""
-    config = SafetyConfig(robot_radius_m=0.3, camera_fov_rad=2.2, camera_range_m=range_m)
+    config = SafetyConfig(
+        robot_radius_m=0.3, camera_fov_rad=2.2, camera_range_m=range_m, camera_miss_ms=miss_ms
+    )
     supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
-    start_m = 3.0 if walk_mps else 1.4
+    start_m = max(3.0, range_m + 1.0) if walk_mps else 1.4  # (walking in from beyond it)
     nearest, humans, framed, went = math.inf, [], -10_000, 0.0
     for tick in range(150):
         now_ms = tick * TICK_MS
@@ -115,6 +126,8 @@ def toward_a_child_beyond_the_range(
             return nearest, supervisor.reckoned_pose[0], went / (TICK_MS / 1000)
         if (now_ms - phase_ms) % frame_ms == 0:
             framed, humans = now_ms, [seen(apart, at_ms=now_ms)] if apart <= range_m else []
+            if humans and missed:
+                missed, humans = missed - 1, []
         world_map = room(*humans)
         world_map.sonars += [Sonar(id="left", isonline=True), Sonar(id="right", isonline=not down)]
         request = Velocity(0.5, 0.0, 0.0)
@@ -163,6 +176,35 @@ def test_with_the_ring_down_a_camera_reaching_the_least_range_sees_the_child_in_
         assert went > 0.3 and speed == 0.0, phase_ms
     nearest, went, _ = toward_a_child_beyond_the_range(least_m + 1e-6, 500)
     assert nearest >= 0.1 and went > 0.3
+
+
+def test_with_the_ring_down_a_camera_that_may_miss_a_child_counts_its_misses() -> None:
+    """A camera at the least range that misses the walking child on its first two frames
+    that could report them (a person tracker's dropouts): taken for one that never misses,
+    the robot still drove when the child reached its stop zone. Told so (``camera_miss_ms``:
+    two frames), the supervisor's least range grows by what both close in meanwhile: the
+    same camera leaves the robot only turning, and one reaching the longer range sees the
+    child in time, at every phase."""
+    least_m = sighted_range_m(STOP_REACH_M, 0.5, 1.0, 0.5, TICK_MS / 1000, 1.0)
+    speeds = [
+        toward_a_child_beyond_the_range(
+            least_m + 1e-6, 500, walk_mps=1.0, phase_ms=phase_ms, missed=2
+        )[2]
+        for phase_ms in range(0, 500, 20)
+    ]
+    assert max(speeds) > 0.3  # (the robot at speed when the child reached its stop zone)
+    for phase_ms in range(0, 500, 20):
+        told = toward_a_child_beyond_the_range(
+            least_m + 1e-6, 500, walk_mps=1.0, phase_ms=phase_ms, missed=2, miss_ms=1000
+        )
+        assert told[1] == 0.0 and told[2] == 0.0, phase_ms
+    longer_m = sighted_range_m(STOP_REACH_M, 0.5, 1.0, 1.5, TICK_MS / 1000, 1.0)
+    assert longer_m == pytest.approx(least_m + 0.5 * 1.0 + 1.0 * 1.0)
+    for phase_ms in range(0, 500, 20):
+        _, went, speed = toward_a_child_beyond_the_range(
+            longer_m + 1e-6, 500, walk_mps=1.0, phase_ms=phase_ms, missed=2, miss_ms=1000
+        )
+        assert went > 0.3 and speed == 0.0, phase_ms
 
 
 @pytest.mark.parametrize("frozen", [False, True])
