@@ -42,6 +42,7 @@ MODULES: Final = (
     "oimi.pipeline.act.channels",
     "oimi.pipeline.act.echoes",
     "oimi.pipeline.act.limits",
+    "oimi.pipeline.act.looking",
     "oimi.pipeline.act.reckoning",
     "oimi.pipeline.act.safety",
     "oimi.pipeline.act.separation",

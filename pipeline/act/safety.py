@@ -45,7 +45,8 @@ down may have made, is kept, stale. While a sonar is down or repeats an old echo
 motion stays inside the camera's view, narrowed so that a child centred just outside it
 beyond the slow zone is not driven into the stop zone; a camera too short-ranged to report
 a child ahead in time leaves none (``safety_config.ring_down_view_rad``), and so does one
-that does not look (offline, frozen).
+that does not look (offline, frozen), or not yet for ``camera_miss_ms`` since it came back
+(``pipeline/act/looking.py``).
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -59,6 +60,7 @@ from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
 from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.looking import CameraWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, ring_down_view_rad, safety_problems
 from oimi.pipeline.act.separation import (
@@ -136,6 +138,7 @@ class SafetySupervisor:
         down or repeating itself, stops at ``max_data_age_ms``)."""
         self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
         """Where a protective stop ends: halfway from the stop zone to the slow zone's edge."""
+        self._cameras = CameraWatch(config, tick_ms=tick_ms)
         self._standing = Supervised(Verdict(Velocity()))
         """The last tick's answer to a request that stood (no linear velocity) with no
         event: handed on while the request is the same object (the actuator's, unchanged)."""
@@ -192,6 +195,7 @@ class SafetySupervisor:
                 anchor = anchors.get(human.id)
                 if anchor is None or anchor[0] != human.positionchangetime:
                     self._anchor(human.id, human, now_ms)
+        self._cameras.watch(world_map.cameras, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
@@ -347,8 +351,12 @@ class SafetySupervisor:
             constraint = self._constraint(key, reading, age_ms, ring_down, clear_m)
             if constraint is not None:
                 constraints.append(constraint)
-        # (the view only while the camera looks: offline or frozen, it sees nothing there)
-        half_view = (self._looking_rad if seeing else -1.0) if sonars and ring_down else math.pi
+        # (the view only while the camera looks: offline or frozen, it sees nothing there;
+        # back, only once it has framed for as long as its frames may miss a child)
+        half_view = math.pi
+        if sonars and ring_down:
+            looked = seeing and self._cameras.looked(framing, now_ms)
+            half_view = self._looking_rad if looked else -1.0
         looking = within_view(v_x, v_y, half_view)
         if looking != (v_x, v_y):
             v_x, v_y = looking

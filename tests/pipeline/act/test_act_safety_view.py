@@ -101,9 +101,10 @@ def toward_a_child_beyond_the_range(
     phase_ms: int = 0,
     missed: int = 0,
     miss_ms: int | None = None,
+    start_m: float | None = None,
 ) -> tuple[float, float, float]:
-    """A child 1.4 m ahead (centre; 3 m, or 1 m beyond the range, when walking at the
-    robot at ``walk_mps``); the
+    """A child ``start_m`` ahead (centre; by default 1.4 m, or 3 m or 1 m beyond the range
+    when walking at the robot at ``walk_mps``); the
     camera (2.2 rad) frames every ``frame_ms`` (from ``phase_ms``) and reports them only
     while their centre is within ``range_m``, and not on the first ``missed`` frames that
     could (``miss_ms``: the supervisor's ``camera_miss_ms``); of a ring of two sonars one is offline
@@ -116,7 +117,8 @@ def toward_a_child_beyond_the_range(
         robot_radius_m=0.3, camera_fov_rad=2.2, camera_range_m=range_m, camera_miss_ms=miss_ms
     )
     supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
-    start_m = max(3.0, range_m + 1.0) if walk_mps else 1.4  # (walking in from beyond it)
+    if start_m is None:  # (walking: in from beyond the range)
+        start_m = max(3.0, range_m + 1.0) if walk_mps else 1.4
     nearest, humans, framed, went = math.inf, [], -10_000, 0.0
     for tick in range(150):
         now_ms = tick * TICK_MS
@@ -205,6 +207,24 @@ def test_with_the_ring_down_a_camera_that_may_miss_a_child_counts_its_misses() -
             longer_m + 1e-6, 500, walk_mps=1.0, phase_ms=phase_ms, missed=2, miss_ms=1000
         )
         assert went > 0.3 and speed == 0.0, phase_ms
+
+
+def test_with_the_ring_down_a_camera_back_drives_once_it_has_looked_for_its_misses() -> None:
+    """The ring down and the camera offline until its first frame: the robot only turns.
+    A child stands 0.4 m ahead (surfaces), whom the camera, back, misses on its first two
+    frames (500 ms apart). Driving from the first frame on, the robot went into their stop
+    zone before the third reported them. Told the camera may miss a child for 1000 ms, it
+    drives in the view only once the camera has framed that long: it stops short. (A 4 m
+    camera: beyond the least range that those misses need, 3.575 m.)"""
+    for phase_ms in (0, 120, 260, 480):
+        nearest, went, _ = toward_a_child_beyond_the_range(
+            4.0, 500, phase_ms=phase_ms, missed=2, start_m=0.95
+        )
+        assert nearest < 0.1 and went > 0.1, phase_ms
+        nearest, went, _ = toward_a_child_beyond_the_range(
+            4.0, 500, phase_ms=phase_ms, missed=2, start_m=0.95, miss_ms=1000
+        )
+        assert nearest >= 0.1 and went < 0.1, phase_ms
 
 
 @pytest.mark.parametrize("frozen", [False, True])
