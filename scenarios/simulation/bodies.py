@@ -214,7 +214,8 @@ class BodyReader:
         (or when the number of bodies changed).
         """
         space = self.space
-        if len(space.bodies) != self._bodies:  # a human left or came back
+        # (pymunk's own dict of them: its ``bodies`` property is a Python call)
+        if len(space._bodies) != self._bodies:  # a human left or came back
             self._layout_of_bodies()
         floats = self._floats
         floats.num = 0
