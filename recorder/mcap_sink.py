@@ -252,6 +252,7 @@ class McapSink:
 
 _MESSAGE_PREFIX: Final = struct.Struct("<BQHIQQ")
 """A Message record's opcode and length, then channel id, sequence, log and publish time."""
+_MESSAGE_PREFIX_BYTES: Final = _MESSAGE_PREFIX.size
 _MESSAGE_FIELDS_BYTES: Final = 2 + 4 + 8 + 8
 _MESSAGE_OPCODE: Final = Opcode.MESSAGE
 """Read at every message: a global, not the enum class's slow attribute path."""
@@ -284,8 +285,12 @@ class _MessageWriter:
             setattr(writer, _outside_chunks._ATTR, self._builder)
             self._statistics: Any = getattr(writer, _STATISTICS)
             self._finalize_chunk = getattr(writer, _FINALIZE_CHUNK)
-        self._records = bytearray()
-        """The open chunk's message records, not yet in the chunk builder."""
+        self._records: list[bytes] = []
+        """The open chunk's message records, not yet in the chunk builder: each record's
+        prefix and payload as they came (joined once, at :meth:`flush`; a growing
+        ``bytearray`` was copied again at each of its reallocations)."""
+        self._size = 0
+        """How many bytes ``_records`` holds."""
         self._index: dict[int, list[tuple[int, int]]] = {}
         """Each channel's ``(log time, offset)`` entries in the open chunk."""
         self._count = 0
@@ -306,7 +311,6 @@ class _MessageWriter:
                 sequence=0,
             )
             return
-        records = self._records
         if self._count == 0:
             self._base = self._builder.count
             self._start = time_ns
@@ -318,12 +322,18 @@ class _MessageWriter:
         entries = self._index.get(channel)
         if entries is None:
             entries = self._index[channel] = []
-        entries.append((time_ns, self._base + len(records)))
-        records += _MESSAGE_PREFIX.pack(
-            _MESSAGE_OPCODE, _MESSAGE_FIELDS_BYTES + len(payload), channel, 0, time_ns, time_ns
+        offset = self._base + self._size
+        entries.append((time_ns, offset))
+        size = len(payload)
+        records = self._records
+        records.append(
+            _MESSAGE_PREFIX.pack(
+                _MESSAGE_OPCODE, _MESSAGE_FIELDS_BYTES + size, channel, 0, time_ns, time_ns
+            )
         )
-        records += payload
-        if self._base + len(records) > self._chunk_size:
+        records.append(payload)
+        self._size += _MESSAGE_PREFIX_BYTES + size
+        if self._base + self._size > self._chunk_size:
             self.flush()
             self._finalize_chunk()
 
@@ -342,8 +352,9 @@ class _MessageWriter:
             chunk.message_indices.setdefault(channel, index).records += entries
         statistics.message_count += self._count
         chunk.num_messages += self._count
-        chunk.record_writer.write(self._records)
-        self._records = bytearray()
+        chunk.record_writer.write(b"".join(self._records))
+        self._records = []
+        self._size = 0
         self._index = {}
         self._count = self._end = 0
 

@@ -14,6 +14,7 @@ from oimi.pipeline.act.interventions import Interventions
 from oimi.pipeline.events import (
     REJECTING_SOURCES,
     ActuatorCommands,
+    BodyState,
     Event,
     Level,
     LogEntries,
@@ -95,6 +96,8 @@ class Tracker:
         self.safety = Interventions()
         """The supervisor's episodes (the definition ``oimi analyse`` uses)."""
         self.last_ms = 0
+        self._robot: BodyState | None = None
+        """The robot's last entry read (its speed and place are checked once per entry)."""
         self.proximity = ProximityTracker(tick_ms=1000 // scenario.tick_hz, zones=False)
         """Surface distances and contact episodes (the definitions ``oimi analyse`` uses; no
         time in zones, which no expectation reads)."""
@@ -140,11 +143,14 @@ class Tracker:
 
     def _world(self, state: WorldState) -> None:
         self.proximity.update(state)
+        self.contacts += len(state.contacts)
         robot = state.robot
+        if robot is self._robot:  # the world's same entry: a robot that did not move
+            return
+        self._robot = robot
         speed = math.hypot(robot.vx_mps, robot.vy_mps)
         if not speed <= self.max_speed_mps:  # a larger speed, or NaN (which sticks)
             self.max_speed_mps = speed if math.isfinite(self.max_speed_mps) else math.nan
-        self.contacts += len(state.contacts)
         world = self.scenario.world
         inside = 0 <= robot.x_m <= world.width_m and 0 <= robot.y_m <= world.height_m
         if not inside and self.left_arena_ms is None:

@@ -62,6 +62,12 @@ _FLOAT_SIZE: Final = _ffi.sizeof("cpFloat")
 _ID_SIZE: Final = _ffi.sizeof("uintptr_t")
 assert _FLOAT_SIZE == 8 and memoryview(b"").cast("P").itemsize == _ID_SIZE
 _READ_BODY: Final = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
+_set_velocity: Final = _chipmunk.cpBodySetVelocity
+_set_spin: Final = _chipmunk.cpBodySetAngularVelocity
+_each_body: Final = _chipmunk.cpSpaceEachBody
+_buffer: Final = _ffi.buffer
+"""Chipmunk's and cffi's functions the world calls at every step, looked up once (each
+lookup on cffi's ``lib`` is a call of its own)."""
 _VELOCITY: Final = slice(3 * _FLOAT_SIZE, 5 * _FLOAT_SIZE)
 _SPIN: Final = slice(5 * _FLOAT_SIZE, 6 * _FLOAT_SIZE)
 """Where a body's velocity and spin are in its bytes (``Motion``'s order)."""
@@ -94,9 +100,9 @@ class Mover:
         raw, last = _MOTION.pack(*values), self.raw
         if raw != last:
             if raw[_VELOCITY] != last[_VELOCITY]:
-                _chipmunk.cpBodySetVelocity(self.cp_body, (vx_mps, vy_mps))
+                _set_velocity(self.cp_body, (vx_mps, vy_mps))
             if raw[_SPIN] != last[_SPIN]:
-                _chipmunk.cpBodySetAngularVelocity(self.cp_body, omega_radps)
+                _set_spin(self.cp_body, omega_radps)
             self.raw, self.motion = raw, tuple.__new__(Motion, values)
 
 
@@ -137,7 +143,7 @@ class Human(Mover):
         # same bits but for a zero's sign, so equal zeros count only as the same object
         last = self.velocity
         if velocity is not last and (velocity != last or 0.0 in velocity):
-            _chipmunk.cpBodySetVelocity(self.cp_body, velocity)
+            _set_velocity(self.cp_body, velocity)
             self.velocity = velocity
         return back
 
@@ -214,12 +220,13 @@ class BodyReader:
         (or when the number of bodies changed).
         """
         space = self.space
-        if len(space.bodies) != self._bodies:  # a human left or came back
+        # (pymunk's own dict of them: its ``bodies`` property is a Python call)
+        if len(space._bodies) != self._bodies:  # a human left or came back
             self._layout_of_bodies()
         floats = self._floats
         floats.num = 0
-        _chipmunk.cpSpaceEachBody(space._space, _READ_BODY, self._request)
-        raw = _ffi.buffer(floats.arr, floats.num * _FLOAT_SIZE)[:]
+        _each_body(space._space, _READ_BODY, self._request)
+        raw = _buffer(floats.arr, floats.num * _FLOAT_SIZE)[:]
         unpack, make = _MOTION.unpack, tuple.__new__
         for start, end, mover in self._layout:
             chunk = raw[start:end]

@@ -47,6 +47,8 @@ CONTACT_TOLERANCE_M: Final = 0.02
 """Centre distance beyond the sum of radii still counted as a contact (solver slop)."""
 STOP_SPEED_MPS: Final = 1e-3
 """A rolling object slower than this stops."""
+_step_space: Final = _chipmunk.cpSpaceStep
+"""Chipmunk's step, looked up once (a lookup on cffi's ``lib`` is a call of its own)."""
 
 
 def stream_rng(seed: int, stream: str) -> random.Random:
@@ -210,7 +212,7 @@ class World:
         space = self.space
         if self._direct_step and not (space._bodies_to_check or space._removed_shapes):
             # pymunk's step without its Python bookkeeping (no callbacks are registered)
-            _chipmunk.cpSpaceStep(space._space, step_s)
+            _step_space(space._space, step_s)
         else:  # after a human came or left: pymunk checks new bodies, forgets removed shapes
             space.step(step_s)
         self._reader.read()
