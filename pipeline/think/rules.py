@@ -59,13 +59,6 @@ class RuleContext:
     from the last evaluation or skip while no body has run since (``None``: taken anew):
     the next rule's condition finds them as that one left them."""
 
-    def current_stores(self, world_map: WorldMap) -> Stores:
-        """What the stores hold now (kept in :attr:`stores` until a body may change them)."""
-        stores = self.stores
-        if stores is None:
-            stores = self.stores = stores_of(world_map, self.tick_scope)
-        return stores
-
     def changing(self) -> None:
         """What a body calls before it first changes the map: the parts it may change are
         encoded as they are (for a rule that :attr:`Rule.announces` its changes, only
@@ -149,7 +142,11 @@ class Rule:
         parts = ctx.parts
         if parts is None or parts.world_map is not world_map:
             parts = ctx.parts = MapParts(world_map)
-        stores = ctx.current_stores(world_map) if memo.stores else None
+        stores = None
+        if memo.stores:
+            stores = ctx.stores
+            if stores is None:
+                stores = ctx.stores = stores_of(world_map, ctx.tick_scope)
         inputs = None
         later = False
         if memo.paths is not None and ctx.shortcuts:
@@ -171,8 +168,8 @@ class Rule:
         found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
         if not memo.known:
             parts.forget()
-        after = None
-        if memo.stores:
+        after = stores  # (an evaluation binding nothing in scope U or T leaves them)
+        if memo.binds:
             after = ctx.stores = stores_of(world_map, ctx.tick_scope)
         moved = after != stores
         if moved:
@@ -294,7 +291,7 @@ class Memo:
     tick) is always evaluated.
     """
 
-    __slots__ = ("condition", "known", "last", "paths", "rate", "stores", "wait")
+    __slots__ = ("binds", "condition", "known", "last", "paths", "rate", "stores", "wait")
 
     def __init__(self, condition: Condition) -> None:
         self.condition = condition
@@ -303,6 +300,8 @@ class Memo:
         """Whether the condition's reads are declared (else it may change the map)."""
         self.stores = reads is None or any(path in STORE_READS for path in reads)
         """Whether an evaluation may read and write the alias and variable stores."""
+        self.binds = self.stores and getattr(condition, "binds", True)
+        """Whether an evaluation may write them (:attr:`Condition.binds`)."""
         self.paths = (
             None
             if reads is None or TIME in reads
