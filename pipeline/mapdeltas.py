@@ -141,7 +141,8 @@ class MapDeltas:
                 continue
             rows, gone, ordered = self._table(table, live_rows)
             tables[table] = rows
-            removed += (f"{_CLASS[table]}/{i}" for i in gone)
+            if gone:  # (most changes remove nothing)
+                removed += (f"{_CLASS[table]}/{i}" for i in gone)
             keyframe = keyframe or not ordered
         if not sections and not tables:
             return None

@@ -190,16 +190,18 @@ class SafetySupervisor:
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
         anchors = self._anchors
-        for human in world_map.humans:  # most readings are placed already: tested inline
+        # Most readings are placed already: tested inline, by the anchor's field (compiled,
+        # ``anchor[0]`` on a NamedTuple takes ``__getitem__``'s slow generic slot).
+        for human in world_map.humans:
             if human.poses:
                 anchor = anchors.get(human.id)
-                if anchor is None or anchor[0] != human.positionchangetime:
+                if anchor is None or anchor.stamp_ms != human.positionchangetime:
                     self._anchor(human.id, human, now_ms)
         self._cameras.watch(world_map.cameras, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
-            if anchor is None or anchor[0] != echo.positionchangetime:
+            if anchor is None or anchor.stamp_ms != echo.positionchangetime:
                 self._anchor(key, echo, now_ms)
         verdict = self._limit(requested, world_map, echoes, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)

@@ -105,6 +105,7 @@ class RuleChain:
     def _fail(self, rule: Rule, error: BaseException, ctx: RuleContext) -> None:
         self.active.remove(rule)
         self.removed[rule.name] = rule
+        ctx.stores = None  # its condition may have bound some before it raised
         if ctx.parts is not None:  # the body may have changed the map before it raised
             ctx.parts.forget()
             ctx.parts.baseline = None

@@ -62,6 +62,8 @@ from oimi.pipeline.think.functions import (
 )
 from oimi.pipeline.think.stdlib import default_registry
 
+_L = Scope.L
+
 
 class _Compiler:
     def __init__(self, registry: FunctionRegistry):
@@ -70,6 +72,9 @@ class _Compiler:
         """What the steps compiled so far read (``None``: a function that may read anything)."""
         self.alias_classes: dict[str, str] = {}
         """The class each alias has once the CLASS clauses compiled so far succeeded."""
+        self.binds = False
+        """Whether a clause compiled so far writes scope U or T (a store of the map's, or
+        the tick scope)."""
 
     def read(self, *paths: str) -> None:
         if self.reads is not None:
@@ -264,6 +269,7 @@ class _Compiler:
         if isinstance(node, EvalClause):
             holds = _truth(self.call(node.call, Family.E), self.registry.get(node.call.name))
             return lambda run: GO if holds(run, None) else FAIL
+        self.binds |= node.scope is not _L  # a CLASS, VAR or ATT clause: stored there
         if isinstance(node, ClassClause):
             self.read(*STORE_READS, ENTITY_READS[node.cls])
             criteria = tuple(self.criterion(c, node.cls) for c in node.criteria)
@@ -387,7 +393,7 @@ def compile_condition(text: str, *, registry: FunctionRegistry | None = None) ->
     ast = parse_condition(text)
     if not ast.has_bang:
         if ast.left and isinstance(ast.left[0], TrueClause) and len(ast.left) == 1:
-            return Condition(text, (lambda run: TRUE,), (), registry.version, reads=())
+            return Condition(text, (lambda run: TRUE,), (), registry.version, reads=(), binds=False)
         if not ast.left:
             raise located("empty condition", (1, 1))
         first_eval = next((c for c in ast.left if isinstance(c, EvalClause)), None)
@@ -402,4 +408,4 @@ def compile_condition(text: str, *, registry: FunctionRegistry | None = None) ->
     steps += tuple(compiler.clause(c, False) for c in ast.right)
     aliases = tuple(c.alias for c in ast.left if isinstance(c, ClassClause))
     reads = None if compiler.reads is None else tuple(sorted(compiler.reads))
-    return Condition(text, steps, aliases, registry.version, reads=reads)
+    return Condition(text, steps, aliases, registry.version, reads=reads, binds=compiler.binds)

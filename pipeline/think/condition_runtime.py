@@ -260,7 +260,7 @@ class Evaluation(msgspec.Struct, frozen=True, kw_only=True):
 class Condition:
     """A compiled condition: closures only, no parsing at evaluation time."""
 
-    __slots__ = ("_steps", "aliases", "reads", "registry_version", "text")
+    __slots__ = ("_steps", "aliases", "binds", "reads", "registry_version", "text")
 
     def __init__(
         self,
@@ -270,6 +270,7 @@ class Condition:
         version: str,
         *,
         reads: tuple[str, ...] | None = None,
+        binds: bool = True,
     ):
         self.text = text
         self._steps = steps
@@ -281,6 +282,10 @@ class Condition:
         ``"robotstatus.touch"``), ``"now_ms"`` (the clock) and ``"tick_scope"``; ``None``
         when it calls a function that may read anything. Two evaluations that find all of
         these equal give the same result."""
+        self.binds = binds or reads is None
+        """Whether an evaluation may write the map's alias and variable stores or the tick
+        scope (a CLASS, VAR or ATT clause of scope U or T, or a function that may do
+        anything); scope L binds nothing there."""
 
     def evaluate(
         self, world_map: WorldMap, *, now_ms: int, tick_scope: dict[str, str] | None = None

@@ -54,6 +54,10 @@ class RuleContext:
     """The parts of the map the running body may change."""
     before: dict[str, bytes] | None = None
     """Those parts, encoded before the body changed them (``None`` until :meth:`changing`)."""
+    stores: Stores | None = None
+    """What the alias and variable stores and the tick scope hold (:func:`stores_of`), kept
+    from the last evaluation or skip while no body has run since (``None``: taken anew):
+    the next rule's condition finds them as that one left them."""
 
     def changing(self) -> None:
         """What a body calls before it first changes the map: the parts it may change are
@@ -138,7 +142,11 @@ class Rule:
         parts = ctx.parts
         if parts is None or parts.world_map is not world_map:
             parts = ctx.parts = MapParts(world_map)
-        stores = stores_of(world_map, ctx.tick_scope) if memo.stores else None
+        stores = None
+        if memo.stores:
+            stores = ctx.stores
+            if stores is None:
+                stores = ctx.stores = stores_of(world_map, ctx.tick_scope)
         inputs = None
         later = False
         if memo.paths is not None and ctx.shortcuts:
@@ -152,6 +160,7 @@ class Rule:
                 if memo.compared(inputs, last[0] == inputs):
                     if last[2] is not None:  # it bound or released aliases or variables
                         _restore((world_map.aliases, world_map.variables, ctx.tick_scope), last[2])
+                        ctx.stores = last[2]
                         parts.rebound()
                     return last[1]
         if not memo.known:  # its functions may change anything: the parts a fired body
@@ -159,7 +168,9 @@ class Rule:
         found = condition.evaluate(world_map, now_ms=ctx.now_ms, tick_scope=ctx.tick_scope)
         if not memo.known:
             parts.forget()
-        after = stores_of(world_map, ctx.tick_scope) if memo.stores else None
+        after = stores  # (an evaluation binding nothing in scope U or T leaves them)
+        if memo.binds:
+            after = ctx.stores = stores_of(world_map, ctx.tick_scope)
         moved = after != stores
         if moved:
             parts.rebound()  # the condition bound U-scope aliases: not the body's doing
@@ -167,6 +178,7 @@ class Rule:
         if found.result:
             ctx.writing = self.writes if ctx.shortcuts and self.writes is not None else FIELDS
             ctx.before = None
+            ctx.stores = None  # the body may change them
             if self.announces and ctx.shortcuts:
                 parts.defer(ctx.writing)
             else:
@@ -279,7 +291,7 @@ class Memo:
     tick) is always evaluated.
     """
 
-    __slots__ = ("condition", "known", "last", "paths", "rate", "stores", "wait")
+    __slots__ = ("binds", "condition", "known", "last", "paths", "rate", "stores", "wait")
 
     def __init__(self, condition: Condition) -> None:
         self.condition = condition
@@ -288,6 +300,8 @@ class Memo:
         """Whether the condition's reads are declared (else it may change the map)."""
         self.stores = reads is None or any(path in STORE_READS for path in reads)
         """Whether an evaluation may read and write the alias and variable stores."""
+        self.binds = self.stores and getattr(condition, "binds", True)
+        """Whether an evaluation may write them (:attr:`Condition.binds`)."""
         self.paths = (
             None
             if reads is None or TIME in reads

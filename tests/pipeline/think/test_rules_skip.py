@@ -150,6 +150,26 @@ def test_a_function_without_reads_makes_its_conditions_read_anything() -> None:
     condition = compile_condition("! {E: battery_low_undeclared (1)}", registry=FUNCTIONS)
     assert condition.reads is None
     assert Memo(condition).paths is None, "never skipped"
+    assert condition.binds, "it may write the stores too"
+
+
+@pytest.mark.parametrize(
+    ("text", "binds"),
+    [
+        ("! {TRUE}", False),
+        ("{CLASS #Human L ?c} ! {E: far (?c, 3.0)}", False),
+        ('{VAR @v L F: concat ("a")} ! {TRUE}', False),
+        ("{CLASS #Human U ?c} ! {TRUE}", True),
+        ('{CLASS #Human L ?c}, {ATT ?c $x T F: concat ("1")} ! {TRUE}', True),
+    ],
+)
+def test_a_condition_knows_whether_it_binds_in_the_map_or_the_tick_scope(
+    text: str, binds: bool
+) -> None:
+    """Scope L binds only for the rule: the chain then takes the stores as they were."""
+    condition = compile_condition(text)
+    assert condition.binds is binds
+    assert Memo(condition).binds is binds
 
 
 def test_a_condition_that_reads_the_clock_is_never_skipped() -> None:
