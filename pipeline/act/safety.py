@@ -190,8 +190,7 @@ class SafetySupervisor:
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
         anchors = self._anchors
-        # Most readings are placed already: tested inline, by the anchor's field (compiled,
-        # ``anchor[0]`` on a NamedTuple takes ``__getitem__``'s slow generic slot).
+        # (most are placed already: tested inline, by field: compiled, anchor[0] is slow)
         for human in world_map.humans:
             if human.poses:
                 anchor = anchors.get(human.id)
@@ -386,10 +385,9 @@ class SafetySupervisor:
 
     def _clear_m(self, speed: float) -> float:
         """The surface distance beyond which a human sets no limit on a velocity of at most
-        ``speed`` (:func:`~oimi.pipeline.act.separation.clear_gap` past the stop zone, and
-        outside the slow zone). Every velocity the supervisor tries or checks is at most as fast
-        as ``speed``: the one asked for (capped when blind or stale) or the base's, whichever
-        is faster (what the base takes for a command lies between both)."""
+        ``speed`` (``separation.clear_gap`` past the stop zone, outside the slow zone): the
+        one asked for (capped when blind or stale) or the base's, whichever is faster (what
+        the base takes for a command lies between both), bounds every velocity tried."""
         config = self.config
         gap = clear_gap(speed, self._dt_s, self._walk, self._limits.max_accel_mps2)
         return max(config.stop_distance_m + gap, config.slow_distance_m)  # type: ignore[type-var,operator]
