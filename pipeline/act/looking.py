@@ -9,14 +9,10 @@ right ahead, and the robot, let drive at once, would close on them meanwhile.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
-from typing import Final
 
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.messages import Camera
-
-_NEVER: Final = -math.inf
 
 
 class CameraWatch:
@@ -40,11 +36,17 @@ class CameraWatch:
             return
         oldest_ms, newest_ms = now_ms - self._max_age_ms, now_ms + self._ahead_ms
         since = self._since
-        self._since = {
-            camera.id: since.get(camera.id, beat)
-            for camera in cameras
-            if oldest_ms <= (beat := beats.get(("Camera", camera.id), _NEVER)) <= newest_ms
-        }
+        for camera in cameras:  # (in place, a loop: a tick's cost, most ticks no change)
+            ident = camera.id
+            beat = beats.get(("Camera", ident))
+            if beat is not None and oldest_ms <= beat <= newest_ms:
+                if ident not in since:
+                    since[ident] = beat
+            elif ident in since:
+                del since[ident]
+        if len(since) > len(cameras):  # a camera gone from the map: not framing either
+            ids = {camera.id for camera in cameras}
+            self._since = {ident: at for ident, at in since.items() if ident in ids}
 
     def looked(self, framing: Sequence[Camera], now_ms: int) -> bool:
         """Whether one of the ``framing`` cameras (frames fresh at this tick) has framed for

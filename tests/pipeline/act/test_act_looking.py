@@ -39,3 +39,17 @@ def test_a_break_in_the_frames_starts_the_wait_again() -> None:
     looked = watched(frames, 300, 3000)
     assert 1500 in looked and 1520 not in looked  # the last frame 500 ms old, then 520
     assert next(t for t in looked if t > 1520) == 2000
+
+
+def test_a_camera_gone_from_the_map_and_back_waits_again() -> None:
+    """Its frames fresh all along, but the map lost the camera for a tick: back, it counts
+    only once it has framed for ``camera_miss_ms`` again (nothing says what it saw)."""
+    watch = CameraWatch(SafetyConfig(max_frame_age_ms=500, camera_miss_ms=300).filled(), tick_ms=20)
+    beats = {("Camera", "front"): 0}
+    for now_ms in range(0, 400, 20):
+        watch.watch([FRONT], beats, now_ms)
+    assert watch.looked([FRONT], 380)
+    watch.watch([], {}, 400)
+    beats[("Camera", "front")] = 400
+    watch.watch([FRONT], beats, 420)
+    assert not watch.looked([FRONT], 420) and watch.looked([FRONT], 700)
