@@ -9,10 +9,14 @@ right ahead, and the robot, let drive at once, would close on them meanwhile.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from typing import Final
 
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.messages import Camera
+
+_NEVER: Final = -math.inf
 
 
 class CameraWatch:
@@ -27,26 +31,26 @@ class CameraWatch:
         self._ahead_ms = tick_ms
         self._since: dict[str, float] = {}
 
-    def watch(
+    def framing(
         self, cameras: Sequence[Camera], beats: Mapping[tuple[str, str], int], now_ms: int
-    ) -> None:
-        """Note this tick's frames (``MapProducer.beats``): every tick, so that a break while
-        the robot stands counts too. Nothing to note for a camera that misses nobody."""
-        if not self.miss_ms:
-            return
+    ) -> list[Camera]:
+        """The cameras that frame at ``now_ms``: their latest frame (``MapProducer.beats``)
+        within ``max_frame_age_ms``, and not more than a tick ahead (a frozen camera still
+        says it is on). Called every tick, stands too: with ``camera_miss_ms``, since when
+        each has framed is noted, and a break while the robot stands counts."""
         oldest_ms, newest_ms = now_ms - self._max_age_ms, now_ms + self._ahead_ms
-        since = self._since
-        for camera in cameras:  # (in place, a loop: a tick's cost, most ticks no change)
-            ident = camera.id
-            beat = beats.get(("Camera", ident))
-            if beat is not None and oldest_ms <= beat <= newest_ms:
-                if ident not in since:
-                    since[ident] = beat
-            elif ident in since:
-                del since[ident]
-        if len(since) > len(cameras):  # a camera gone from the map: not framing either
-            ids = {camera.id for camera in cameras}
-            self._since = {ident: at for ident, at in since.items() if ident in ids}
+        framing = [
+            c for c in cameras if oldest_ms <= beats.get(("Camera", c.id), _NEVER) <= newest_ms
+        ]
+        if self.miss_ms:  # a run goes on from its first frame; a camera not framing has none
+            since = self._since
+            for camera in framing:
+                if camera.id not in since:
+                    since[camera.id] = beats[("Camera", camera.id)]
+            if len(since) > len(framing):  # (rarely: a run broke)
+                ids = {camera.id for camera in framing}
+                self._since = {ident: at for ident, at in since.items() if ident in ids}
+        return framing
 
     def looked(self, framing: Sequence[Camera], now_ms: int) -> bool:
         """Whether one of the ``framing`` cameras (frames fresh at this tick) has framed for

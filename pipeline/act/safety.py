@@ -196,13 +196,13 @@ class SafetySupervisor:
                 anchor = anchors.get(human.id)
                 if anchor is None or anchor.stamp_ms != human.positionchangetime:
                     self._anchor(human.id, human, now_ms)
-        self._cameras.watch(world_map.cameras, beats, now_ms)
+        framing = self._cameras.framing(world_map.cameras, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
             if anchor is None or anchor.stamp_ms != echo.positionchangetime:
                 self._anchor(key, echo, now_ms)
-        verdict = self._limit(requested, world_map, echoes, heard, beats, now_ms)
+        verdict = self._limit(requested, world_map, echoes, framing, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -260,6 +260,7 @@ class SafetySupervisor:
         requested: Velocity,
         world_map: WorldMap,
         echoes: list[tuple[str, Entity]],
+        framing: list[Camera],
         heard: Mapping[tuple[str, str], int],
         beats: Mapping[tuple[str, str], int],
         now_ms: int,
@@ -271,16 +272,11 @@ class SafetySupervisor:
                 self._standing = Supervised(standing)
             return standing
         config = self.config
-        cameras, sonars = world_map.cameras, world_map.sonars
+        sonars = world_map.sonars
         max_age = config.max_status_age_ms
-        # A sensor counts only while its heartbeat says it works (frozen, it says it is on)
+        # A sensor counts only while its heartbeat says it works (frozen, it says it is on;
+        # a camera's frames: CameraWatch.framing)
         newest_ms = now_ms + self._tick_ms  # (a clock ahead: no scan or frame to trust)
-        oldest_frame_ms = now_ms - config.max_frame_age_ms  # type: ignore[operator]  # filled
-        framing = [
-            c
-            for c in cameras
-            if oldest_frame_ms <= beats.get(("Camera", c.id), _NEVER) <= newest_ms
-        ]
         seeing = _online(framing, "Camera", heard, now_ms - max_age)
         oldest_scan_ms = now_ms - config.max_scan_age_ms  # type: ignore[operator]  # filled
         scans = [beats.get(("Sonar", s.id), _NEVER) for s in sonars]

@@ -300,7 +300,7 @@ class Memo:
         """Whether the condition's reads are declared (else it may change the map)."""
         self.stores = reads is None or any(path in STORE_READS for path in reads)
         """Whether an evaluation may read and write the alias and variable stores."""
-        self.binds = self.stores and getattr(condition, "binds", True)
+        self.binds = self.stores and condition.binds
         """Whether an evaluation may write them (:attr:`Condition.binds`)."""
         self.paths = (
             None

@@ -19,8 +19,7 @@ def watched(frames: dict[int, int], miss_ms: int, until_ms: int) -> list[int]:
     for now_ms in range(0, until_ms, 20):
         latest = frames.get(now_ms, latest)
         beats = {} if latest is None else {("Camera", "front"): latest}
-        watch.watch([FRONT], beats, now_ms)
-        framing = [FRONT] if latest is not None and now_ms - latest <= 500 else []
+        framing = watch.framing([FRONT], beats, now_ms)
         if watch.looked(framing, now_ms):
             looked.append(now_ms)
     return looked
@@ -47,9 +46,9 @@ def test_a_camera_gone_from_the_map_and_back_waits_again() -> None:
     watch = CameraWatch(SafetyConfig(max_frame_age_ms=500, camera_miss_ms=300).filled(), tick_ms=20)
     beats = {("Camera", "front"): 0}
     for now_ms in range(0, 400, 20):
-        watch.watch([FRONT], beats, now_ms)
+        watch.framing([FRONT], beats, now_ms)
     assert watch.looked([FRONT], 380)
-    watch.watch([], {}, 400)
+    watch.framing([], {}, 400)
     beats[("Camera", "front")] = 400
-    watch.watch([FRONT], beats, 420)
+    watch.framing([FRONT], beats, 420)
     assert not watch.looked([FRONT], 420) and watch.looked([FRONT], 700)
