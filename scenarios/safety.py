@@ -101,14 +101,16 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             f" {sensors.sonar_scan_hz!r}) that all miss a body with dropout_probability"
             f" {dropout!r}: the supervisor would forget a child it has just stopped seeing",
         )
-        miss_ms = _whole_ms((scans - 1) / sensors.rate_hz)
-        found["camera_miss_ms"] = Need(
-            miss_ms,
-            f"{scans - 1} of the camera's frames ({miss_ms} ms at rate_hz {sensors.rate_hz!r})"
-            f" that may all miss a child after the first with dropout_probability"
-            f" {dropout!r}: with a sonar down the supervisor would count on seeing a child"
-            " ahead sooner than it can",
-        )
+        for name, beats, rate, hz in (
+            ("camera_miss_ms", "camera's frames", "rate_hz", sensors.rate_hz),
+            ("sonar_miss_ms", "sonar ring's scans", "sonar_scan_hz", sensors.sonar_scan_hz),
+        ):
+            miss_ms = _whole_ms((scans - 1) / hz)
+            found[name] = Need(
+                miss_ms,
+                f"{scans - 1} of the {beats} ({miss_ms} ms at {rate} {hz!r}) that may all miss"
+                f" a child after the first with dropout_probability {dropout!r}: {_MISSED[name]}",
+            )
     if sensors.noise_rho_m or sensors.noise_theta_rad:
         safety = robot.safety
         radii = (  # as the supervisor will take them (supervisor_config)
@@ -127,6 +129,15 @@ def needs(scenario: Scenario) -> dict[str, Need]:
             " their errors",
         )
     return found
+
+
+_MISSED: Final = {
+    "camera_miss_ms": "with a sonar down the supervisor would count on seeing a child ahead"
+    " sooner than it can",
+    "sonar_miss_ms": "the supervisor would take a ring back for one that sees beside and"
+    " behind the robot before it can",
+}
+"""What a camera's or a ring's misses, taken shorter than they are, would let happen."""
 
 
 def _whole_ms(seconds: float) -> int:

@@ -80,7 +80,7 @@ EXTENSION_TYPES: Final[dict[str, tuple[str, ...]]] = {
     "oimi.pipeline.act.actuator": ("Actuator",),
     "oimi.pipeline.act.channels": ("ChannelCursor",),
     "oimi.pipeline.act.echoes": ("EchoSorter",),
-    "oimi.pipeline.act.looking": ("CameraWatch",),
+    "oimi.pipeline.act.looking": ("SensorWatch",),
     "oimi.pipeline.act.reckoning": ("DeadReckoning",),
     "oimi.pipeline.act.safety": ("SafetySupervisor",),
     "oimi.pipeline.operator.handler": ("GeneratorHandler",),

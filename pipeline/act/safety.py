@@ -41,12 +41,12 @@ while its frames do (``frametime`` within ``max_frame_age_ms``). The ring's echo
 explains them (``pipeline/act/echoes.py``: where the camera saw all the beam that made one,
 or one each on an ideal ring); one no longer reported is gone once every sonar has scanned
 since and ``echo_hold_ms`` have passed; one repeated with an old reading, or that a ring now
-down may have made, is kept, stale. While a sonar is down or repeats an old echo, linear
-motion stays inside the camera's view, narrowed so that a child centred just outside it
-beyond the slow zone is not driven into the stop zone; a camera too short-ranged to report
-a child ahead in time leaves none (``safety_config.ring_down_view_rad``), and so does one
-that does not look (offline, frozen), or not yet for ``camera_miss_ms`` since it came back
-(``pipeline/act/looking.py``).
+down may have made, is kept, stale. While a sonar is down, repeats an old echo, or is back
+for less than ``sonar_miss_ms`` (``pipeline/act/looking.py``), linear motion stays inside
+the camera's view, narrowed so that a child centred just outside it beyond the slow zone
+is not driven into the stop zone; a camera too short-ranged to report a child ahead in
+time leaves none (``safety_config.ring_down_view_rad``), and so does one that does not
+look (offline, frozen), or not yet for ``camera_miss_ms`` since it came back.
 
 It is not a rule: the loop calls it after the actuator every tick, and no alfa/omega
 message, script or joystick input reaches it. No clock, no IO.
@@ -60,7 +60,7 @@ from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
 from oimi.pipeline.act.limits import RobotLimits, Velocity
-from oimi.pipeline.act.looking import CameraWatch
+from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, ring_down_view_rad, safety_problems
 from oimi.pipeline.act.separation import (
@@ -138,7 +138,10 @@ class SafetySupervisor:
         down or repeating itself, stops at ``max_data_age_ms``)."""
         self._release_m: float = (config.stop_distance_m + config.slow_distance_m) / 2  # type: ignore[operator]  # filled
         """Where a protective stop ends: halfway from the stop zone to the slow zone's edge."""
-        self._cameras = CameraWatch(config, tick_ms=tick_ms)
+        self._cameras = SensorWatch(
+            "Camera", config.max_frame_age_ms, config.camera_miss_ms, tick_ms
+        )  # type: ignore[arg-type]  # filled
+        self._sonars = SensorWatch("Sonar", config.max_scan_age_ms, config.sonar_miss_ms, tick_ms)  # type: ignore[arg-type]  # filled
         self._standing = Supervised(Verdict(Velocity()))
         """The last tick's answer to a request that stood (no linear velocity) with no
         event: handed on while the request is the same object (the actuator's, unchanged)."""
@@ -196,13 +199,14 @@ class SafetySupervisor:
                 anchor = anchors.get(human.id)
                 if anchor is None or anchor.stamp_ms != human.positionchangetime:
                     self._anchor(human.id, human, now_ms)
-        framing = self._cameras.framing(world_map.cameras, beats, now_ms)
+        framing = self._cameras.working(world_map.cameras, beats, now_ms)
+        scanning = self._sonars.working(world_map.sonars, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
             anchor = anchors.get(key)
             if anchor is None or anchor.stamp_ms != echo.positionchangetime:
                 self._anchor(key, echo, now_ms)
-        verdict = self._limit(requested, world_map, echoes, framing, heard, beats, now_ms)
+        verdict = self._limit(requested, world_map, echoes, framing, scanning, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
@@ -261,6 +265,7 @@ class SafetySupervisor:
         world_map: WorldMap,
         echoes: list[tuple[str, Entity]],
         framing: list[Camera],
+        scanning: list[Sonar],
         heard: Mapping[tuple[str, str], int],
         beats: Mapping[tuple[str, str], int],
         now_ms: int,
@@ -275,14 +280,8 @@ class SafetySupervisor:
         sonars = world_map.sonars
         max_age = config.max_status_age_ms
         # A sensor counts only while its heartbeat says it works (frozen, it says it is on;
-        # a camera's frames: CameraWatch.framing)
-        newest_ms = now_ms + self._tick_ms  # (a clock ahead: no scan or frame to trust)
+        # its frames or scans: SensorWatch.working)
         seeing = _online(framing, "Camera", heard, now_ms - max_age)
-        oldest_scan_ms = now_ms - config.max_scan_age_ms  # type: ignore[operator]  # filled
-        scans = [beats.get(("Sonar", s.id), _NEVER) for s in sonars]
-        scanning = [
-            s for s, at in zip(sonars, scans, strict=True) if oldest_scan_ms <= at <= newest_ms
-        ]
         sounding = _online(scanning, "Sonar", heard, now_ms - max_age)
         if not (seeing or sounding):  # no sensor says it is on: nothing senses the room
             return Verdict(Velocity(0.0, 0.0, requested.v_theta), SafetyZone.BLIND)
@@ -291,7 +290,7 @@ class SafetySupervisor:
         # Since when every ring is known to scan (readings do not name their sonar): only
         # then does one that stopped reporting a body say it left (None: a ring is down).
         scanning_since = (
-            min(scans)
+            min(beats[("Sonar", s.id)] for s in scanning)
             if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
             else None
         )
@@ -313,10 +312,12 @@ class SafetySupervisor:
             kept.append((key, echo, age_ms))
         # A ring down, or one repeating old readings (frozen: it says it is on, and may see
         # nothing new): nothing sees beside or behind the robot; drive where the camera looks.
+        # So too while a ring back has not scanned for as long as it may miss a child.
         ring_down = scanning_since is None or repeating
+        unsettled = ring_down or not self._sonars.settled(scanning, now_ms)
         # A human the camera stopped reporting is the ring's once it has scanned since, if
         # it reports every body apart (a merging ring may hide them behind nearer bodies)
-        apart_since = None if ring_down or config.sonar_beam_rad else scanning_since
+        apart_since = None if unsettled or config.sonar_beam_rad else scanning_since
         seen: list[Anchor] = []  # fresh humans' anchors: what an echo may be
         for human in world_map.humans:
             if not human.poses:
@@ -351,7 +352,7 @@ class SafetySupervisor:
         # (the view only while the camera looks: offline or frozen, it sees nothing there;
         # back, only once it has framed for as long as its frames may miss a child)
         half_view = math.pi
-        if sonars and ring_down:
+        if sonars and unsettled:
             looked = seeing and self._cameras.looked(framing, now_ms)
             half_view = self._looking_rad if looked else -1.0
         looking = within_view(v_x, v_y, half_view)

@@ -29,6 +29,8 @@ ASSUMED: Final[dict[str, float]] = {
     "max_frame_age_ms": 500,  # unless a scenario's camera is slower: two of its frames
     "camera_miss_ms": 0,  # unless a scenario's camera drops people (dropouts): the frames
     # that may all miss a child; a real robot's person tracker that misses people states it
+    "sonar_miss_ms": 0,  # unless a scenario's ring drops bodies (dropouts): the scans that may
+    # all miss a child; a real robot's ring that misses bodies states it
     "sonar_beam_rad": math.pi / 3,  # a pipeline without a scenario, or a real robot's
     # ring (oimi bridge): wide, cheap sonars (60 degrees)
     "sonar_reports_surface": False,  # a pipeline without a scenario, or a real robot's
@@ -114,6 +116,15 @@ class SafetyConfig(Message):
     view on every frame), or the frames that all miss a body with a scenario's
     ``dropout_probability`` but for a chance of :data:`~scenarios.safety.MISSED`, less the
     first (a scenario may not set it below that)."""
+    sonar_miss_ms: int | None = None
+    """How long the sonar ring's scans may all miss a body in a sonar's beam after the first
+    scan that could have reported them, ms: a ring back (from offline, frozen or late, or at
+    the start) counts as up only once every sonar has scanned this long without a break;
+    until then the robot drives only where the camera looks, as with a sonar down. None: 0
+    (a ring that reports every body on every scan), or the scans that all miss a body with
+    a scenario's ``dropout_probability`` but for a chance of
+    :data:`~scenarios.safety.MISSED`, less the first (a scenario may not set it below
+    that)."""
     sonar_beam_rad: float | None = None
     """How wide one sonar's beam of the ring is, rad: a sonar reports the nearest body in
     its beam, so a child beside one the camera tracks may be merged into that child's echo,

@@ -68,16 +68,21 @@ def ring_down(memory: MemorySink, safety: SafetyConfig, ticks: int) -> list[bool
     consumes in the tick they come): the sonar's status last said it is offline, or was
     last heard more than ``max_status_age_ms`` ago, or its latest scan (``scantime``, taken
     no later than when it first came) is older than ``max_scan_age_ms``, or ahead by more
-    than a tick, or never came. It counts a ring down in more cases (a status three
+    than a tick, or never came, or the sonar's scans have not run without a break (each
+    tick's latest within ``max_scan_age_ms``) for ``sonar_miss_ms`` (a ring back that may
+    still miss a child: the view holds as while it is down). It counts a ring down in more
+    cases (a status three
     quarters late, an old echo repeated: a frozen ring's, until its scan time ages too);
     those ticks are not claimed here (False: not surely down)."""
     safety = safety.filled()
     assert safety.max_status_age_ms is not None and safety.max_scan_age_ms is not None
+    assert safety.sonar_miss_ms is not None
     by_tick: dict[int, list] = {}
     for update in memory.on(Topic.SENSOR_UPDATES):
         by_tick.setdefault(update.tick, []).extend(update.updates)  # type: ignore[attr-defined]
     status: dict[str, tuple[bool, int]] = {}  # sonar -> (said online, when heard, ms)
     scans: dict[str, tuple[int, int]] = {}  # sonar -> (its latest scantime, when noted, ms)
+    since: dict[str, int] = {}  # sonar -> when its unbroken run of scans began, ms
     down = []
     for tick in range(ticks):
         now_ms = tick * TICK_MS
@@ -91,13 +96,17 @@ def ring_down(memory: MemorySink, safety: SafetyConfig, ticks: int) -> list[bool
                 stamp = int(change.jsonmsg)
                 if ident not in scans or scans[ident][0] != stamp:
                     scans[ident] = (stamp, min(stamp, now_ms))
+        for ident, (_, noted_ms) in scans.items():
+            if now_ms - safety.max_scan_age_ms <= noted_ms <= now_ms + TICK_MS:
+                since.setdefault(ident, noted_ms)
+            else:
+                since.pop(ident, None)
         down.append(
             any(
                 not online
                 or now_ms - heard_ms > safety.max_status_age_ms
-                or not now_ms - safety.max_scan_age_ms
-                <= scans.get(ident, (0, -math.inf))[1]
-                <= now_ms + TICK_MS
+                or ident not in since
+                or now_ms - since[ident] < safety.sonar_miss_ms
                 for ident, (online, heard_ms) in status.items()
             )
         )

@@ -165,6 +165,9 @@ def test_a_noise_too_large_for_any_margin_is_a_located_error() -> None:
         # the camera's 19 frames after the first that may all miss a child, at 10 Hz, at 4
         ("camera_miss_ms", 0, "[sensors]\ndropout_probability = 0.5", 1900),
         ("camera_miss_ms", 0, "[sensors]\ndropout_probability = 0.5\nrate_hz = 4", 4750),
+        # the ring's 19 scans after the first that may all miss a child, at 5 Hz, at 2
+        ("sonar_miss_ms", 0, "[sensors]\ndropout_probability = 0.5", 3800),
+        ("sonar_miss_ms", 0, "[sensors]\ndropout_probability = 0.5\nsonar_scan_hz = 2", 9500),
     ],
 )
 def test_left_out_a_time_covers_what_the_scenarios_sensors_need(
@@ -215,6 +218,15 @@ def test_left_out_a_time_covers_what_the_scenarios_sensors_need(
             "1500 is below 19 of the camera's frames (1900 ms at rate_hz 10.0) that may all"
             " miss a child after the first with dropout_probability 0.5: with a sonar down the"
             " supervisor would count on seeing a child ahead sooner than it can",
+        ),
+        (
+            "sonar_miss_ms = 1500",
+            "dropout_probability = 0.5",
+            3800,
+            "1500 is below 19 of the sonar ring's scans (3800 ms at sonar_scan_hz 5) that"
+            " may all miss a child after the first with dropout_probability 0.5: the"
+            " supervisor would take a ring back for one that sees beside and behind the robot"
+            " before it can",
         ),
     ],
 )
