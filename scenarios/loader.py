@@ -409,11 +409,18 @@ def real_robot_overrides(loaded: LoadedScenario) -> dict[str, str]:
 
 def real_robot_warnings(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
     """What a session with a real robot assumes that the scenario leaves unstated (its
-    camera's range and its ring's kind of echo, :func:`real_robot_overrides`), placed in
-    the file, in its order."""
+    camera's range and its ring's kind of echo, :func:`real_robot_overrides`; that its
+    sensors never miss a child, :data:`UNSET_MISSES`), placed in the file, in its order."""
     problems = [(("sensors", "range_m"), UNSET_RANGE)] if _range_unstated(loaded) else []
-    if loaded.scenario.robot.safety.sonar_reports_surface is None:
+    safety = loaded.scenario.robot.safety
+    if safety.sonar_reports_surface is None:
         problems.append((("robot", "safety", "sonar_reports_surface"), UNSET_SURFACE))
+    if not loaded.scenario.sensors.dropout_probability:  # (else its misses are derived)
+        problems += [
+            (("robot", "safety", name), why)
+            for name, why in UNSET_MISSES.items()
+            if getattr(safety, name) is None
+        ]
     locator = TomlLocator(loaded.raw.decode("utf-8"))
     errors = [
         _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
@@ -437,6 +444,17 @@ UNSET_SURFACE: Final = (
 )
 """Why a session with a real robot warns of an unstated ``[robot.safety]
 sonar_reports_surface``."""
+UNSET_MISSES: Final = {
+    "camera_miss_ms": "not set: the safety supervisor takes the lab's person tracker to report"
+    " every child in its view on every frame (0 ms); where it may miss one on frames in a row,"
+    " state how long (with a sonar down the robot would count on seeing a child ahead sooner"
+    " than it can)",
+    "sonar_miss_ms": "not set: the safety supervisor takes the lab's sonar ring to report every"
+    " body on every scan (0 ms); where it may miss one on scans in a row, state how long (a"
+    " ring back from down would be taken to see beside and behind the robot before it can)",
+}
+"""Why a session with a real robot warns of an unstated ``[robot.safety] camera_miss_ms``
+or ``sonar_miss_ms`` (a scenario whose ``[sensors] dropout_probability`` is 0)."""
 
 
 def _range_unstated(loaded: LoadedScenario) -> bool:

@@ -411,6 +411,10 @@ def test_a_real_robots_scenario_must_say_how_wide_its_camera_sees() -> None:
     check_real_people(parse_scenario(ring + b"[robot.safety]\ncamera_fov_rad = 1.2\n"))
 
 
+LOSSY = b"dropout_probability = 0.01\n"
+"""Sensors that drop readings: the supervisor takes its misses from them (no warning)."""
+
+
 def real_session(text: bytes, overrides: dict[str, str], warned: str) -> SafetyConfig:
     """The supervisor's configuration of a real robot's session (``oimi bridge``) of
     ``text`` (``s.toml``), which must apply ``overrides``, recorded as its variation, and
@@ -431,7 +435,7 @@ def test_a_real_robots_camera_range_left_out_is_the_supervisors_own_and_recorded
     ``oimi replay BAG/``) takes the supervisor's own 3 m, with a warning (not a refusal: a
     shorter range keeps more echoes, stops, not collisions), as an override recorded as the
     session's variation, so that a redrive rebuilds the same supervisor."""
-    ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n'
+    ring = b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\n' + LOSSY
     surface = b"[robot.safety]\nsonar_reports_surface = true\n"  # (below)
     safety = real_session(
         ring + surface,
@@ -454,6 +458,7 @@ def test_a_real_robots_ring_left_unsaid_is_taken_for_centres_with_a_warning() ->
     as an override recorded as the session's variation; stated either way, nothing."""
     ring = (
         b'name = "x"\nduration_s = 0.1\n[sensors]\nsonar_beams = 12\nfov_rad = 1.2\nrange_m = 4.0\n'
+        + LOSSY
     )
     simulated = pipeline_config(parse_scenario(ring).scenario).safety
     assert simulated.sonar_reports_surface is True
@@ -467,3 +472,24 @@ def test_a_real_robots_ring_left_unsaid_is_taken_for_centres_with_a_warning() ->
     for value in (b"true", b"false"):
         stated = parse_scenario(ring + b"[robot.safety]\nsonar_reports_surface = " + value + b"\n")
         assert real_robot_overrides(stated) == {} and real_robot_warnings(stated) == ()
+
+
+def test_a_real_robots_sensors_taken_never_to_miss_a_child_are_a_warning() -> None:
+    """A scenario whose sensors drop nothing leaves the supervisor taking a lab's person
+    tracker and sonar ring never to miss a child (``camera_miss_ms``, ``sonar_miss_ms``
+    0): a real robot's session warns of each left out; stated (0 too), or derived from a
+    ``dropout_probability``, nothing."""
+    ring = b'name = "x"\n[sensors]\nfov_rad = 1.2\nrange_m = 4.0\n'
+    surface = b"[robot.safety]\nsonar_reports_surface = false\n"
+    camera, sonar = real_robot_warnings(parse_scenario(ring + surface, source="s.toml"))
+    assert str(camera).startswith(
+        "s.toml:5:1: robot.safety.camera_miss_ms (ms): not set: the safety supervisor takes the"
+        " lab's person tracker to report every child in its view on every frame"
+    )
+    assert str(sonar).startswith(
+        "s.toml:5:1: robot.safety.sonar_miss_ms (ms): not set: the safety supervisor takes the"
+        " lab's sonar ring to report every body on every scan"
+    )
+    stated = ring + surface + b"camera_miss_ms = 0\nsonar_miss_ms = 200\n"
+    assert real_robot_warnings(parse_scenario(stated)) == ()
+    assert real_robot_warnings(parse_scenario(ring + LOSSY + surface)) == ()
