@@ -128,7 +128,7 @@ class MapDeltas:
             if kept == live and (type(live) is not dict or list(kept) == list(live)):
                 continue
             if name in SECTION_PATCHES and kept is not _UNSET:
-                sections[name] = _take(kept, _patch(kept, live))  # (no section repeats)
+                sections[name] = _change(kept, live)  # (no section repeats)
             else:
                 kept_sections[name] = _copy(live)
                 sections[name] = live
@@ -178,7 +178,7 @@ class MapDeltas:
                 rows.append(_Raw(_encode(row)))
                 old = _copy(row)
             elif old != row:
-                rows.append(_Raw(_encode(_unrepeated(row, _take(old, _patch(old, row))))))
+                rows.append(_Raw(_encode(_change(old, row))))
             fresh[row.id] = old
         self._ids[table] = fresh
         if len(fresh) == len(kept) == len(live) and list(fresh) == list(kept):
@@ -193,62 +193,62 @@ class MapDeltas:
         return tuple(rows), gone, unique and expected == ids
 
 
-def _patch(old: Any, new: Any) -> dict[str, Any]:
-    """A row's (same id) or a section's change from ``old`` to ``new``: the fields that
-    differ, a list that kept a run of its old items at its start as what it dropped and
-    added."""
+def _change(kept: Any, new: Any) -> dict[str, Any]:
+    """A row's (same id) or a section's change from its kept copy to ``new``, as a delta
+    writes it, with ``kept`` brought up to date: the fields that differ (copied into
+    ``kept``); a list that kept a run of its old items at its start as what it dropped and
+    added (``kept`` keeps the readings it kept, they are copies already, and copies those
+    added); and (format 9) a field equal to the newest reading its register added left out
+    (read back from the reading), one that differs from it written even when unchanged."""
     names = new.__struct_fields__
-    patch: dict[str, Any] = {"id": new.id} if "id" in names else {}
-    for name, before, after in zip(names, _astuple(old), _astuple(new), strict=True):
+    change = {"id": new.id} if "id" in names else {}
+    befores = _astuple(kept)
+    for i, after in enumerate(_astuple(new)):
+        before = befores[i]
         if before == after:
             continue
+        name = names[i]
         if type(after) is list and type(before) is list:
             dropped = _dropped(before, after)
             if dropped is not None:
-                after = Appended(dropped=dropped, added=after[len(before) - dropped :])
-        patch[name] = after
-    return patch
-
-
-def _take(kept: Any, patch: dict[str, Any]) -> dict[str, Any]:
-    """Bring the kept copy of a row or section up to date with its change ``patch`` (from
-    :func:`_patch`) and return the change: the fields that changed are copied, a register
-    keeps the readings it kept (they are copies already) and copies those added."""
-    for name, value in patch.items():
-        if type(value) is Appended:
-            added = value.added  # (joined to a new list: its items alone need copies)
-            if not _SHARED.issuperset(map(type, added)):
-                added = _copy(added)
-            setattr(kept, name, getattr(kept, name)[value.dropped :] + added)
-        elif name != "id":
-            setattr(kept, name, value if type(value) in _SHARED else _copy(value))
-    return patch
-
-
-def _unrepeated(new: Any, patch: dict[str, Any]) -> dict[str, Any]:
-    """``patch`` as a delta writes it (format 9): a field equal to the newest reading its
-    register added is left out (read back from the reading), and one that differs from it
-    is written even when unchanged."""
-    for register, names in _REPEATS.get(type(new), ()):
-        appended = patch.get(register)
-        if type(appended) is not Appended or not appended.added:
+                added = after[len(before) - dropped :]
+                change[name] = Appended(dropped=dropped, added=added)
+                for reading in added:  # (joined to a new list: its items alone need copies)
+                    if type(reading) not in _SHARED:
+                        added = _copy(added)
+                        break
+                setattr(kept, name, before[dropped:] + added)
+                continue
+        change[name] = after
+        setattr(kept, name, after if type(after) in _SHARED else _copy(after))
+    for register, mirrors in _REPEATS.get(type(new), ()):
+        appended = change.get(register)
+        if type(appended) is not Appended:
             continue
-        newest = appended.added[-1]
-        for name in names:
+        added = appended.added
+        if not added:
+            continue
+        newest = added[-1]
+        for name in mirrors:
             value = getattr(new, name)
             if value == getattr(newest, name):
-                patch.pop(name, None)
+                change.pop(name, None)
             else:
-                patch[name] = value
-    return patch
+                change[name] = value
+    return change
 
 
 def _dropped(before: list[Any], after: list[Any]) -> int | None:
     """How many items ``before`` dropped from its start if ``after`` begins with the rest
-    of them (then it added what follows); None if it did not (it is written whole)."""
+    of them (then it added what follows); None if it did not (it is written whole). The
+    lists differ (the least count is found: a register of one that took a reading is
+    written whole, as no item of it is kept)."""
+    size = len(before)
+    if size > 1 and len(after) == size and after[: size - 1] == before[1:]:
+        return 1  # (the usual: a full register took a reading; 0 is no change, not asked)
     if not after:
         return None
-    first, size = after[0], len(before)
+    first = after[0]
     dropped = -1
     while True:  # (each item equal to ``first``, in order: a C-level search)
         try:

@@ -259,6 +259,22 @@ def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_
     assert apply_delta(apply_delta(None, first), delta) == world
 
 
+def test_a_register_of_one_that_took_a_reading_is_written_whole() -> None:
+    """None of its readings is kept, so it is not one dropped and one added (the quick check
+    for a full register's usual change must leave it to the search)."""
+    old = Pose(positionrho=1.0, positiontheta=0.0, positionchangetime=0)
+    world = WorldMap(humans=[Human(id="a", creationtime=0, poses=[old])])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    world.humans[0].poses = [Pose(positionrho=2.0, positiontheta=0.0, positionchangetime=20)]
+    delta = deltas.after(world, tick=1, time_ms=20)
+    assert first is not None and delta is not None
+    assert bytes(delta.humans[0]) == (
+        b'{"id":"a","poses":[{"positionrho":2.0,"positiontheta":0.0,"positionchangetime":20}]}'
+    )
+    assert apply_delta(apply_delta(None, first), delta) == world
+
+
 def test_a_row_leaves_out_the_fields_its_newest_reading_repeats_and_old_formats_wrote_them() -> (
     None
 ):
