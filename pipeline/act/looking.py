@@ -33,6 +33,9 @@ class SensorWatch:
         self.miss_ms = miss_ms
         self._ahead_ms = tick_ms
         self._since: dict[str, float] = {}
+        self.first_ms: float = math.inf
+        """The oldest latest frame or scan of those working at the last :meth:`working`
+        (infinite: none works)."""
 
     def working(
         self, sensors: Sequence[Camera | Sonar], beats: Mapping[tuple[str, str], int], now_ms: int
@@ -43,7 +46,14 @@ class SensorWatch:
         since when each has worked is noted, and a break while the robot stands counts."""
         klass = self._klass
         oldest_ms, newest_ms = now_ms - self._max_age_ms, now_ms + self._ahead_ms
-        working = [s for s in sensors if oldest_ms <= beats.get((klass, s.id), _NEVER) <= newest_ms]
+        working = []
+        first = math.inf
+        for sensor in sensors:
+            at = beats.get((klass, sensor.id), _NEVER)
+            if oldest_ms <= at <= newest_ms:
+                working.append(sensor)
+                first = min(first, at)
+        self.first_ms = first
         if self.miss_ms:  # a run goes on from its first beat; a sensor not working has none
             since = self._since
             for sensor in working:

@@ -290,7 +290,7 @@ class SafetySupervisor:
         # Since when every ring is known to scan (readings do not name their sonar): only
         # then does one that stopped reporting a body say it left (None: a ring is down).
         scanning_since = (
-            min(beats[("Sonar", s.id)] for s in scanning)
+            self._sonars.first_ms
             if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
             else None
         )
