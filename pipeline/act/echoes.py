@@ -29,7 +29,9 @@ What else must hold depends on the ring (``sonar_beam_rad``):
   have moved apart by the robot's move and a walk between both readings (the reckoning's
   slip too, where it may have slipped, since the earlier reading: the move between them is
   reckoned; it widens the angle as the move does): ``rho + body + moved + walked <=
-  camera_range_m``.
+  camera_range_m``. A camera that may miss a child for ``camera_miss_ms`` must have
+  framed, and seen all of the beam so, on every frame for that long before (the robot's
+  path and largest turn then, and a walk that long, count as the move does).
   A child beyond the range, behind or beside the tracked one in the same beam, is never
   reported: without this their echo was dropped and the robot closed on them. A body the
   ring hides reaches no beam but those of nearer bodies: when the echoes of all of them
@@ -140,6 +142,9 @@ class EchoSorter:
         the ideal ring's is)."""
         self._arc_per_m = arc_chord(1.0, self._beam_rad)
         """An echo's arc's chord per metre of its range (:meth:`arc_m`)."""
+        self._miss_ms: int = config.camera_miss_ms  # type: ignore[assignment]  # filled
+        self._miss_walk_m: float = config.human_speed_mps * self._miss_ms / 1000  # type: ignore[operator]  # filled
+        """How far a child may walk while the camera's frames all miss them."""
         self._reach_m: float = config.camera_range_m - self._body_m  # type: ignore[operator]  # filled
         """How far from the robot, at the camera's frame, an echo's range may lie (with the
         robot's move and a walk between both readings) for the camera to have reported the
@@ -164,10 +169,13 @@ class EchoSorter:
         seen: list[Anchor],
         anchors: dict[str, Anchor],
         slipped: bool,
+        framing_since_ms: float = -math.inf,
     ) -> list[Kept]:
         """The kept echoes that are not a human the map tracks (``seen``: the fresh
         humans' anchors; ``anchors``: every reading's, by key; ``slipped``: the reckoning
-        may have slipped since, a ring down): the module's docstring."""
+        may have slipped since, a ring down; ``framing_since_ms``: since when the cameras
+        have framed without a break, ``camera_miss_ms`` counted from it): the module's
+        docstring."""
         if not seen:
             return kept
         merging = self._beam_rad > 0.0
@@ -175,7 +183,7 @@ class EchoSorter:
         for i, (key, _, _) in enumerate(kept):
             echo = anchors[key]
             for j in self._near(echo, seen, slipped):
-                if not merging or self._covers(echo, seen[j], slipped):
+                if not merging or self._covers(echo, seen[j], slipped, framing_since_ms):
                     near[j].append(i)
         if merging:
             explained = {i for echoes in near for i in echoes}
@@ -238,7 +246,7 @@ class EchoSorter:
             return 0.0
         return (max(reading.positionrho, 0.0) + self.beyond_m) * self._arc_per_m
 
-    def _covers(self, echo: Anchor, human: Anchor, slipped: bool) -> bool:
+    def _covers(self, echo: Anchor, human: Anchor, slipped: bool, since_ms: float) -> bool:
         """Whether the camera's frame that placed ``human`` saw all that the beam which
         made ``echo`` may hold (the coverage rule: the module's docstring; ``slipped``:
         the heading and distance the reckoning may have slipped since the earlier of both
@@ -250,7 +258,10 @@ class EchoSorter:
         so its centre lay within ``rho + body`` (``human_radius_m + sensing_error_m``) of
         the robot then, and within ``moved`` (the robot between both readings) and
         ``walked`` (a walk between their times) more of the robot at the frame (and the
-        slip): ``rho + body + moved + walked (+ slip) <= camera_range_m``."""
+        slip): ``rho + body + moved + walked (+ slip) <= camera_range_m``. A camera whose
+        frames may all miss a child for ``camera_miss_ms`` must have seen it so on every
+        frame for that long before: framing since (``since_ms``), the robot's path and
+        largest turn then, and a walk that long, count as the move does."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
@@ -267,6 +278,13 @@ class EchoSorter:
             drift = self._reckoning.drift(earlier)
             apart += drift.distance_m
             turned = min(drift.heading_rad, math.pi)
+        if self._miss_ms:  # (a frame's silence alone is weak: every frame before too)
+            start_ms = human.at_ms - self._miss_ms
+            swept = self._reckoning.swept(start_ms, human.at_ms)
+            if swept is None or since_ms > start_ms:
+                return False  # (not looking all that while, or its moves not kept)
+            apart += swept.distance_m + self._miss_walk_m
+            turned += swept.heading_rad
         if rho + apart > self._reach_m:  # (its centre from the frame, less a body)
             return False  # it may have stood beyond the camera's range: never reported
         spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis

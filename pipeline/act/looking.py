@@ -79,3 +79,11 @@ class SensorWatch:
             return True
         since = self._since
         return all(now_ms - since.get(s.id, now_ms) >= self.miss_ms for s in working)
+
+    def began_ms(self, working: Sequence[Camera | Sonar]) -> float:
+        """Since when every one of the ``working`` sensors has worked without a break, ms
+        (with no ``miss_ms``: ever, -inf; none working: never, inf)."""
+        if not self.miss_ms:
+            return -math.inf
+        since = self._since
+        return max((since[s.id] for s in working), default=math.inf)

@@ -147,6 +147,23 @@ class DeadReckoning:
             unchecked += (self.path_m - since.path_m) * min(heading, math.pi)
         return Slip(slip.distance_m - since.slip.distance_m + unchecked, heading)
 
+    def swept(self, start_ms: int, end_ms: int) -> Slip | None:
+        """How far the reckoning took the robot, from ``start_ms`` to ``end_ms``, from where
+        it was at ``end_ms``: the path it drove (no pose then lay farther) and the largest
+        turn off its heading then. None: the states from ``start_ms`` on are not all kept."""
+        history = self._history
+        if not history or history[0][0] > start_ms:
+            return None
+        _, (_, _, heading), end_path_m = self._state_at(end_ms)
+        _, _, start_path_m = self._state_at(start_ms)
+        off = 0.0
+        for at_ms, (_, _, theta), _ in history:
+            if at_ms > end_ms:
+                break
+            if at_ms + self._tick_ms > start_ms:  # (its tick reaches into the time)
+                off = max(off, abs(math.remainder(theta - heading, math.tau)))
+        return Slip(end_path_m - start_path_m, off)
+
     def measured(self, speeds: Sequence[SpeedStatus], now_ms: int) -> None:
         """Count the slip the reports in ``speeds`` (the map's register, oldest first) not
         counted yet show, in order."""

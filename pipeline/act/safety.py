@@ -332,7 +332,8 @@ class SafetySupervisor:
                     continue  # lost: their echo says where they are, wherever they walk
                 stale = True
             placed.append((human.id, human, age_ms))
-        placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down)
+        began_ms = self._cameras.began_ms(framing)  # (camera_miss_ms: each frame counts)
+        placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down, began_ms)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
