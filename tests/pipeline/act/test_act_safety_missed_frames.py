@@ -12,12 +12,16 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import pytest
 from oimi.pipeline.act.echoes import Anchor, EchoSorter
 from oimi.pipeline.act.limits import Velocity
 from oimi.pipeline.act.reckoning import DeadReckoning
+from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
-from supervision import LIMITS, TICK_MS, echo
+from oimi.pipeline.messages import Sonar
+from supervision import LIMITS, TICK_MS, echo, room, supervise
+from test_act_safety_range import BEAM, WIDE, closing_on_the_arc, room_with_two_children
 
 RHO_M = 1.5
 BEARING = 0.3
@@ -96,3 +100,35 @@ def test_the_reckoning_says_how_far_the_robot_turned_off_its_heading_since(start
     assert swept is not None and swept.distance_m == 0.0
     assert swept.heading_rad == pytest.approx(turned, abs=0.005)
     assert reckoning.swept(-100_000, FRAME_MS) is None  # (before the states kept)
+
+
+def towards_the_second_child(spin: float) -> tuple[str, float]:
+    """The review's two children (``test_act_safety_range.room_with_two_children``: the
+    camera tracks H, a second child U 30 degrees right, 0.62 m to their surface, whose
+    echo lies in H's gate), a 3.4 rad camera reaching 5 m whose frames may miss a child
+    for 200 ms, the robot having turned at ``spin`` rad/s (asked) for a second in an empty
+    room, the ring and the camera working. The robot then asks for 0.5 m/s at U: the human
+    whose separation bound it, and the fastest it closes on a point of U's echo's arc."""
+    config = msgspec.structs.replace(
+        WIDE, camera_fov_rad=3.4, camera_range_m=5.0, camera_miss_ms=200
+    )
+    supervisor = SafetySupervisor(config, LIMITS, tick_ms=TICK_MS)
+    for now_ms in range(0, FRAME_MS, TICK_MS):
+        world_map = room()
+        world_map.sonars.append(Sonar(id="ring", isonline=True))
+        supervise(Velocity(0.0, 0.0, spin), world_map, now_ms=now_ms, supervisor=supervisor)
+    drive = Velocity(0.5 * math.cos(-BEAM), 0.5 * math.sin(-BEAM), 0.0)
+    world_map = room_with_two_children(merged_at_ms=FRAME_MS, now_ms=FRAME_MS)
+    verdict, _ = supervise(drive, world_map, now_ms=FRAME_MS, supervisor=supervisor)
+    return verdict.human, closing_on_the_arc(verdict.velocity)
+
+
+def test_a_second_child_the_camera_may_have_missed_is_kept_after_a_turn() -> None:
+    """Standing, the camera looked at U's beam on every frame for 200 ms (their walk
+    counted): a child there would have been reported, and the echo is H's (the slow zone
+    binds). Having turned at 1 rad/s, its frames before looked elsewhere: U's echo is kept,
+    in the stop zone, and the robot does not close on it. (Taken for H by the one frame, as
+    before, the robot closed on U's arc at 0.12 m/s.)"""
+    assert towards_the_second_child(0.0)[0] == "child"
+    human, closing = towards_the_second_child(1.0)
+    assert human == "Obstacle/echo-0" and closing <= 1e-9
