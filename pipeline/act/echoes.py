@@ -80,11 +80,13 @@ logic finds it (docs/actuator-and-joystick.md). No clock, no IO.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
+from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning, Placed
 from oimi.pipeline.act.safety_config import SafetyConfig
-from oimi.pipeline.messages import Entity, Obstacle, WorldMap
+from oimi.pipeline.messages import Camera, Entity, Obstacle, WorldMap
 
 
 def arc_chord(rho: float, beam_rad: float) -> float:
@@ -124,10 +126,14 @@ Kept = tuple[str, Entity, int]
 class EchoSorter:
     """Names the map's echoes and tells which of them a tracked human explains."""
 
-    def __init__(self, config: SafetyConfig, reckoning: DeadReckoning) -> None:
+    def __init__(
+        self, config: SafetyConfig, reckoning: DeadReckoning, cameras: SensorWatch
+    ) -> None:
         self._config = config
         """The supervisor's configuration (filled)."""
         self._reckoning = reckoning
+        self._cameras = cameras
+        """Since when each camera has framed (``camera_miss_ms``: the coverage rule's)."""
         self._keys: dict[str, str] = {}
         """An echo's key by its obstacle id (made once)."""
         self._beam_rad: float = config.sonar_beam_rad  # type: ignore[assignment]  # filled
@@ -169,21 +175,21 @@ class EchoSorter:
         seen: list[Anchor],
         anchors: dict[str, Anchor],
         slipped: bool,
-        framing_since_ms: float = -math.inf,
+        framing: Sequence[Camera] = (),
     ) -> list[Kept]:
         """The kept echoes that are not a human the map tracks (``seen``: the fresh
         humans' anchors; ``anchors``: every reading's, by key; ``slipped``: the reckoning
-        may have slipped since, a ring down; ``framing_since_ms``: since when the cameras
-        have framed without a break, ``camera_miss_ms`` counted from it): the module's
-        docstring."""
+        may have slipped since, a ring down; ``framing``: the cameras that frame at this
+        tick): the module's docstring."""
         if not seen:
             return kept
         merging = self._beam_rad > 0.0
+        since_ms = self._cameras.began_ms(framing) if merging else -math.inf
         near: list[list[int]] = [[] for _ in seen]  # per tracked human: the echoes it may be
         for i, (key, _, _) in enumerate(kept):
             echo = anchors[key]
             for j in self._near(echo, seen, slipped):
-                if not merging or self._covers(echo, seen[j], slipped, framing_since_ms):
+                if not merging or self._covers(echo, seen[j], slipped, since_ms):
                     near[j].append(i)
         if merging:
             explained = {i for echoes in near for i in echoes}
@@ -261,7 +267,8 @@ class EchoSorter:
         slip): ``rho + body + moved + walked (+ slip) <= camera_range_m``. A camera whose
         frames may all miss a child for ``camera_miss_ms`` must have seen it so on every
         frame for that long before: framing since (``since_ms``), the robot's path and
-        largest turn then, and a walk that long, count as the move does."""
+        largest turn then, and a walk that long, count as the move does (``since_ms``:
+        since when the cameras have framed without a break)."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y

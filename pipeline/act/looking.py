@@ -33,9 +33,6 @@ class SensorWatch:
         self.miss_ms = miss_ms
         self._ahead_ms = tick_ms
         self._since: dict[str, float] = {}
-        self.first_ms: float = math.inf
-        """The oldest latest frame or scan of those working at the last :meth:`working`
-        (infinite: none works)."""
 
     def working(
         self, sensors: Sequence[Camera | Sonar], beats: Mapping[tuple[str, str], int], now_ms: int
@@ -46,14 +43,7 @@ class SensorWatch:
         since when each has worked is noted, and a break while the robot stands counts."""
         klass = self._klass
         oldest_ms, newest_ms = now_ms - self._max_age_ms, now_ms + self._ahead_ms
-        working = []
-        first = math.inf
-        for sensor in sensors:
-            at = beats.get((klass, sensor.id), _NEVER)
-            if oldest_ms <= at <= newest_ms:
-                working.append(sensor)
-                first = min(first, at)
-        self.first_ms = first
+        working = [s for s in sensors if oldest_ms <= beats.get((klass, s.id), _NEVER) <= newest_ms]
         if self.miss_ms:  # a run goes on from its first beat; a sensor not working has none
             since = self._since
             for sensor in working:
@@ -70,15 +60,12 @@ class SensorWatch:
         if not self.miss_ms:
             return bool(working)
         since = self._since
-        return any(now_ms - since.get(s.id, now_ms) >= self.miss_ms for s in working)
+        return any(now_ms - since[s.id] >= self.miss_ms for s in working)
 
     def settled(self, working: Sequence[Camera | Sonar], now_ms: int) -> bool:
         """Whether every one of the ``working`` sensors has worked for ``miss_ms`` since its
-        run began (true of none)."""
-        if not self.miss_ms:
-            return True
-        since = self._since
-        return all(now_ms - since.get(s.id, now_ms) >= self.miss_ms for s in working)
+        run began (:meth:`began_ms`)."""
+        return now_ms - self.began_ms(working) >= self.miss_ms
 
     def began_ms(self, working: Sequence[Camera | Sonar]) -> float:
         """Since when every one of the ``working`` sensors has worked without a break, ms

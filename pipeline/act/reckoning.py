@@ -155,13 +155,14 @@ class DeadReckoning:
         if not history or history[0][0] > start_ms:
             return None
         _, (_, _, heading), end_path_m = self._state_at(end_ms)
-        _, _, start_path_m = self._state_at(start_ms)
-        off = 0.0
-        for at_ms, (_, _, theta), _ in history:
+        off, start_path_m = 0.0, end_path_m
+        for at_ms, (_, _, theta), path_m in reversed(history):  # (back to the state at start)
             if at_ms > end_ms:
+                continue
+            off = max(off, abs(math.remainder(theta - heading, math.tau)))
+            if at_ms <= start_ms:
+                start_path_m = path_m
                 break
-            if at_ms + self._tick_ms > start_ms:  # (its tick reaches into the time)
-                off = max(off, abs(math.remainder(theta - heading, math.tau)))
         return Slip(end_path_m - start_path_m, off)
 
     def measured(self, speeds: Sequence[SpeedStatus], now_ms: int) -> None:

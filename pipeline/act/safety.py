@@ -156,7 +156,7 @@ class SafetySupervisor:
         self._anchors: dict[str, Anchor] = {}
         """Human id (``Obstacle/<id>`` for an echo) -> its last reading in the odometry
         frame."""
-        self._echoes = EchoSorter(config, self._reckoning)
+        self._echoes = EchoSorter(config, self._reckoning, self._cameras)
         """Names the echoes, and tells which a tracked human explains."""
         self._held: dict[str, None] = {}
         """Humans under a protective stop: it holds until they are halfway out of the slow
@@ -290,7 +290,7 @@ class SafetySupervisor:
         # Since when every ring is known to scan (readings do not name their sonar): only
         # then does one that stopped reporting a body say it left (None: a ring is down).
         scanning_since = (
-            self._sonars.first_ms
+            min([beats[("Sonar", s.id)] for s in scanning])
             if len(sounding) == len(sonars) > 0 and not _late(sounding, now_ms, max_age)
             else None
         )
@@ -332,8 +332,7 @@ class SafetySupervisor:
                     continue  # lost: their echo says where they are, wherever they walk
                 stale = True
             placed.append((human.id, human, age_ms))
-        began_ms = self._cameras.began_ms(framing)  # (camera_miss_ms: each frame counts)
-        placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down, began_ms)
+        placed += self._echoes.unexplained(kept, seen, self._anchors, ring_down, framing)
         # Slip widens margins only then: a working ring sees where the bodies are, whatever
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze

@@ -9,7 +9,7 @@ import pytest
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate, Policy
 from oimi.scenarios.loader import parse_scenario
 from oimi.scenarios.schema import FaultEvent, FaultMode, SensorKind, TouchEvent, TouchType
-from oimi.scenarios.simulation.sensors import Schedule, Sensors
+from oimi.scenarios.simulation.sensors import Schedule, Sensors, _json, _tracking
 from oimi.scenarios.simulation.world import World, stream_rng
 
 STOP = ActuatorOutputs()
@@ -379,3 +379,11 @@ def test_an_echo_id_is_never_an_obstacle_id():
     updates = ticks(world, sensors, 25)
     assert [u.jsonmsg for u in of(updates, "Obstacle/echo-0", "isfixed")] == ["s_true"]
     assert [u.jsonmsg for u in of(updates, "Obstacle/echo-0_", "isfixed")] == ["s_false"]
+
+
+@pytest.mark.parametrize(("time_ms", "appeared_ms"), [(0, 0), (1500, 200), (-20, 7_000_000_000)])
+def test_a_tracks_record_is_written_as_the_other_records_are(time_ms, appeared_ms) -> None:
+    """``_tracking`` writes its two integers by hand (the hot path): the bytes must stay
+    those the shared encoder writes for the same record."""
+    record = {"permanencetime": time_ms - appeared_ms, "appearanceon": appeared_ms}
+    assert _tracking(time_ms, appeared_ms) == _json(record)

@@ -10,6 +10,7 @@ import math
 import pytest
 from oimi.pipeline.act.echoes import EchoSorter
 from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
@@ -24,6 +25,7 @@ camera (2.2 rad)."""
 
 
 DEAD_RECKONING = DeadReckoning(LIMITS, tick_ms=TICK_MS, kept_ms=1000, error=0.05, push_mps=1.0)
+CAMERAS = SensorWatch("Camera", 500, 0, TICK_MS)
 
 
 def ringed(*humans, echoes=()) -> WorldMap:
@@ -89,12 +91,12 @@ def test_an_echos_arc_is_the_chord_of_half_a_beam_at_its_range() -> None:
     of its axis lies from it (0.26 m at 1 m for 30-degree beams); none for a human (the
     camera gives a bearing) nor on the ideal ring."""
     config = REAL.filled()
-    sorter = EchoSorter(config, DEAD_RECKONING)
+    sorter = EchoSorter(config, DEAD_RECKONING, CAMERAS)
     assert sorter.arc_m(echo(1.0)) == pytest.approx(2 * math.sin(BEAM / 4))
     assert sorter.arc_m(echo(1.0)) == pytest.approx(math.dist((1, 0), polar(1.0, BEAM / 2)))
     assert sorter.arc_m(seen(1.0)) == 0.0
     ideal = SafetyConfig(robot_radius_m=0.3, sonar_beam_rad=0.0).filled()
-    sorter = EchoSorter(ideal, DEAD_RECKONING)
+    sorter = EchoSorter(ideal, DEAD_RECKONING, CAMERAS)
     assert sorter.arc_m(echo(1.0)) == 0.0
 
 

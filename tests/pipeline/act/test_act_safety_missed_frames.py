@@ -16,19 +16,21 @@ import msgspec
 import pytest
 from oimi.pipeline.act.echoes import Anchor, EchoSorter
 from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety import SafetySupervisor
 from oimi.pipeline.act.safety_config import SafetyConfig
-from oimi.pipeline.messages import Sonar
+from oimi.pipeline.messages import Camera, Sonar
 from supervision import LIMITS, TICK_MS, echo, room, supervise
 from test_act_safety_range import BEAM, WIDE, closing_on_the_arc, room_with_two_children
 
 RHO_M = 1.5
 BEARING = 0.3
 FRAME_MS = 1000
+FRONT = Camera(id="front", isonline=True)
 
 
-def kept(*, miss_ms: int, spin: float, framing_since_ms: float = 0.0) -> bool:
+def kept(*, miss_ms: int, spin: float, framing_since_ms: int = 0) -> bool:
     """Whether the echo is kept as a body of its own (not taken for the tracked child),
     the robot having spun at ``spin`` rad/s (asked) until the frame, the camera framing
     since ``framing_since_ms`` and its frames missing a child for ``miss_ms``."""
@@ -57,12 +59,12 @@ def kept(*, miss_ms: int, spin: float, framing_since_ms: float = 0.0) -> bool:
         )
 
     heard, frame = placed(RHO_M), placed(RHO_M + 0.1)
-    sorter = EchoSorter(config, reckoning)
+    cameras = SensorWatch("Camera", 10_000, miss_ms, TICK_MS)  # (its first frame then)
+    cameras.working([FRONT], {("Camera", "front"): framing_since_ms}, framing_since_ms)
+    sorter = EchoSorter(config, reckoning, cameras)
     anchors = {"Obstacle/echo-0": heard, "child": frame}
     reading = echo(RHO_M, BEARING, at_ms=FRAME_MS)
-    left = sorter.unexplained(
-        [("Obstacle/echo-0", reading, 0)], [frame], anchors, False, framing_since_ms
-    )
+    left = sorter.unexplained([("Obstacle/echo-0", reading, 0)], [frame], anchors, False, [FRONT])
     return bool(left)
 
 
@@ -83,8 +85,8 @@ def test_a_camera_that_may_miss_a_child_covers_the_beam_only_if_it_looked_there_
     (back from offline): kept, and so where the moves from 600 ms are no longer kept."""
     assert not kept(miss_ms=400, spin=0.0)
     assert kept(miss_ms=400, spin=1.0)
-    assert kept(miss_ms=400, spin=0.0, framing_since_ms=800.0)
-    assert not kept(miss_ms=400, spin=0.0, framing_since_ms=600.0)
+    assert kept(miss_ms=400, spin=0.0, framing_since_ms=800)
+    assert not kept(miss_ms=400, spin=0.0, framing_since_ms=600)
 
 
 @pytest.mark.parametrize(("start_ms", "turned"), [(600, 0.4), (900, 0.1)])

@@ -14,6 +14,7 @@ import math
 import pytest
 from oimi.pipeline.act.echoes import Anchor, EchoSorter
 from oimi.pipeline.act.limits import Velocity
+from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.pipeline.messages import Obstacle, SpeedStatus
@@ -51,7 +52,7 @@ def kept(*, echo_ms: int, frame_ms: int, bearing: float, fov_rad: float, range_m
 
     heard, frame = placed(echo_ms, RHO_M), placed(frame_ms, RHO_M + 0.1)
     reading: Obstacle = echo(RHO_M, bearing, at_ms=echo_ms)
-    sorter = EchoSorter(config, reckoning)
+    sorter = EchoSorter(config, reckoning, SensorWatch("Camera", 500, 0, TICK_MS))
     anchors = {"Obstacle/echo-0": heard, "child": frame}
     left = sorter.unexplained([("Obstacle/echo-0", reading, 0)], [frame], anchors, True)
     return bool(left)
