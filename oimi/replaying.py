@@ -125,7 +125,8 @@ def drive_rosbag(
     only with ``overwrite``). Needs the ``ros2`` extra.
     The expectations about people are set apart, not judged: a bag has no people."""
     from oimi.ros2.bag import replay_rosbag
-    from oimi.scenarios.loader import load_scenario, real_people_problems, real_robot_warnings
+    from oimi.scenarios.loader import load_scenario
+    from oimi.scenarios.real_robot import real_people_problems, real_robot_warnings
 
     output = output or Path("out") / f"{bag.name}-replay.mcap"
     loaded = load_scenario(scenario, extensions=extensions)

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Final
 
 import msgspec
-from oimi.pipeline.act.safety_config import ASSUMED, safety_problems
+from oimi.pipeline.act.safety_config import safety_problems
 from oimi.pipeline.messages import Script
 from oimi.pipeline.operator.commands import VERBS
 from oimi.pipeline.operator.generator import Catalogue, GeneratorError, guarded
@@ -45,7 +45,7 @@ from oimi.scenarios.extensions import (
 )
 from oimi.scenarios.fields import suggestion
 from oimi.scenarios.profile import THESIS_ROBOT
-from oimi.scenarios.safety import coverage_gaps, unknown_people, unsafe_assumptions
+from oimi.scenarios.safety import coverage_gaps, unsafe_assumptions
 from oimi.scenarios.schema import (
     ActivitySpec,
     BehaviourEvent,
@@ -330,8 +330,8 @@ def parse_scenario(
             scenario, scripts, (folder, folder / "activities", *toolkit.activity_folders)
         )
     except Invalid as problem:
-        errors = [_located(each, name, locator) for each in (problem, *problem.others)]
-        raise _first_of(errors) from None
+        errors = [located(each, name, locator) for each in (problem, *problem.others)]
+        raise first_of(errors) from None
     except ExtensionError as error:
         line, column = locator.locate(("extensions",))
         raise ScenarioError(error.message, source=name, line=line, column=column) from None
@@ -342,143 +342,18 @@ def parse_scenario(
         activity_paths=tuple(paths),
         toolkit=toolkit,
         warnings=tuple(
-            _located(Invalid(where, what), name, locator) for where, what in coverage_gaps(scenario)
+            located(Invalid(where, what), name, locator) for where, what in coverage_gaps(scenario)
         ),
     )
 
 
-def check_real_people(loaded: LoadedScenario) -> None:
-    """Refuse (``ScenarioError``, placed in the file) a scenario that assumes less of people
-    than the safety supervisor does, or an ideal sonar ring, for a session with a real
-    robot and real people (:func:`real_people_problems`)."""
-    errors = real_people_problems(loaded)
-    if errors:
-        raise _first_of(list(errors))
-
-
-def real_people_problems(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
-    """What the scenario gets wrong of a real robot's people and sonar ring
-    (``scenarios.safety.unknown_people``), placed in the file, in its order: refusals for
-    ``oimi bridge``, warnings for a rosbag2 driven through it (a bag's readings are real)."""
-    locator = TomlLocator(loaded.raw.decode("utf-8"))
-    problems = list(unknown_people(loaded.scenario))
-    if (
-        "fov_rad" not in _sensors_written(loaded)
-        and loaded.scenario.robot.safety.camera_fov_rad is None
-    ):
-        problems.append((("sensors", "fov_rad"), UNSET_VIEW))
-    errors = [
-        _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
-    ]
-    return tuple(sorted(errors, key=lambda error: (error.line, error.column)))
-
-
-UNSET_VIEW: Final = (
-    "not set: give the robot's camera's horizontal field of view (the simulated camera's"
-    " 2.2 rad may be wider than the lab's: while a sonar is down the robot drives only"
-    " inside that view, narrowed for a child at its edge)"
-)
-"""Why a session with a real robot needs ``[sensors] fov_rad`` (or ``[robot.safety]
-camera_fov_rad``) set."""
-
-
-REAL_RANGE: Final = {"robot.safety.camera_range_m": repr(ASSUMED["camera_range_m"])}
-"""What a session with a real robot changes of a scenario that states no camera range
-(:func:`real_robot_overrides`)."""
-REAL_SURFACE: Final = {"robot.safety.sonar_reports_surface": "false"}
-"""What a session with a real robot changes of a scenario that does not say whether its
-ring's echoes are surfaces (the simulated merging ring's are: :func:`real_robot_overrides`)."""
-
-
-def real_robot_overrides(loaded: LoadedScenario) -> dict[str, str]:
-    """The overrides a session with a real robot (``oimi bridge``, ``oimi replay BAG/``)
-    applies to the scenario, recorded as its ``variation`` (a redrive rebuilds the same
-    supervisor): :data:`REAL_RANGE` when the scenario states neither ``[sensors] range_m``
-    nor ``[robot.safety] camera_range_m`` (the simulated camera's 5 m may reach farther than
-    the lab's tracker, and a child beyond its range is never reported: a shorter range only
-    keeps more echoes); :data:`REAL_SURFACE` when it leaves ``[robot.safety]
-    sonar_reports_surface`` out (the simulated merging ring reports surfaces; a lab driver
-    that reports a body's centre, taken for a surface, would have its echo kept a radius
-    too far: false covers either). Not refusals, unlike the view (:data:`UNSET_VIEW`): they
-    cost stops, not safety (:func:`real_robot_warnings` says so)."""
-    overrides = dict(REAL_RANGE) if _range_unstated(loaded) else {}
-    if loaded.scenario.robot.safety.sonar_reports_surface is None:
-        overrides |= REAL_SURFACE
-    return overrides
-
-
-def real_robot_warnings(loaded: LoadedScenario) -> tuple[ScenarioError, ...]:
-    """What a session with a real robot assumes that the scenario leaves unstated (its
-    camera's range and its ring's kind of echo, :func:`real_robot_overrides`; that its
-    sensors never miss a child, :data:`UNSET_MISSES`), placed in the file, in its order."""
-    problems = [(("sensors", "range_m"), UNSET_RANGE)] if _range_unstated(loaded) else []
-    safety = loaded.scenario.robot.safety
-    if safety.sonar_reports_surface is None:
-        problems.append((("robot", "safety", "sonar_reports_surface"), UNSET_SURFACE))
-    if not loaded.scenario.sensors.dropout_probability:  # (else its misses are derived)
-        problems += [
-            (("robot", "safety", name), why)
-            for name, why in UNSET_MISSES.items()
-            if getattr(safety, name) is None
-        ]
-    locator = TomlLocator(loaded.raw.decode("utf-8"))
-    errors = [
-        _located(Invalid(where, what), str(loaded.source), locator) for where, what in problems
-    ]
-    return tuple(sorted(errors, key=lambda error: (error.line or 0, error.column or 0)))
-
-
-UNSET_RANGE: Final = (
-    f"not set: the safety supervisor takes the robot's camera to report people within"
-    f" {ASSUMED['camera_range_m']!r} m (the simulated camera's 5.0 m may reach farther than"
-    " the lab's): give the lab camera's range (or [robot.safety] camera_range_m), or an"
-    " echo of a child it tracks farther away is kept as a body of its own (more stops)"
-)
-"""Why a session with a real robot warns of an unstated ``[sensors] range_m``."""
-UNSET_SURFACE: Final = (
-    "not set: the safety supervisor takes each echo's range for one that may be a body's"
-    " centre (false: the echo's centre kept at its range, a child's radius counted twice"
-    " near the robot: more stops); where the lab's sonar driver passes the raw sonar range"
-    " (the nearest surface heard), state true (with [sensors] sonar_beams its sonars);"
-    " where it reports centres, state false"
-)
-"""Why a session with a real robot warns of an unstated ``[robot.safety]
-sonar_reports_surface``."""
-UNSET_MISSES: Final = {
-    "camera_miss_ms": "not set: the safety supervisor takes the lab's person tracker to report"
-    " every child in its view on every frame (0 ms); where it may miss one on frames in a row,"
-    " state how long (with a sonar down the robot would count on seeing a child ahead sooner"
-    " than it can)",
-    "sonar_miss_ms": "not set: the safety supervisor takes the lab's sonar ring to report every"
-    " body on every scan (0 ms); where it may miss one on scans in a row, state how long (a"
-    " ring back from down would be taken to see beside and behind the robot before it can)",
-}
-"""Why a session with a real robot warns of an unstated ``[robot.safety] camera_miss_ms``
-or ``sonar_miss_ms`` (a scenario whose ``[sensors] dropout_probability`` is 0)."""
-
-
-def _range_unstated(loaded: LoadedScenario) -> bool:
-    """Whether the scenario states neither its camera's range nor the supervisor's."""
-    return (
-        "range_m" not in _sensors_written(loaded)
-        and loaded.scenario.robot.safety.camera_range_m is None
-    )
-
-
-def _sensors_written(loaded: LoadedScenario) -> dict[str, Any]:
-    """The keys the scenario's file writes in ``[sensors]`` (not the schema's defaults:
-    a real robot's camera is not the simulated one)."""
-    sensors = tomllib.loads(loaded.raw.decode("utf-8")).get("sensors", {})
-    return sensors if isinstance(sensors, dict) else {}
-
-
-def _first_of(errors: list[ScenarioError]) -> ScenarioError:
+def first_of(errors: list[ScenarioError]) -> ScenarioError:
     """The first of ``errors``, carrying the others (``also``)."""
     errors[0].also = tuple(errors[1:])
     return errors[0]
 
 
-def _located(problem: Invalid, source: str, locator: TomlLocator) -> ScenarioError:
+def located(problem: Invalid, source: str, locator: TomlLocator) -> ScenarioError:
     """``problem`` at its line and column of the file."""
     line, column = locator.locate(problem.where)
     return ScenarioError(problem.message(), source=source, line=line, column=column)
@@ -1042,7 +917,7 @@ def warnings_with(
     return tuple(
         ScenarioError(Invalid(where, what).message(), source="<overrides>")
         if ".".join(map(str, where)) in overrides
-        else _located(Invalid(where, f"{what} (with {given})"), str(loaded.source), locator)
+        else located(Invalid(where, f"{what} (with {given})"), str(loaded.source), locator)
         for where, what in coverage_gaps(apply_overrides(loaded.scenario, overrides))
     )
 

@@ -52,7 +52,8 @@ from oimi.ros2.bridge import rule_message, script_info
 from oimi.ros2.joy import joy_of, pad_of
 from oimi.ros2.remote import RemoteBody, odometry, remote_sensors
 from oimi.ros2.topics import RosTopic
-from oimi.scenarios.loader import LoadedScenario, real_robot_overrides
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.real_robot import real_robot_overrides
 from oimi.scenarios.session.recording import recorded
 from oimi.scenarios.session.runner import RunResult, Session
 from oimi.scenarios.session.watchdog import watching

@@ -45,8 +45,8 @@ from oimi.ros2.dds import DEEP, Node, take_all
 from oimi.ros2.joy import pad_of
 from oimi.ros2.network import network_from_args
 from oimi.ros2.remote import RemoteBody, outputs_message, remote_sensors
-from oimi.scenarios.loader import (
-    LoadedScenario,
+from oimi.scenarios.loader import LoadedScenario
+from oimi.scenarios.real_robot import (
     check_real_people,
     real_robot_overrides,
     real_robot_warnings,

@@ -19,7 +19,7 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 from oimi.pipeline.events import ActuatorCommands, JoystickInput, Source, Topic
 from oimi.pipeline.messages import MoveCommand
 from oimi.recorder.reader import open_recording
-from oimi.scenarios.loader import REAL_SURFACE
+from oimi.scenarios.real_robot import REAL_SURFACE
 
 from oimi.cli import main
 

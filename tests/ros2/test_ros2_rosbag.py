@@ -14,7 +14,7 @@ pytest.importorskip("rosbags", reason="the ros2 extra (rosbags) is not installed
 from mcap.reader import make_reader
 from oimi.pipeline.events import JoystickInput, SensorUpdates, Topic
 from oimi.recorder.reader import open_recording
-from oimi.scenarios.loader import REAL_SURFACE
+from oimi.scenarios.real_robot import REAL_SURFACE
 from oimi.scenarios.session import runner
 from rosbags.highlevel import AnyReader
 

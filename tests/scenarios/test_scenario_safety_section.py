@@ -6,12 +6,11 @@ import msgspec
 import pytest
 from oimi.pipeline.act.safety_config import SafetyConfig
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import (
+from oimi.scenarios.loader import parse_scenario, warnings_with
+from oimi.scenarios.real_robot import (
     check_real_people,
-    parse_scenario,
     real_robot_overrides,
     real_robot_warnings,
-    warnings_with,
 )
 from oimi.scenarios.session.build import pipeline_config
 from oimi.scenarios.session.runner import Session

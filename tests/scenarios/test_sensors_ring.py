@@ -11,7 +11,8 @@ import pytest
 from oimi.pipeline.act.safety_config import ASSUMED
 from oimi.pipeline.messages import ActuatorOutputs, MapUpdate
 from oimi.scenarios.errors import ScenarioError
-from oimi.scenarios.loader import check_real_people, parse_scenario
+from oimi.scenarios.loader import parse_scenario
+from oimi.scenarios.real_robot import check_real_people
 from oimi.scenarios.safety import supervisor_config
 from oimi.scenarios.simulation.sensors import Sensors
 from oimi.scenarios.simulation.world import World, stream_rng
