@@ -200,15 +200,12 @@ def start_viewer(rrd: Path, *, port: int | None, web: bool, web_port: int) -> in
     page = None
     if web:
         grpc = port or DEFAULT_GRPC_PORT
+        _check_free(grpc, "--port")  # (taken, Rerun would only warn, and exit 0)
         assets = _free_port()
         try:
             page = PrivateViewer(web_port, assets_port=assets, grpc_port=grpc)
         except OSError as error:
-            raise ViewerError(
-                f"cannot listen on {BIND_ADDRESS}:{web_port}: {error.strerror}"
-                " (choose another with --web-port)",
-                source="oimi view",
-            ) from None
+            raise _cannot_listen(web_port, error, "--web-port") from None
         command = viewer_command(rrd, port=grpc, web=True, web_port=assets)
         page.start()
         print(f"web viewer: {page.url} (Ctrl-C to stop)")
@@ -265,6 +262,24 @@ def _stop_group(child: subprocess.Popen[bytes]) -> None:
             return
         except subprocess.TimeoutExpired:
             continue
+
+
+def _check_free(port: int, option: str) -> None:
+    """``ViewerError`` naming ``option`` when something listens on ``port`` of
+    :data:`BIND_ADDRESS` (probed as Rerun binds: with ``SO_REUSEADDR``)."""
+    with socket.socket() as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((BIND_ADDRESS, port))
+        except OSError as error:
+            raise _cannot_listen(port, error, option) from None
+
+
+def _cannot_listen(port: int, error: OSError, option: str) -> ViewerError:
+    return ViewerError(
+        f"cannot listen on {BIND_ADDRESS}:{port}: {error.strerror} (choose another with {option})",
+        source="oimi view",
+    )
 
 
 def _free_port() -> int:
