@@ -5,7 +5,7 @@ rosbag2 folder's inputs (``oimi.ros2.bag``, docs/ros2.md)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
 
@@ -19,25 +19,38 @@ from oimi.replay.rerun import rerun_recording
 from oimi.scenarios.errors import ScenarioError
 from oimi.scenarios.session.runner import RunResult
 
+if TYPE_CHECKING:  # (the Foxglove SDK is imported only when it serves)
+    from oimi.recorder.foxglove_live import FoxgloveServer
+
 
 def replay(
     recording: Path, *, mode: str, foxglove: int | None, speed: float, quiet: bool = False
 ) -> Comparison:
     """Compare ``recording`` with its replay in ``mode`` and print the report (with a
     progress bar on stderr unless ``quiet``, when its tick rate is recorded); then, with a
-    ``foxglove`` port, stream it to a Foxglove client at ``speed`` times its pace."""
+    ``foxglove`` port, stream it to a Foxglove client at ``speed`` times its pace (its
+    server started first: a port in use is refused before the replay, not after it)."""
     opened = open_recording(recording)
-    hz = None if quiet else opened.meta.tick_hz
-    progress = Progress(f"{mode} {recording.name}", 1000 // hz) if hz else None
-    try:
-        comparison = MODES[mode](opened, watch=progress)
-    finally:
-        if progress is not None:
-            progress.close()
-    print(format_report(comparison))
+    server = None
     if foxglove is not None:
+        from oimi.recorder.foxglove_live import FoxgloveServer
+
         messages = sum(opened.summary.values())  # a client may fall that far behind
-        serve_to_foxglove(recording, foxglove, speed=speed, backlog=messages)
+        server = FoxgloveServer(port=foxglove, backlog=messages)
+    try:
+        hz = None if quiet else opened.meta.tick_hz
+        progress = Progress(f"{mode} {recording.name}", 1000 // hz) if hz else None
+        try:
+            comparison = MODES[mode](opened, watch=progress)
+        finally:
+            if progress is not None:
+                progress.close()
+        print(format_report(comparison))
+        if server is not None:
+            serve_to_foxglove(recording, server, speed=speed)
+    finally:
+        if server is not None:
+            server.close()
     return comparison
 
 
@@ -65,34 +78,28 @@ def rerun(recording: Recording, *, watch: Watch | None = None) -> Comparison:
 MODES = {"redrive": redrive_recording, "rerun": rerun}
 
 
-def serve_to_foxglove(
-    recording: Path, port: int, *, speed: float, backlog: int | None = None
-) -> None:
-    """Stream the recording to a Foxglove client at its recorded pace, once one connects,
-    then keep serving while a client is subscribed (it may still be receiving), until it
-    leaves, Ctrl-C (which ends the command as it would have ended) or ``DRAIN_LIMIT_S``;
-    ``backlog``: how many messages the client may fall behind (at ``--speed 0`` it falls
-    behind by the whole file: its message count drops none)."""
-    from oimi.recorder.foxglove_live import DRAIN_LIMIT_S, FoxgloveServer, serve_recording
+def serve_to_foxglove(recording: Path, server: FoxgloveServer, *, speed: float) -> None:
+    """Stream the recording to a Foxglove client of ``server`` at its recorded pace, once
+    one connects, then keep serving while a client is subscribed (it may still be
+    receiving), until it leaves, Ctrl-C (which ends the command as it would have ended) or
+    ``DRAIN_LIMIT_S`` (the server's backlog: how many messages the client may fall behind;
+    at ``--speed 0`` it falls behind by the whole file: its message count drops none)."""
+    from oimi.recorder.foxglove_live import DRAIN_LIMIT_S, serve_recording
 
-    server = FoxgloveServer(port=port, backlog=backlog)
+    print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
+    sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)
+    print(
+        f"foxglove: {sent} messages streamed; serving until the client disconnects"
+        f" (Ctrl-C to stop; at most {DRAIN_LIMIT_S / 60:.0f} min)",
+        flush=True,
+    )
     try:
-        print(f"foxglove: {server.url}  waiting for a client; Ctrl-C to stop", flush=True)
-        sent = serve_recording(recording, server, speed=speed, wait_for_client=lambda: True)
-        print(
-            f"foxglove: {sent} messages streamed; serving until the client disconnects"
-            f" (Ctrl-C to stop; at most {DRAIN_LIMIT_S / 60:.0f} min)",
-            flush=True,
-        )
-        try:
-            left = server.wait_while_subscribed()
-        except KeyboardInterrupt:
-            print("foxglove: stopped (Ctrl-C)", flush=True)
-        else:
-            if not left:
-                print("foxglove: stopped with a client still connected (time limit)")
-    finally:
-        server.close()
+        left = server.wait_while_subscribed()
+    except KeyboardInterrupt:
+        print("foxglove: stopped (Ctrl-C)", flush=True)
+    else:
+        if not left:
+            print("foxglove: stopped with a client still connected (time limit)")
 
 
 class Driven(NamedTuple):

@@ -25,6 +25,8 @@ from oimi.recorder.reader import open_recording
 from oimi.recorder.topics import FoxgloveTopic, foxglove_schema, schema_data, schema_name
 from recorder_synthetic import SCENE, TICK_NS, session, world_state
 
+from oimi.cli import main
+
 ROOT = Path(__file__).resolve().parents[2]
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 TIMEOUT_S = 10
@@ -207,6 +209,18 @@ def test_oimi_replay_foxglove_streams_the_recording_to_a_client(tmp_path: Path) 
     assert ticks == [0, 2, 4, 6, 8, 10]  # as recorded: every second tick
     assert re.search(r"foxglove: \d+ messages streamed", out)
     assert time.monotonic() - started < 60
+
+
+def test_oimi_replay_foxglove_refuses_a_port_in_use_before_replaying(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    recording = recorded_blink(tmp_path)
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        assert main(["replay", str(recording), "--foxglove", str(port), "-q"]) == 2
+    out, err = capsys.readouterr()
+    assert f"cannot start the Foxglove server on 127.0.0.1:{port}" in err
+    assert "replay of" not in out  # (it had redriven the whole recording first)
 
 
 async def receive_everything(
