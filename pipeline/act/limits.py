@@ -8,7 +8,7 @@ the body's outputs approach their target through :func:`ramp_velocity`.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
 from oimi.pipeline.messages import Message
 
@@ -42,6 +42,12 @@ class Velocity(NamedTuple):
 
 STILL = Velocity()
 """Standing still."""
+
+fields: Final = tuple.__new__
+"""``fields(Kind, (every field, in order))`` builds a NamedTuple without the ``__new__``
+that ``Kind(...)`` runs as Python, compiled too (about 2.5k instructions, this a few
+hundred): for those built every tick (``scenarios/simulation/bodies.py``'s ``Motion`` too).
+Defaults are not filled in: every field is given."""
 
 
 class Clamped(NamedTuple):
@@ -141,4 +147,4 @@ def ramp_velocity(
         v_theta = target.v_theta
     else:
         v_theta = current.v_theta + math.copysign(step_theta, d_theta)
-    return Velocity(v_x, v_y, v_theta)
+    return fields(Velocity, (v_x, v_y, v_theta))

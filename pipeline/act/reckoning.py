@@ -27,7 +27,7 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, fields, ramp_velocity
 from oimi.pipeline.messages import SpeedStatus
 
 LOST_M: Final = 1000.0
@@ -128,7 +128,7 @@ class DeadReckoning:
             if until_ms <= time_ms:
                 slip = counted
                 break
-        return Placed(time_ms, pose, slip, path_m if at_ms <= time_ms else 0.0)
+        return fields(Placed, (time_ms, pose, slip, path_m if at_ms <= time_ms else 0.0))
 
     def drift(self, since: Placed) -> Slip:
         """How far the reckoning may have drifted since ``since``: the slip counted since,
@@ -145,7 +145,7 @@ class DeadReckoning:
         heading = slip.heading_rad - since.slip.heading_rad
         if heading:  # each metre driven since went that far off course
             unchecked += (self.path_m - since.path_m) * min(heading, math.pi)
-        return Slip(slip.distance_m - since.slip.distance_m + unchecked, heading)
+        return fields(Slip, (slip.distance_m - since.slip.distance_m + unchecked, heading))
 
     def swept(self, start_ms: int, end_ms: int) -> Slip | None:
         """How far the reckoning took the robot, from ``start_ms`` to ``end_ms``, from where
@@ -232,10 +232,13 @@ class DeadReckoning:
             return
         x, y, theta = self.pose
         cos, sin = math.cos(theta), math.sin(theta)
-        target = Velocity(
-            cos * velocity.v_x - sin * velocity.v_y,
-            sin * velocity.v_x + cos * velocity.v_y,
-            velocity.v_theta,
+        target = fields(
+            Velocity,
+            (
+                cos * velocity.v_x - sin * velocity.v_y,
+                sin * velocity.v_x + cos * velocity.v_y,
+                velocity.v_theta,
+            ),
         )
         moving = self._moving = ramp_velocity(
             self._moving, target, self._limits, dt_ms=self._tick_ms

@@ -59,7 +59,7 @@ from collections.abc import Mapping, Sequence
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
-from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, fields
 from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, ring_down_view_rad, safety_problems
@@ -210,7 +210,9 @@ class SafetySupervisor:
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
-            return self._standing if verdict is self._standing.verdict else Supervised(verdict)
+            if verdict is self._standing.verdict:
+                return self._standing
+            return fields(Supervised, (verdict, None))
         assert self._episode is not None
         zone, human, source = self._episode
         if phase is SafetyPhase.END:
@@ -366,10 +368,11 @@ class SafetySupervisor:
                 constraints, v_x, v_y, half_view, self._reckoning.velocity, self._step_m, top
             )
             binding = nearer(binding, lagging)
-        allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
+        allowed = fields(Velocity, (v_x + 0.0, v_y + 0.0, requested.v_theta))
         if binding is not None:
-            return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
-        return Verdict(allowed, zone)
+            surface_m = round(binding.surface_m, 4)
+            return fields(Verdict, (allowed, binding.zone, binding.human, surface_m))
+        return fields(Verdict, (allowed, zone, "", None))
 
     def _age(self, key: str, reading: Entity, now_ms: int) -> int:
         """How long ago ``reading`` (placed as ``key``) was taken, ms: since its stamp, or
@@ -429,7 +432,9 @@ class SafetySupervisor:
         sin_disc = 1.0 if margin >= distance else margin / distance
         reach = a * distance
         if key in held:
-            return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, _STOP, walk, reach)
+            return fields(
+                Constraint, (key, surface, u_x, u_y, 0.0, sin_disc, _STOP, walk, reach, 0.0, 0.0)
+            )
         # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
         # no faster than the base brakes): separation.braking_cap
         lead = a * self._dt_s + walk
@@ -437,7 +442,9 @@ class SafetySupervisor:
         cap = braking_cap(lead, room, walk)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
+        return fields(
+            Constraint, (key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
+        )
 
     def _across(self, anchor: Anchor, distance: float, arc: float) -> float:
         """How near an echo's arc (``arc`` its chord, its centre ``distance`` away) lies to
@@ -463,13 +470,8 @@ class SafetySupervisor:
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
-        self._anchors[key] = Anchor(
-            stamp_ms,
-            at_ms,
-            px + rho * math.cos(bearing),
-            py + rho * math.sin(bearing),
-            since,
-        )
+        x, y = px + rho * math.cos(bearing), py + rho * math.sin(bearing)
+        self._anchors[key] = fields(Anchor, (stamp_ms, at_ms, x, y, since))
 
 
 def _online(
