@@ -275,8 +275,8 @@ class SafetySupervisor:
         if requested.v_x == 0.0 and requested.v_y == 0.0:  # a stand (or a turn on the spot)
             standing = self._standing.verdict  # is braked to straight: not limited
             if standing.velocity is not requested:
-                standing = Verdict(requested)
-                self._standing = Supervised(standing)
+                standing = fields(Verdict, (requested, None, "", None))
+                self._standing = fields(Supervised, (standing, None))
             return standing
         config = self.config
         sonars = world_map.sonars
@@ -482,7 +482,7 @@ def _online(
 ) -> list[int]:
     """When each of ``sensors`` that says it is on was last heard from, if at ``since_ms``
     or later (one heard from before, or never, is offline: its link is dead), ms."""
-    times = (heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline)
+    times = [heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline]
     return [at_ms for at_ms in times if at_ms >= since_ms]
 
 
