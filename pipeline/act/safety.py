@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from math import cos, hypot, sin
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
@@ -339,7 +340,7 @@ class SafetySupervisor:
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
         v_x, v_y = requested.v_x, requested.v_y
-        speed = math.hypot(v_x, v_y)
+        speed = hypot(v_x, v_y)
         zone: SafetyZone | None = None
         if (blind or stale) and speed > config.slow_speed_mps:
             scale = config.slow_speed_mps / speed
@@ -401,7 +402,7 @@ class SafetySupervisor:
         config = self.config
         anchor = self._anchors[key]
         x, y = estimate(anchor, self._reckoning.pose)
-        distance = math.hypot(x, y)
+        distance = hypot(x, y)
         echo = type(human) is Obstacle
         # an echo a working ring keeps while it misses the body: as long as it may keep it
         walk_ms = self._echo_walk_ms if echo and not slipped else config.max_data_age_ms
@@ -470,7 +471,7 @@ class SafetySupervisor:
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
-        x, y = px + rho * math.cos(bearing), py + rho * math.sin(bearing)
+        x, y = px + rho * cos(bearing), py + rho * sin(bearing)
         self._anchors[key] = fields(Anchor, (stamp_ms, at_ms, x, y, since))
 
 
