@@ -124,6 +124,15 @@ Kept = tuple[str, Entity, int]
 """An echo kept: its key, its reading and its age, ms."""
 
 
+class _Keys(dict[str, str]):
+    """An echo's key, ``Obstacle/<id>``, by its obstacle id: made when first asked for
+    (an item read, compiled, where ``dict.get`` is a method call)."""
+
+    def __missing__(self, ident: str) -> str:
+        key = self[ident] = f"Obstacle/{ident}"
+        return key
+
+
 class EchoSorter:
     """Names the map's echoes and tells which of them a tracked human explains."""
 
@@ -135,7 +144,7 @@ class EchoSorter:
         self._reckoning = reckoning
         self._cameras = cameras
         """Since when each camera has framed (``camera_miss_ms``: the coverage rule's)."""
-        self._keys: dict[str, str] = {}
+        self._keys = _Keys()
         """An echo's key by its obstacle id (made once)."""
         self._beam_rad: float = config.sonar_beam_rad  # type: ignore[assignment]  # filled
         """One sonar's beam (0: the ring reports every body apart)."""
@@ -162,10 +171,7 @@ class EchoSorter:
         (their anchors and holds are kept apart from the humans')."""
         keys = self._keys
         return [
-            (
-                keys.get(obstacle.id) or keys.setdefault(obstacle.id, f"Obstacle/{obstacle.id}"),
-                obstacle,
-            )
+            (keys[obstacle.id], obstacle)
             for obstacle in world_map.obstacles
             if not obstacle.isfixed and obstacle.poses
         ]

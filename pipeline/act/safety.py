@@ -194,18 +194,18 @@ class SafetySupervisor:
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
         anchors = self._anchors
-        # (most are placed already: tested inline, by field: compiled, anchor[0] is slow)
+        # (most are placed already: tested inline, by field: compiled, anchor[0] is slow;
+        # a key's test and item: compiled, dict.get is a method call)
         for human in world_map.humans:
             if human.poses:
-                anchor = anchors.get(human.id)
-                if anchor is None or anchor.stamp_ms != human.positionchangetime:
-                    self._anchor(human.id, human, now_ms)
+                key = human.id
+                if key not in anchors or anchors[key].stamp_ms != human.positionchangetime:
+                    self._anchor(key, human, now_ms)
         framing = self._cameras.working(world_map.cameras, beats, now_ms)
         scanning = self._sonars.working(world_map.sonars, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
-            anchor = anchors.get(key)
-            if anchor is None or anchor.stamp_ms != echo.positionchangetime:
+            if key not in anchors or anchors[key].stamp_ms != echo.positionchangetime:
                 self._anchor(key, echo, now_ms)
         verdict = self._limit(requested, world_map, echoes, framing, scanning, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
