@@ -75,6 +75,8 @@ class Actuator:
         # the block and its clock (block time = now - start - time spent frozen)
         self._block: InstructionBlock | None = None
         self._cursors: dict[Channel, ChannelCursor] = {}
+        self._progress = (0, 0, 0)
+        """:attr:`progress`, noted whenever the block or one of its cursors changes."""
         self._start_ms = 0
         self._frozen_ms = 0
         self._frozen_since: int | None = None
@@ -117,11 +119,7 @@ class Actuator:
     def progress(self) -> tuple[int, int, int]:
         """Indices of the move, LED and audio items being executed (``submove``,
         ``subled``, ``subaout``); a finished channel gives its item count."""
-        if self._block is None:
-            return (0, 0, 0)
-        cursors = self._cursors
-        move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
-        return (move, led, audio)
+        return self._progress
 
     @property
     def velocity(self) -> Velocity:
@@ -165,6 +163,7 @@ class Actuator:
                 self._stop_what_is_on()
                 self._block = None
                 self._cursors = {}
+                self._note_progress()
             return
         if self._block is not None and not changed and block == self._block:
             return
@@ -175,6 +174,7 @@ class Actuator:
         self._block_source = MotionSource.RULE if forced else MotionSource.SCRIPT
         channels = block.channel_items()
         self._cursors = {channel: ChannelCursor(items) for channel, items in channels.items()}
+        self._note_progress()
         self._start_ms = now_ms
         self._frozen_ms = 0
         self._frozen_since = now_ms if self.frozen else None
@@ -237,11 +237,15 @@ class Actuator:
         self._advance(now_ms)
         if self._block is not None and not self.frozen:
             block_ms = self._block_ms(now_ms)
+            moved = False
             for channel in CHANNEL_ORDER:
                 cursor = self._cursors[channel]
                 if cursor.due(block_ms):
+                    moved = True
                     for due in cursor.take_due(block_ms):
                         self._run(channel, due)
+            if moved:
+                self._note_progress()
         elapsed_ms = self._tick_ms if self._last_step_ms is None else now_ms - self._last_step_ms
         self._last_step_ms = now_ms
         if self._velocity is not self._target:  # the ramp returns the target itself on reaching it
@@ -294,6 +298,16 @@ class Actuator:
         self._velocity = velocity
 
     # ---------------------------------------------------------------- internal
+
+    def _note_progress(self) -> None:
+        """Note :attr:`progress` (once a block starts, ends or one of its channels moves
+        on: not at every tick)."""
+        if self._block is None:
+            self._progress = (0, 0, 0)
+            return
+        cursors = self._cursors
+        move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
+        self._progress = (move, led, audio)
 
     def _advance(self, now_ms: int) -> None:
         if self._last_ms is not None and now_ms < self._last_ms:
