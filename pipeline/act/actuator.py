@@ -76,7 +76,9 @@ class Actuator:
         self._block: InstructionBlock | None = None
         self._cursors: dict[Channel, ChannelCursor] = {}
         self._progress = (0, 0, 0)
-        """:attr:`progress`, noted whenever the block or one of its cursors changes."""
+        self._done = True
+        """:attr:`progress` and :attr:`done`, noted whenever the block or one of its
+        cursors changes (:meth:`_note_cursors`)."""
         self._start_ms = 0
         self._frozen_ms = 0
         self._frozen_since: int | None = None
@@ -113,7 +115,7 @@ class Actuator:
     @property
     def done(self) -> bool:
         """The current block is consumed (True when there is none)."""
-        return self._block is None or all(cursor.done for cursor in self._cursors.values())
+        return self._done
 
     @property
     def progress(self) -> tuple[int, int, int]:
@@ -163,7 +165,7 @@ class Actuator:
                 self._stop_what_is_on()
                 self._block = None
                 self._cursors = {}
-                self._note_progress()
+                self._note_cursors()
             return
         if self._block is not None and not changed and block == self._block:
             return
@@ -174,7 +176,7 @@ class Actuator:
         self._block_source = MotionSource.RULE if forced else MotionSource.SCRIPT
         channels = block.channel_items()
         self._cursors = {channel: ChannelCursor(items) for channel, items in channels.items()}
-        self._note_progress()
+        self._note_cursors()
         self._start_ms = now_ms
         self._frozen_ms = 0
         self._frozen_since = now_ms if self.frozen else None
@@ -245,7 +247,7 @@ class Actuator:
                     for due in cursor.take_due(block_ms):
                         self._run(channel, due)
             if moved:
-                self._note_progress()
+                self._note_cursors()
         elapsed_ms = self._tick_ms if self._last_step_ms is None else now_ms - self._last_step_ms
         self._last_step_ms = now_ms
         if self._velocity is not self._target:  # the ramp returns the target itself on reaching it
@@ -299,15 +301,16 @@ class Actuator:
 
     # ---------------------------------------------------------------- internal
 
-    def _note_progress(self) -> None:
-        """Note :attr:`progress` (once a block starts, ends or one of its channels moves
-        on: not at every tick)."""
+    def _note_cursors(self) -> None:
+        """Note :attr:`progress` and :attr:`done` (once a block starts, ends or one of its
+        channels moves on: not at every tick)."""
         if self._block is None:
-            self._progress = (0, 0, 0)
+            self._progress, self._done = (0, 0, 0), True
             return
         cursors = self._cursors
         move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
         self._progress = (move, led, audio)
+        self._done = all(cursor.done for cursor in cursors.values())
 
     def _advance(self, now_ms: int) -> None:
         if self._last_ms is not None and now_ms < self._last_ms:
