@@ -77,8 +77,9 @@ class Actuator:
         self._cursors: dict[Channel, ChannelCursor] = {}
         self._progress = (0, 0, 0)
         self._done = True
-        """:attr:`progress` and :attr:`done`, noted whenever the block or one of its
-        cursors changes (:meth:`_note_cursors`)."""
+        self._due_ms = math.inf
+        """:attr:`progress`, :attr:`done` and when the block's next event falls due (block
+        time), noted whenever the block or one of its cursors changes (:meth:`_note_cursors`)."""
         self._start_ms = 0
         self._frozen_ms = 0
         self._frozen_since: int | None = None
@@ -239,14 +240,12 @@ class Actuator:
         self._advance(now_ms)
         if self._block is not None and not self.frozen:
             block_ms = self._block_ms(now_ms)
-            moved = False
-            for channel in CHANNEL_ORDER:
-                cursor = self._cursors[channel]
-                if cursor.due(block_ms):
-                    moved = True
-                    for due in cursor.take_due(block_ms):
-                        self._run(channel, due)
-            if moved:
+            if block_ms >= self._due_ms:  # (an event falls due: not at most ticks)
+                for channel in CHANNEL_ORDER:
+                    cursor = self._cursors[channel]
+                    if cursor.due(block_ms):
+                        for due in cursor.take_due(block_ms):
+                            self._run(channel, due)
                 self._note_cursors()
         elapsed_ms = self._tick_ms if self._last_step_ms is None else now_ms - self._last_step_ms
         self._last_step_ms = now_ms
@@ -302,15 +301,16 @@ class Actuator:
     # ---------------------------------------------------------------- internal
 
     def _note_cursors(self) -> None:
-        """Note :attr:`progress` and :attr:`done` (once a block starts, ends or one of its
-        channels moves on: not at every tick)."""
+        """Note :attr:`progress`, :attr:`done` and when the next event falls due (once a
+        block starts, ends or one of its channels moves on: not at every tick)."""
         if self._block is None:
-            self._progress, self._done = (0, 0, 0), True
+            self._progress, self._done, self._due_ms = (0, 0, 0), True, math.inf
             return
         cursors = self._cursors
         move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
         self._progress = (move, led, audio)
         self._done = all(cursor.done for cursor in cursors.values())
+        self._due_ms = min([cursor.next_ms for cursor in cursors.values()])
 
     def _advance(self, now_ms: int) -> None:
         if self._last_ms is not None and now_ms < self._last_ms:
