@@ -75,6 +75,11 @@ class Actuator:
         # the block and its clock (block time = now - start - time spent frozen)
         self._block: InstructionBlock | None = None
         self._cursors: dict[Channel, ChannelCursor] = {}
+        self._progress = (0, 0, 0)
+        self._done = True
+        self._due_ms = math.inf
+        """:attr:`progress`, :attr:`done` and when the block's next event falls due (block
+        time), noted whenever the block or one of its cursors changes (:meth:`_note_cursors`)."""
         self._start_ms = 0
         self._frozen_ms = 0
         self._frozen_since: int | None = None
@@ -111,17 +116,13 @@ class Actuator:
     @property
     def done(self) -> bool:
         """The current block is consumed (True when there is none)."""
-        return self._block is None or all(cursor.done for cursor in self._cursors.values())
+        return self._done
 
     @property
     def progress(self) -> tuple[int, int, int]:
         """Indices of the move, LED and audio items being executed (``submove``,
         ``subled``, ``subaout``); a finished channel gives its item count."""
-        if self._block is None:
-            return (0, 0, 0)
-        cursors = self._cursors
-        move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
-        return (move, led, audio)
+        return self._progress
 
     @property
     def velocity(self) -> Velocity:
@@ -165,6 +166,7 @@ class Actuator:
                 self._stop_what_is_on()
                 self._block = None
                 self._cursors = {}
+                self._note_cursors()
             return
         if self._block is not None and not changed and block == self._block:
             return
@@ -175,6 +177,7 @@ class Actuator:
         self._block_source = MotionSource.RULE if forced else MotionSource.SCRIPT
         channels = block.channel_items()
         self._cursors = {channel: ChannelCursor(items) for channel, items in channels.items()}
+        self._note_cursors()
         self._start_ms = now_ms
         self._frozen_ms = 0
         self._frozen_since = now_ms if self.frozen else None
@@ -237,11 +240,13 @@ class Actuator:
         self._advance(now_ms)
         if self._block is not None and not self.frozen:
             block_ms = self._block_ms(now_ms)
-            for channel in CHANNEL_ORDER:
-                cursor = self._cursors[channel]
-                if cursor.due(block_ms):
-                    for due in cursor.take_due(block_ms):
-                        self._run(channel, due)
+            if block_ms >= self._due_ms:  # (an event falls due: not at most ticks)
+                for channel in CHANNEL_ORDER:
+                    cursor = self._cursors[channel]
+                    if cursor.due(block_ms):
+                        for due in cursor.take_due(block_ms):
+                            self._run(channel, due)
+                self._note_cursors()
         elapsed_ms = self._tick_ms if self._last_step_ms is None else now_ms - self._last_step_ms
         self._last_step_ms = now_ms
         if self._velocity is not self._target:  # the ramp returns the target itself on reaching it
@@ -294,6 +299,18 @@ class Actuator:
         self._velocity = velocity
 
     # ---------------------------------------------------------------- internal
+
+    def _note_cursors(self) -> None:
+        """Note :attr:`progress`, :attr:`done` and when the next event falls due (once a
+        block starts, ends or one of its channels moves on: not at every tick)."""
+        if self._block is None:
+            self._progress, self._done, self._due_ms = (0, 0, 0), True, math.inf
+            return
+        cursors = self._cursors
+        move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]
+        self._progress = (move, led, audio)
+        self._done = all(cursor.done for cursor in cursors.values())
+        self._due_ms = min([cursor.next_ms for cursor in cursors.values()])
 
     def _advance(self, now_ms: int) -> None:
         if self._last_ms is not None and now_ms < self._last_ms:

@@ -10,6 +10,7 @@ channel never drifts.
 from __future__ import annotations
 
 import enum
+import math
 from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
@@ -87,6 +88,11 @@ class ChannelCursor:
     def done(self) -> bool:
         """Every item has had its stop (an empty channel is done at once)."""
         return self._next >= len(self._events)
+
+    @property
+    def next_ms(self) -> float:
+        """When its next event falls due, block time, ms (inf once done)."""
+        return math.inf if self.done else self._events[self._next].at_ms
 
     @property
     def index(self) -> int:

@@ -81,6 +81,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from math import asin, atan2, cos, hypot, remainder, sin, sqrt
 from typing import NamedTuple
 
 from oimi.pipeline.act.looking import SensorWatch
@@ -93,7 +94,7 @@ def arc_chord(rho: float, beam_rad: float) -> float:
     """The chord of half a beam ``beam_rad`` wide at ``rho``, ``2 rho sin(beam / 4)``: no
     point at that range within half a beam of the axis lies farther from the axis's point
     (0 for the ideal ring's beam, 0)."""
-    return 2 * rho * math.sin(min(beam_rad, math.tau) / 4)
+    return 2 * rho * sin(min(beam_rad, math.tau) / 4)
 
 
 class Anchor(NamedTuple):
@@ -115,12 +116,21 @@ def estimate(anchor: Anchor, pose: tuple[float, float, float]) -> tuple[float, f
     """A reading's position in the body frame of a robot at ``pose`` (odometry frame)."""
     x, y, theta = pose
     dx, dy = anchor.x - x, anchor.y - y
-    cos, sin = math.cos(theta), math.sin(theta)
-    return (cos * dx + sin * dy, -sin * dx + cos * dy)
+    cos_t, sin_t = cos(theta), sin(theta)
+    return (cos_t * dx + sin_t * dy, -sin_t * dx + cos_t * dy)
 
 
 Kept = tuple[str, Entity, int]
 """An echo kept: its key, its reading and its age, ms."""
+
+
+class _Keys(dict[str, str]):
+    """An echo's key, ``Obstacle/<id>``, by its obstacle id: made when first asked for
+    (an item read, compiled, where ``dict.get`` is a method call)."""
+
+    def __missing__(self, ident: str) -> str:
+        key = self[ident] = f"Obstacle/{ident}"
+        return key
 
 
 class EchoSorter:
@@ -134,7 +144,7 @@ class EchoSorter:
         self._reckoning = reckoning
         self._cameras = cameras
         """Since when each camera has framed (``camera_miss_ms``: the coverage rule's)."""
-        self._keys: dict[str, str] = {}
+        self._keys = _Keys()
         """An echo's key by its obstacle id (made once)."""
         self._beam_rad: float = config.sonar_beam_rad  # type: ignore[assignment]  # filled
         """One sonar's beam (0: the ring reports every body apart)."""
@@ -161,10 +171,7 @@ class EchoSorter:
         (their anchors and holds are kept apart from the humans')."""
         keys = self._keys
         return [
-            (
-                keys.get(obstacle.id) or keys.setdefault(obstacle.id, f"Obstacle/{obstacle.id}"),
-                obstacle,
-            )
+            (keys[obstacle.id], obstacle)
             for obstacle in world_map.obstacles
             if not obstacle.isfixed and obstacle.poses
         ]
@@ -212,14 +219,12 @@ class EchoSorter:
         if slipped:
             drift = self._reckoning.drift(since)
             e_x, e_y = estimate(echo, self._reckoning.pose)
-            largest -= drift.distance_m + math.hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
+            largest -= drift.distance_m + hypot(e_x, e_y) * min(drift.heading_rad, math.pi)
         found = []
         for j, (_, human_ms, hx, hy, _) in enumerate(seen):
             walked = config.human_speed_mps * abs(at_ms - human_ms) / 1000  # type: ignore[operator]
             gate = min(2 * config.sensing_error_m + walked + surface, largest)  # type: ignore[operator]
-            off = (
-                self.off_arc(echo, hx, hy, self.beyond_m) if surface else math.hypot(x - hx, y - hy)
-            )
+            off = self.off_arc(echo, hx, hy, self.beyond_m) if surface else hypot(x - hx, y - hy)
             if off <= gate:
                 found.append(j)
         return found
@@ -230,10 +235,10 @@ class EchoSorter:
         bearing, from where the robot was when it was taken."""
         p_x, p_y, _ = echo.since.pose
         e_x, e_y, d_x, d_y = echo.x - p_x, echo.y - p_y, x - p_x, y - p_y
-        rho, far = max(math.hypot(e_x, e_y) - nearer, 0.0), math.hypot(d_x, d_y)
-        apart = abs(math.remainder(math.atan2(d_y, d_x) - math.atan2(e_y, e_x), math.tau))
+        rho, far = max(hypot(e_x, e_y) - nearer, 0.0), hypot(d_x, d_y)
+        apart = abs(remainder(atan2(d_y, d_x) - atan2(e_y, e_x), math.tau))
         beyond = max(apart - self._beam_rad / 2, 0.0)  # from the arc's nearer end
-        return math.sqrt(max(rho * rho + far * far - 2 * rho * far * math.cos(beyond), 0.0))
+        return sqrt(max(rho * rho + far * far - 2 * rho * far * cos(beyond), 0.0))
 
     def centre_m(self, reading: Entity) -> float:
         """How far from the robot (where it was then) a reading places a body's centre: its
@@ -272,11 +277,11 @@ class EchoSorter:
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
-        rho = math.hypot(d_x, d_y) - self.beyond_m  # the surface's range
+        rho = hypot(d_x, d_y) - self.beyond_m  # the surface's range
         body = self._body_m
         if rho <= body:
             return False  # a body's disc reaches all round the robot
-        moved = math.hypot(e_x - h_x, e_y - h_y)
+        moved = hypot(e_x - h_x, e_y - h_y)
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
         apart = moved + walked  # how far the body may lie from where the frame looked
         turned = 0.0
@@ -294,8 +299,8 @@ class EchoSorter:
             turned += swept.heading_rad
         if rho + apart > self._reach_m:  # (its centre from the frame, less a body)
             return False  # it may have stood beyond the camera's range: never reported
-        spread = self._beam_rad / 2 + math.asin(body / rho)  # its beam, about its axis
-        spread += math.asin(min(1.0, apart / rho)) + turned
-        bearing = math.atan2(d_y, d_x) - h_theta
-        off = abs(math.remainder(bearing, math.tau))  # from the camera's heading, in that frame
+        spread = self._beam_rad / 2 + asin(body / rho)  # its beam, about its axis
+        spread += asin(min(1.0, apart / rho)) + turned
+        bearing = atan2(d_y, d_x) - h_theta
+        off = abs(remainder(bearing, math.tau))  # from the camera's heading, in that frame
         return off + spread <= self._half_view

@@ -8,7 +8,8 @@ the body's outputs approach their target through :func:`ramp_velocity`.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from math import copysign, hypot
+from typing import Final, NamedTuple
 
 from oimi.pipeline.messages import Message
 
@@ -43,6 +44,12 @@ class Velocity(NamedTuple):
 STILL = Velocity()
 """Standing still."""
 
+fields: Final = tuple.__new__
+"""``fields(Kind, (every field, in order))`` builds a NamedTuple without the ``__new__``
+that ``Kind(...)`` runs as Python, compiled too (about 2.5k instructions, this a few
+hundred): for those built every tick (``scenarios/simulation/bodies.py``'s ``Motion`` too).
+Defaults are not filled in: every field is given."""
+
 
 class Clamped(NamedTuple):
     """A velocity after :func:`clamp_velocity` and what was clamped (empty: nothing)."""
@@ -72,7 +79,7 @@ def clamp_velocity(requested: Velocity, limits: RobotLimits, *, what: str = "mov
             values[i] = 0.0
     v_x, v_y, v_theta = values
     in_x, in_y = v_x, v_y
-    speed = math.hypot(v_x, v_y)
+    speed = hypot(v_x, v_y)
     top = limits.max_speed_mps
     if speed > top:
         scale = top / speed
@@ -92,7 +99,7 @@ def clamp_velocity(requested: Velocity, limits: RobotLimits, *, what: str = "mov
             )
     top_angular = limits.max_angular_speed_radps
     if abs(v_theta) > top_angular:
-        clamped = math.copysign(top_angular, v_theta)
+        clamped = copysign(top_angular, v_theta)
         reports.append(
             f"{what}: v_theta {fmt(v_theta)} rad/s > max {fmt(top_angular)} rad/s, "
             f"clamped to {fmt(clamped)}"
@@ -103,7 +110,7 @@ def clamp_velocity(requested: Velocity, limits: RobotLimits, *, what: str = "mov
 
 def capped(v_x: float, v_y: float, top: float) -> tuple[float, float]:
     """(v_x, v_y) scaled down to ``top`` m/s when faster, keeping its direction."""
-    speed = math.hypot(v_x, v_y)
+    speed = hypot(v_x, v_y)
     if speed <= top:
         return (v_x, v_y)
     return (v_x * top / speed, v_y * top / speed)
@@ -115,7 +122,7 @@ def ramp_towards(
     """(c_x, c_y) moved towards (t_x, t_y) by at most ``step`` (keeping the direction of
     the change): the target itself when within one step."""
     d_x, d_y = t_x - c_x, t_y - c_y
-    change = math.hypot(d_x, d_y)
+    change = hypot(d_x, d_y)
     if change <= step:
         return t_x, t_y
     scale = step / change
@@ -140,5 +147,5 @@ def ramp_velocity(
             return target
         v_theta = target.v_theta
     else:
-        v_theta = current.v_theta + math.copysign(step_theta, d_theta)
-    return Velocity(v_x, v_y, v_theta)
+        v_theta = current.v_theta + copysign(step_theta, d_theta)
+    return fields(Velocity, (v_x, v_y, v_theta))

@@ -73,4 +73,4 @@ class SensorWatch:
         if not self.miss_ms:
             return -math.inf
         since = self._since
-        return max((since[s.id] for s in working), default=math.inf)
+        return max([since[s.id] for s in working]) if working else math.inf

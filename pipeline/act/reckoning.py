@@ -25,9 +25,10 @@ import math
 import sys
 from collections import deque
 from collections.abc import Sequence
+from math import cos, hypot, remainder, sin
 from typing import Final, NamedTuple
 
-from oimi.pipeline.act.limits import RobotLimits, Velocity, ramp_velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, fields, ramp_velocity
 from oimi.pipeline.messages import SpeedStatus
 
 LOST_M: Final = 1000.0
@@ -128,7 +129,7 @@ class DeadReckoning:
             if until_ms <= time_ms:
                 slip = counted
                 break
-        return Placed(time_ms, pose, slip, path_m if at_ms <= time_ms else 0.0)
+        return fields(Placed, (time_ms, pose, slip, path_m if at_ms <= time_ms else 0.0))
 
     def drift(self, since: Placed) -> Slip:
         """How far the reckoning may have drifted since ``since``: the slip counted since,
@@ -145,7 +146,7 @@ class DeadReckoning:
         heading = slip.heading_rad - since.slip.heading_rad
         if heading:  # each metre driven since went that far off course
             unchecked += (self.path_m - since.path_m) * min(heading, math.pi)
-        return Slip(slip.distance_m - since.slip.distance_m + unchecked, heading)
+        return fields(Slip, (slip.distance_m - since.slip.distance_m + unchecked, heading))
 
     def swept(self, start_ms: int, end_ms: int) -> Slip | None:
         """How far the reckoning took the robot, from ``start_ms`` to ``end_ms``, from where
@@ -159,7 +160,7 @@ class DeadReckoning:
         for at_ms, (_, _, theta), path_m in reversed(history):  # (back to the state at start)
             if at_ms > end_ms:
                 continue
-            off = max(off, abs(math.remainder(theta - heading, math.tau)))
+            off = max(off, abs(remainder(theta - heading, math.tau)))
             if at_ms <= start_ms:
                 start_path_m = path_m
                 break
@@ -213,7 +214,7 @@ class DeadReckoning:
             speed.thetaspeed * lasted_s,
         )
         error = self._error
-        gap = math.hypot(went_x - forward, went_y - left) + error * math.hypot(went_x, went_y)
+        gap = hypot(went_x - forward, went_y - left) + error * hypot(went_x, went_y)
         turn = abs(turned - turn) + error * abs(turned)
         if gap_m or not (gap <= 0.0 and turn <= 0.0):  # (as reckoned, at a stand: nothing)
             self._add(Slip(_counted(gap) + gap_m, _counted(turn)), end_ms)
@@ -231,11 +232,14 @@ class DeadReckoning:
         if velocity is self._rested:  # standing, told to stand: the step would change nothing
             return
         x, y, theta = self.pose
-        cos, sin = math.cos(theta), math.sin(theta)
-        target = Velocity(
-            cos * velocity.v_x - sin * velocity.v_y,
-            sin * velocity.v_x + cos * velocity.v_y,
-            velocity.v_theta,
+        cos_t, sin_t = cos(theta), sin(theta)
+        target = fields(
+            Velocity,
+            (
+                cos_t * velocity.v_x - sin_t * velocity.v_y,
+                sin_t * velocity.v_x + cos_t * velocity.v_y,
+                velocity.v_theta,
+            ),
         )
         moving = self._moving = ramp_velocity(
             self._moving, target, self._limits, dt_ms=self._tick_ms
@@ -248,19 +252,19 @@ class DeadReckoning:
         theta += dt * omega
         self.pose = (x + dt * v_x, y + dt * v_y, theta)
         if v_x or v_y:
-            self.path_m += dt * math.hypot(v_x, v_y)
+            self.path_m += dt * hypot(v_x, v_y)
 
     @property
     def speed(self) -> float:
         """The base's linear speed as the reckoning takes it, m/s."""
-        return math.hypot(self._moving.v_x, self._moving.v_y)
+        return hypot(self._moving.v_x, self._moving.v_y)
 
     @property
     def velocity(self) -> tuple[float, float]:
         """The base's linear velocity as the reckoning takes it, in the body frame."""
-        cos, sin = math.cos(self.pose[2]), math.sin(self.pose[2])
+        cos_t, sin_t = cos(self.pose[2]), sin(self.pose[2])
         m_x, m_y, _ = self._moving
-        return cos * m_x + sin * m_y, cos * m_y - sin * m_x
+        return cos_t * m_x + sin_t * m_y, cos_t * m_y - sin_t * m_x
 
     def _driven(self, start_ms: int, end_ms: int) -> tuple[float, float, float, float, float]:
         """What the reckoning took the base to drive from ``start_ms`` to ``end_ms`` (from the
@@ -280,10 +284,10 @@ class DeadReckoning:
             at_ms, (next_x, next_y, next_theta), next_path_m = history[index]
             if at_ms > end_ms:
                 break
-            cos, sin = math.cos(next_theta), math.sin(next_theta)
+            cos_t, sin_t = cos(next_theta), sin(next_theta)
             dx, dy = next_x - x, next_y - y
-            forward += cos * dx + sin * dy
-            left += cos * dy - sin * dx
+            forward += cos_t * dx + sin_t * dy
+            left += cos_t * dy - sin_t * dx
             x, y, theta, path_m = next_x, next_y, next_theta, next_path_m
         return forward, left, theta - turned, start_path_m, path_m
 

@@ -56,10 +56,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from math import cos, hypot, sin
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.echoes import Anchor, EchoSorter, estimate
-from oimi.pipeline.act.limits import RobotLimits, Velocity
+from oimi.pipeline.act.limits import RobotLimits, Velocity, fields
 from oimi.pipeline.act.looking import SensorWatch
 from oimi.pipeline.act.reckoning import DeadReckoning
 from oimi.pipeline.act.safety_config import SafetyConfig, ring_down_view_rad, safety_problems
@@ -193,24 +194,26 @@ class SafetySupervisor:
         reckoning.mark(now_ms)
         reckoning.measured(world_map.robotstatus.speed, now_ms)
         anchors = self._anchors
-        # (most are placed already: tested inline, by field: compiled, anchor[0] is slow)
+        # (most are placed already: tested inline, by field: compiled, anchor[0] is slow;
+        # a key's test and item: compiled, dict.get is a method call)
         for human in world_map.humans:
             if human.poses:
-                anchor = anchors.get(human.id)
-                if anchor is None or anchor.stamp_ms != human.positionchangetime:
-                    self._anchor(human.id, human, now_ms)
+                key = human.id
+                if key not in anchors or anchors[key].stamp_ms != human.positionchangetime:
+                    self._anchor(key, human, now_ms)
         framing = self._cameras.working(world_map.cameras, beats, now_ms)
         scanning = self._sonars.working(world_map.sonars, beats, now_ms)
         echoes = self._echoes.echoes(world_map)
         for key, echo in echoes:
-            anchor = anchors.get(key)
-            if anchor is None or anchor.stamp_ms != echo.positionchangetime:
+            if key not in anchors or anchors[key].stamp_ms != echo.positionchangetime:
                 self._anchor(key, echo, now_ms)
         verdict = self._limit(requested, world_map, echoes, framing, scanning, heard, beats, now_ms)
         reckoning.advance(verdict.velocity)
         phase = self._phase(verdict, source, now_ms)
         if phase is None:
-            return self._standing if verdict is self._standing.verdict else Supervised(verdict)
+            if verdict is self._standing.verdict:
+                return self._standing
+            return fields(Supervised, (verdict, None))
         assert self._episode is not None
         zone, human, source = self._episode
         if phase is SafetyPhase.END:
@@ -273,8 +276,8 @@ class SafetySupervisor:
         if requested.v_x == 0.0 and requested.v_y == 0.0:  # a stand (or a turn on the spot)
             standing = self._standing.verdict  # is braked to straight: not limited
             if standing.velocity is not requested:
-                standing = Verdict(requested)
-                self._standing = Supervised(standing)
+                standing = fields(Verdict, (requested, None, "", None))
+                self._standing = fields(Supervised, (standing, None))
             return standing
         config = self.config
         sonars = world_map.sonars
@@ -337,7 +340,7 @@ class SafetySupervisor:
         # the reckoning says (its echoes are fresh); counted with it, a child's reading the
         # camera lost long ago would grow with every push until the robot froze
         v_x, v_y = requested.v_x, requested.v_y
-        speed = math.hypot(v_x, v_y)
+        speed = hypot(v_x, v_y)
         zone: SafetyZone | None = None
         if (blind or stale) and speed > config.slow_speed_mps:
             scale = config.slow_speed_mps / speed
@@ -366,10 +369,11 @@ class SafetySupervisor:
                 constraints, v_x, v_y, half_view, self._reckoning.velocity, self._step_m, top
             )
             binding = nearer(binding, lagging)
-        allowed = Velocity(v_x + 0.0, v_y + 0.0, requested.v_theta)
+        allowed = fields(Velocity, (v_x + 0.0, v_y + 0.0, requested.v_theta))
         if binding is not None:
-            return Verdict(allowed, binding.zone, binding.human, round(binding.surface_m, 4))
-        return Verdict(allowed, zone)
+            surface_m = round(binding.surface_m, 4)
+            return fields(Verdict, (allowed, binding.zone, binding.human, surface_m))
+        return fields(Verdict, (allowed, zone, "", None))
 
     def _age(self, key: str, reading: Entity, now_ms: int) -> int:
         """How long ago ``reading`` (placed as ``key``) was taken, ms: since its stamp, or
@@ -398,7 +402,7 @@ class SafetySupervisor:
         config = self.config
         anchor = self._anchors[key]
         x, y = estimate(anchor, self._reckoning.pose)
-        distance = math.hypot(x, y)
+        distance = hypot(x, y)
         echo = type(human) is Obstacle
         # an echo a working ring keeps while it misses the body: as long as it may keep it
         walk_ms = self._echo_walk_ms if echo and not slipped else config.max_data_age_ms
@@ -429,7 +433,9 @@ class SafetySupervisor:
         sin_disc = 1.0 if margin >= distance else margin / distance
         reach = a * distance
         if key in held:
-            return Constraint(key, surface, u_x, u_y, 0.0, sin_disc, _STOP, walk, reach)
+            return fields(
+                Constraint, (key, surface, u_x, u_y, 0.0, sin_disc, _STOP, walk, reach, 0.0, 0.0)
+            )
         # a tick at c, braking at a, and the human walking on meanwhile (the cap then falls
         # no faster than the base brakes): separation.braking_cap
         lead = a * self._dt_s + walk
@@ -437,7 +443,9 @@ class SafetySupervisor:
         cap = braking_cap(lead, room, walk)
         if surface < config.slow_distance_m:
             cap = min(cap, config.slow_speed_mps)
-        return Constraint(key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
+        return fields(
+            Constraint, (key, surface, u_x, u_y, cap, sin_disc, _SLOW, walk, reach, lead, room)
+        )
 
     def _across(self, anchor: Anchor, distance: float, arc: float) -> float:
         """How near an echo's arc (``arc`` its chord, its centre ``distance`` away) lies to
@@ -463,13 +471,8 @@ class SafetySupervisor:
         since = self._reckoning.placed(at_ms)
         px, py, ptheta = since.pose
         bearing = ptheta + human.positiontheta
-        self._anchors[key] = Anchor(
-            stamp_ms,
-            at_ms,
-            px + rho * math.cos(bearing),
-            py + rho * math.sin(bearing),
-            since,
-        )
+        x, y = px + rho * cos(bearing), py + rho * sin(bearing)
+        self._anchors[key] = fields(Anchor, (stamp_ms, at_ms, x, y, since))
 
 
 def _online(
@@ -480,7 +483,7 @@ def _online(
 ) -> list[int]:
     """When each of ``sensors`` that says it is on was last heard from, if at ``since_ms``
     or later (one heard from before, or never, is offline: its link is dead), ms."""
-    times = (heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline)
+    times = [heard.get((klass, s.id), _NEVER) for s in sensors if s.isonline]
     return [at_ms for at_ms in times if at_ms >= since_ms]
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from math import asin, atan2, copysign, cos, hypot, sin, sqrt
 from typing import Final, NamedTuple
 
 from oimi.pipeline.act.limits import capped, ramp_towards
@@ -62,7 +63,7 @@ def braking_cap(lead: float, room: float, walk: float, across: float = 0.0) -> f
     if not rest > 0.0:  # the walk while braking from across fills the gap (or NaN): none
         return 0.0
     lead += across / 2
-    return -lead + math.sqrt(lead * lead + rest)
+    return -lead + sqrt(lead * lead + rest)
 
 
 def stopping_way(speed: float, dt: float, a: float) -> float:
@@ -111,7 +112,7 @@ def cone_speed(c: Constraint, sine: float) -> float:
     if grown <= 0.0:
         return 0.0
     rest = c.walk * c.walk - 2 * grown
-    return c.walk - math.sqrt(rest) if rest > 0.0 else math.inf
+    return c.walk - sqrt(rest) if rest > 0.0 else math.inf
 
 
 def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
@@ -122,7 +123,7 @@ def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
     if c.zone is _STOP:
         return _into_cone(c, v_x, v_y, along)
     if along > 0.0:
-        cap = closing_cap(c, math.hypot(v_x - along * c.u_x, v_y - along * c.u_y))
+        cap = closing_cap(c, hypot(v_x - along * c.u_x, v_y - along * c.u_y))
         if along <= cap:
             return v_x, v_y
         cut = along - cap
@@ -130,7 +131,7 @@ def allowed_by(c: Constraint, v_x: float, v_y: float) -> tuple[float, float]:
         if cap > 0.0:  # closing still: it stops in time
             return v_x, v_y
         along = 0.0  # across alone: it must stop in time or point away
-    speed = math.hypot(v_x, v_y)
+    speed = hypot(v_x, v_y)
     if stops_in_time(c, speed):
         return v_x, v_y
     b_x, b_y = bent = _into_cone(c, v_x, v_y, along)
@@ -148,7 +149,7 @@ def _into_cone(c: Constraint, v_x: float, v_y: float, along: float) -> tuple[flo
     one and projected, whichever is nearer."""
     if c.sin_disc >= 1.0:  # the robot is inside the human's uncertainty disc
         return 0.0, 0.0
-    speed = math.hypot(v_x, v_y)
+    speed = hypot(v_x, v_y)
     sin_cone = cone_sine(c, speed)
     if sin_cone < 1.0:
         return _onto_cone(c, v_x, v_y, along, sin_cone)
@@ -168,8 +169,8 @@ def _onto_cone(
     """(v_x, v_y) when it points inside the cone of sine ``sin_cone``, else its projection
     onto the cone's nearer edge (none when it points at the human)."""
     p_x, p_y = v_x - along * c.u_x, v_y - along * c.u_y
-    across = math.hypot(p_x, p_y)
-    cos_cone = math.sqrt(1.0 - sin_cone**2)
+    across = hypot(p_x, p_y)
+    cos_cone = sqrt(1.0 - sin_cone**2)
     if along * cos_cone <= -sin_cone * across:
         return v_x, v_y
     # project onto the cone's edge: direction (-sin, cos) in the (along, across) plane
@@ -299,7 +300,7 @@ def body_view(half_view: float, reach_m: float, beyond_m: float) -> float:
     direction (a view too narrow); pi: a view all round (``half_view >= pi``)."""
     if half_view >= math.pi:
         return math.pi
-    return half_view - math.asin(min(reach_m / beyond_m, 1.0))
+    return half_view - asin(min(reach_m / beyond_m, 1.0))
 
 
 def sighted_range_m(
@@ -326,11 +327,11 @@ def within_view(v_x: float, v_y: float, half_view: float) -> tuple[float, float]
     """(v_x, v_y) (body frame) when it points within ``half_view`` rad of straight ahead,
     else its projection onto the nearer edge of that cone (none when it points away, or
     when ``half_view`` is negative: no direction)."""
-    if half_view >= math.pi or abs(math.atan2(v_y, v_x)) <= half_view + _ANGLE_TOLERANCE:
+    if half_view >= math.pi or abs(atan2(v_y, v_x)) <= half_view + _ANGLE_TOLERANCE:
         return v_x, v_y
     if half_view < 0.0:
         return 0.0, 0.0
-    e_x, e_y = math.cos(half_view), math.copysign(math.sin(half_view), v_y)
+    e_x, e_y = cos(half_view), copysign(sin(half_view), v_y)
     along = v_x * e_x + v_y * e_y
     return (along * e_x, along * e_y) if along > 0.0 else (0.0, 0.0)
 
@@ -339,9 +340,9 @@ def satisfied(c: Constraint, v_x: float, v_y: float) -> bool:
     """Whether (v_x, v_y) meets the constraint (what :func:`allowed_by` returns does)."""
     along = v_x * c.u_x + v_y * c.u_y
     if c.zone is not _STOP and along > 0.0:
-        across = math.hypot(v_x - along * c.u_x, v_y - along * c.u_y)
+        across = hypot(v_x - along * c.u_x, v_y - along * c.u_y)
         return along <= closing_cap(c, across) + _TOLERANCE
-    speed = math.hypot(v_x, v_y)
+    speed = hypot(v_x, v_y)
     if c.zone is not _STOP and stops_in_time(c, speed):
         return True
     return along <= -cone_sine(c, speed) * speed + _TOLERANCE
