@@ -273,7 +273,8 @@ class EchoSorter:
         frames may all miss a child for ``camera_miss_ms`` must have seen it so on every
         frame for that long before: framing since (``since_ms``), the robot's path and
         largest turn then, and a walk that long, count as the move does (``since_ms``:
-        since when the cameras have framed without a break)."""
+        since when the cameras have framed without a break), and with ``slipped`` the slip
+        is counted from the first of those frames where it is the earlier."""
         e_x, e_y, _ = echo.since.pose  # the robot when the ring took the echo
         h_x, h_y, h_theta = human.since.pose  # and when the camera took its frame
         d_x, d_y = echo.x - e_x, echo.y - e_y
@@ -285,13 +286,15 @@ class EchoSorter:
         walked = self._config.human_speed_mps * abs(echo.at_ms - human.at_ms) / 1000  # type: ignore[operator]
         apart = moved + walked  # how far the body may lie from where the frame looked
         turned = 0.0
-        if slipped:  # the move between both readings may have slipped: since the earlier
+        start_ms = human.at_ms - self._miss_ms  # (the frames that must all have looked)
+        if slipped:  # the moves may have slipped: since the earlier reading, or those frames
             earlier = echo.since if echo.since.at_ms <= human.since.at_ms else human.since
+            if start_ms < earlier.at_ms:
+                earlier = self._reckoning.placed(start_ms)
             drift = self._reckoning.drift(earlier)
             apart += drift.distance_m
             turned = min(drift.heading_rad, math.pi)
         if self._miss_ms:  # (a frame's silence alone is weak: every frame before too)
-            start_ms = human.at_ms - self._miss_ms
             swept = self._reckoning.swept(start_ms, human.at_ms)
             if swept is None or since_ms > start_ms:
                 return False  # (not looking all that while, or its moves not kept)
