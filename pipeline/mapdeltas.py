@@ -209,6 +209,9 @@ def _change(kept: Any, new: Any) -> dict[str, Any]:
             continue
         name = names[i]
         if type(after) is list and type(before) is list:
+            if _took_one(before, after):  # (the usual change, ``before`` now as ``after``)
+                change[name] = Appended(dropped=1, added=after[-1:])
+                continue
             dropped = _dropped(before, after)
             if dropped is not None:
                 added = after[len(before) - dropped :]
@@ -238,6 +241,23 @@ def _change(kept: Any, new: Any) -> dict[str, Any]:
     return change
 
 
+def _took_one(kept: list[Any], live: list[Any]) -> bool:
+    """Whether the register ``live`` is its kept copy ``kept`` that dropped its oldest
+    reading and took one of a type that never changes in place (a full register took a
+    reading: the usual change); then ``kept`` is brought up to date in place (it is this
+    publisher's own copy), found without slicing either list. Else ``kept`` is left as it
+    was."""
+    if len(kept) < 2 or len(live) != len(kept) or type(live[-1]) not in _SHARED:
+        return False
+    oldest = kept.pop(0)
+    kept.append(live[-1])
+    if kept == live:  # (the reading taken is itself: only the kept ones are compared)
+        return True
+    kept.pop()
+    kept.insert(0, oldest)
+    return False
+
+
 def _dropped(before: list[Any], after: list[Any]) -> int | None:
     """How many items ``before`` dropped from its start if ``after`` begins with the rest
     of them (then it added what follows); None if it did not (it is written whole). The
@@ -245,7 +265,7 @@ def _dropped(before: list[Any], after: list[Any]) -> int | None:
     written whole, as no item of it is kept)."""
     size = len(before)
     if size > 1 and len(after) == size and after[: size - 1] == before[1:]:
-        return 1  # (the usual: a full register took a reading; 0 is no change, not asked)
+        return 1  # (a full register took a reading: most are found by ``_took_one``)
     if not after:
         return None
     first = after[0]

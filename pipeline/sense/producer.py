@@ -173,10 +173,12 @@ class MapProducer:
                 f" {perceived.lastupdatetime}"
             )
         pending, self._pending = self._pending, []
+        changes, self._changes_pending = self._changes_pending, False
         self._pending_keys.clear()
-        self._changes_pending = False
         # its rejections are the other's, said below; its statuses applied are the ones heard
         self._apply_all(perceived, pending, now_ms, heard=self.heard)
+        if not changes:  # heartbeats alone: noted above, nothing for the shared map
+            return []
         return self._apply_all(self.world_map, pending, now_ms)
 
     def _apply_all(

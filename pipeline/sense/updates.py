@@ -436,11 +436,9 @@ class DecodedUpdate(msgspec.Struct, frozen=True, kw_only=True):
     value: object
     """A scalar for updateable fields; a map Struct (or str) for appendable ones;
     a ``ScriptVect`` for ``Script/script_vect``."""
-
-    @property
-    def key(self) -> tuple[EntityClass, str, str]:
-        """What an ``R`` replaces: class, ID and attribute."""
-        return (self.target.klass, self.target.id, self.spec.name)
+    key: tuple[EntityClass, str, str]
+    """What an ``R`` replaces: class, ID and attribute (taken once: the producer compares
+    it with each pending update's)."""
 
 
 def decode_update(update: MapUpdate, *, script_root: str = "activities") -> DecodedUpdate:
@@ -470,7 +468,8 @@ def decode_update(update: MapUpdate, *, script_root: str = "activities") -> Deco
             if problem:
                 raise MapUpdateError(f"{where}: at `$.update[{index}]`: {problem}")
         value = ScriptVect(restart=value.restart == "s_true", paths=tuple(value.update))
-    return DecodedUpdate(update=update, target=target, spec=spec, value=value)
+    key = (target.klass, target.id, spec.name)
+    return DecodedUpdate(update=update, target=target, spec=spec, value=value, key=key)
 
 
 def _where(target: Target, update: MapUpdate) -> str:

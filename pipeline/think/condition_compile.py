@@ -8,6 +8,7 @@ read (:attr:`Condition.reads`: the map fields, the clock, the alias and variable
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Final
 
 from oimi.pipeline.errors import defined_at
 from oimi.pipeline.texts import did_you_mean
@@ -388,8 +389,25 @@ def _assign_step(key: str, scope: Scope, call: Getter, alias: str | None) -> Ste
 
 
 def compile_condition(text: str, *, registry: FunctionRegistry | None = None) -> Condition:
-    """Parse, check and compile ``text``; raises :class:`RuleSyntaxError` (``<condition>:L:C``)."""
+    """Parse, check and compile ``text``; raises :class:`RuleSyntaxError` (``<condition>:L:C``).
+
+    Compiled once per registry and text (a script's alfa messages create rules again each
+    time it loads): a :class:`Condition` holds no state of its own, so rules share it."""
     registry = registry or default_registry()
+    compiled = registry.conditions.get(text)
+    if compiled is None:
+        compiled = _compile(text, registry)
+        if len(registry.conditions) >= _CACHED:  # (texts made at run time: keep it bounded)
+            registry.conditions.clear()
+        registry.conditions[text] = compiled
+    return compiled
+
+
+_CACHED: Final = 1024
+"""The most conditions a registry keeps compiled."""
+
+
+def _compile(text: str, registry: FunctionRegistry) -> Condition:
     ast = parse_condition(text)
     if not ast.has_bang:
         if ast.left and isinstance(ast.left[0], TrueClause) and len(ast.left) == 1:

@@ -26,11 +26,14 @@ import types
 import typing
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 import msgspec
 from oimi.pipeline.errors import named
 from oimi.pipeline.messages import ACTIVITY_CLASS, ENTITY_LISTS, ActivityTracking, Entity, WorldMap
+
+if TYPE_CHECKING:
+    from oimi.pipeline.think.condition_runtime import Condition
 
 Bound = Entity | ActivityTracking
 """What an alias can be bound to: a human, obstacle, object or activity of the map."""
@@ -258,6 +261,8 @@ class FunctionRegistry:
         lines = "\n".join(f"{s.family}:{s.signature}" for s in self._specs.values())
         self.version: str = hashlib.sha256(lines.encode()).hexdigest()[:16]
         """Hash of the sorted names and signatures, for recordings."""
+        self.conditions: dict[str, Condition] = {}
+        """The conditions compiled with these functions, by text (``compile_condition``'s)."""
 
     @classmethod
     def from_module(cls, module: types.ModuleType) -> FunctionRegistry:

@@ -113,6 +113,7 @@ class Rule:
     def set_condition(self, text: str) -> None:
         """Change the condition at run time (the thesis lets a rule do this itself)."""
         self.condition = compile_condition(text, registry=self.functions)
+        self._memo = None  # (a condition compiled before is shared: remember nothing of it)
 
     def act(self, world_map: WorldMap, found: Evaluation, ctx: RuleContext) -> Effect:
         """The body, run when the condition holds; it may change the map freely.

@@ -259,6 +259,25 @@ def test_a_register_that_took_a_reading_is_written_as_the_reading_added_and_one_
     assert apply_delta(apply_delta(None, first), delta) == world
 
 
+def test_a_register_that_took_two_readings_is_written_as_two_dropped_after_a_usual_one() -> None:
+    """A register as long as before that did not take just one reading (the quick look for
+    the usual change finds it did not) is compared with its kept copy as it was."""
+    poses = [Pose(positionrho=n, positiontheta=0.0, positionchangetime=n) for n in range(4)]
+    world = WorldMap(humans=[Human(id="a", creationtime=0, poses=poses[:3])])
+    deltas = MapDeltas(keyframe_ms=5000)
+    first = deltas.after(world, tick=0, time_ms=0)
+    assert first is not None
+    world.humans[0].poses = poses[1:]  # the usual change: one dropped, one taken
+    usual = deltas.after(world, tick=1, time_ms=20)
+    assert usual is not None
+    taken = [Pose(positionrho=n, positiontheta=0.0, positionchangetime=n) for n in (4, 5)]
+    world.humans[0].poses = [poses[3], *taken]
+    delta = deltas.after(world, tick=2, time_ms=40)
+    assert delta is not None and not delta.keyframe
+    assert b'"poses":{"dropped":2,"added":[{"positionrho":4,' in bytes(delta.humans[0])
+    assert apply_delta(apply_delta(apply_delta(None, first), usual), delta) == world
+
+
 def test_a_register_of_one_that_took_a_reading_is_written_whole() -> None:
     """None of its readings is kept, so it is not one dropped and one added (the quick check
     for a full register's usual change must leave it to the search)."""

@@ -17,6 +17,8 @@ from oimi.pipeline.think.condition_ast import (
 )
 from oimi.pipeline.think.conditions import Condition, Op, Scope, compile_condition, parse_condition
 from oimi.pipeline.think.errors import RuleSyntaxError
+from oimi.pipeline.think.functions import FunctionRegistry
+from oimi.pipeline.think.stdlib import default_registry
 
 THESIS_EXAMPLE = (
     "{CLASS #Human U ?child ?THIS>&positionrho OP< 1.5, B: infront ()}"
@@ -253,3 +255,12 @@ def test_the_grammar_ends_a_designers_name_at_the_punctuation_the_parser_names()
     grammar = resources.files("oimi.pipeline.think").joinpath("condition.lark").read_text()
     for sigil in ("\\?", "@", "\\$"):
         assert f"/{sigil}[^\\s{PUNCTUATION}]*/" in grammar, sigil
+
+
+def test_a_text_is_compiled_once_per_registry() -> None:
+    """A script's alfa messages create its rules again at each load: their conditions are
+    found compiled (a condition holds no state of its own), per function registry."""
+    first = compile_condition(THESIS_EXAMPLE)
+    assert compile_condition(THESIS_EXAMPLE, registry=default_registry()) is first
+    other = FunctionRegistry(default_registry().functions())
+    assert compile_condition(THESIS_EXAMPLE, registry=other) is not first
