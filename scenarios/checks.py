@@ -178,17 +178,18 @@ def _check_scenario(path: Path, *, allow_outside: bool, extensions: Sequence[str
 def condition_warnings(text: str, number: int) -> tuple[str, ...]:
     """``<condition N>:LINE:COL: ...`` for each alias a compiling condition reads that none
     of its ``CLASS`` clauses binds (a mistyped alias is never bound: its calls are false),
-    with the nearest alias it binds."""
+    with the nearest alias it binds (a long alias quoted as errors quote a long word)."""
     ast = parse_condition(text)
     bound = bound_aliases(ast)
     warnings = []
     for alias, (line, column) in unbound_aliases(ast):
         close = difflib.get_close_matches(alias, bound, n=1, cutoff=0.6)
-        warnings.append(
-            f"<condition {number}>:{line}:{column}: {alias} is bound by no CLASS clause of this"
-            " condition: it has a value only where another rule bound it in scope U"
-            + (f" (did you mean {close[0]}?)" if close else "")
+        message = (
+            f"{alias} is bound by no CLASS clause of this condition: it has a value only where"
+            " another rule bound it in scope U" + (f" (did you mean {close[0]}?)" if close else "")
         )
+        placed = LocatedError(message, source=f"<condition {number}>", line=line, column=column)
+        warnings.append(str(placed))
     return tuple(warnings)
 
 

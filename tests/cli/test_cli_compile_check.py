@@ -173,6 +173,15 @@ def test_an_alias_no_clause_binds_is_a_warning_naming_the_nearest_bound_one(caps
     assert capsys.readouterr().err == ""
 
 
+def test_a_long_unbound_alias_is_quoted_cut_as_an_error_quotes_a_long_word(capsys):
+    """(A fuzz example, seed 2416: a 20,000-character alias was quoted whole.)"""
+    alias = "?" + "x" * 20_000
+    assert main(["check", "--condition", f"! {{E: near ({alias}, 1)}}"]) == 0
+    (warning,) = capsys.readouterr().err.splitlines()
+    assert warning.startswith("<condition 1>:1:13: ?xxx") and "x…x" in warning
+    assert len(warning) < 300 and warning.endswith("in scope U (warning)")
+
+
 def test_an_unknown_function_hints_at_extensions_unless_it_is_a_near_miss(capsys):
     assert main(["check", "--condition", "! {E: pops_at_least (2)}"]) == 2
     assert capsys.readouterr().err.splitlines()[-1] == EXTENSION_HINT
