@@ -4,7 +4,16 @@ import math
 
 import msgspec
 import pytest
-from oimi.pipeline.act.limits import RobotLimits, Velocity, clamp_velocity, ramp_velocity
+from oimi.pipeline.act.limits import (
+    RobotLimits,
+    Velocity,
+    clamp_velocity,
+    fields,
+    ramp_velocity,
+)
+from oimi.pipeline.act.safety import Supervised, Verdict
+from oimi.pipeline.act.separation import Constraint
+from oimi.pipeline.events import SafetyZone
 
 LIMITS = RobotLimits()
 
@@ -71,3 +80,16 @@ def test_limits_decode_from_a_scenario_with_a_path_in_the_error():
     assert msgspec.json.decode(b'{"max_speed_mps": 0.3}', type=RobotLimits).max_speed_mps == 0.3
     with pytest.raises(msgspec.ValidationError, match="max_speed_mps"):
         msgspec.json.decode(b'{"max_speed_mps": -1}', type=RobotLimits)
+
+
+def test_the_fast_builds_spell_out_the_defaults_of_their_classes() -> None:
+    """``limits.fields`` builds the supervisor's per-tick NamedTuples without their
+    ``__new__``, every field given, defaults spelled out at each site (safety.py: a stand's
+    and an unbound verdict, a verdict with no event, a held human's constraint). A default
+    changed in its class must change at those sites too: this pins the defaults they spell."""
+    velocity = Velocity(0.1, -0.2, 0.3)
+    assert fields(Verdict, (velocity, None, "", None)) == Verdict(velocity)
+    assert fields(Supervised, (Verdict(velocity), None)) == Supervised(Verdict(velocity))
+    held = ("h", 0.1, 1.0, 0.0, 0.0, 0.5, SafetyZone.STOP, 1.5, 2.0)
+    assert fields(Constraint, (*held, 0.0, 0.0)) == Constraint(*held)
+    assert fields(Velocity, (0.1, -0.2, 0.3)) == velocity
