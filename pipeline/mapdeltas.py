@@ -243,15 +243,18 @@ def _change(kept: Any, new: Any) -> dict[str, Any]:
 
 def _took_one(kept: list[Any], live: list[Any]) -> bool:
     """Whether the register ``live`` is its kept copy ``kept`` that dropped its oldest
-    reading and took one of a type that never changes in place (a full register took a
-    reading: the usual change); then ``kept`` is brought up to date in place (it is this
-    publisher's own copy), found without slicing either list. Else ``kept`` is left as it
-    was."""
-    if len(kept) < 2 or len(live) != len(kept) or type(live[-1]) not in _SHARED:
+    reading and took one (a full register took a reading: the usual change); then ``kept``
+    is brought up to date in place (it is this publisher's own copy; the reading copied
+    unless of a type that never changes in place), found without slicing either list. Else
+    ``kept`` is left as it was."""
+    if len(kept) < 2 or len(live) != len(kept):
         return False
     oldest = kept.pop(0)
-    kept.append(live[-1])
+    taken = live[-1]
+    kept.append(taken)
     if kept == live:  # (the reading taken is itself: only the kept ones are compared)
+        if type(taken) not in _SHARED:
+            kept[-1] = _copy(taken)
         return True
     kept.pop()
     kept.insert(0, oldest)
@@ -264,8 +267,6 @@ def _dropped(before: list[Any], after: list[Any]) -> int | None:
     lists differ (the least count is found: a register of one that took a reading is
     written whole, as no item of it is kept)."""
     size = len(before)
-    if size > 1 and len(after) == size and after[: size - 1] == before[1:]:
-        return 1  # (a full register took a reading: most are found by ``_took_one``)
     if not after:
         return None
     first = after[0]

@@ -14,6 +14,7 @@ and :meth:`Actuator.joystick` calls.
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from oimi.pipeline.act.channels import CHANNEL_ORDER, Channel, ChannelCursor, Due, Phase
 from oimi.pipeline.act.joystick import read_pad
@@ -62,6 +63,10 @@ class ActuatorStep(Message):
     """The block, when it started (or restarted) this tick."""
 
 
+_NO_BLOCK: Final = ((0, 0, 0), True, math.inf)
+"""With no block: its progress, that it is done, and no event due."""
+
+
 class Actuator:
     """Executes instruction blocks and joystick input into body outputs and commands."""
 
@@ -75,9 +80,7 @@ class Actuator:
         # the block and its clock (block time = now - start - time spent frozen)
         self._block: InstructionBlock | None = None
         self._cursors: dict[Channel, ChannelCursor] = {}
-        self._progress = (0, 0, 0)
-        self._done = True
-        self._due_ms = math.inf
+        self._progress, self._done, self._due_ms = _NO_BLOCK
         """:attr:`progress`, :attr:`done` and when the block's next event falls due (block
         time), noted whenever the block or one of its cursors changes (:meth:`_note_cursors`)."""
         self._start_ms = 0
@@ -304,7 +307,7 @@ class Actuator:
         """Note :attr:`progress`, :attr:`done` and when the next event falls due (once a
         block starts, ends or one of its channels moves on: not at every tick)."""
         if self._block is None:
-            self._progress, self._done, self._due_ms = (0, 0, 0), True, math.inf
+            self._progress, self._done, self._due_ms = _NO_BLOCK
             return
         cursors = self._cursors
         move, led, audio = [cursors[channel].index for channel in CHANNEL_ORDER]

@@ -160,28 +160,18 @@ def test_without_a_display_it_is_bad_input_and_suggests_save_or_the_web_viewer(
     assert "--save OUT.rrd" in err and "127.0.0.1 with --web" in err
 
 
-def test_a_web_port_in_use_is_bad_input_naming_the_option(
-    mcap: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize("option", ["--web-port", "--port"])
+def test_a_port_in_use_is_bad_input_naming_the_option(
+    option: str, mcap: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """The page's port (``--web-port``) or Rerun's gRPC one (``--port``: taken, Rerun warns
+    and exits 0, and the page would show nothing, or the session another viewer serves)."""
     monkeypatch.setattr(cmd_view, "run_viewer", lambda command, env: pytest.fail("started"))
     with socket.create_server(("127.0.0.1", 0)) as taken:
         port = taken.getsockname()[1]
-        assert main(["view", str(mcap), "--web", "--web-port", str(port)]) == 2
+        assert main(["view", str(mcap), "--web", option, str(port)]) == 2
     err = capsys.readouterr().err
-    assert f"oimi view: cannot listen on 127.0.0.1:{port}" in err and "--web-port" in err
-
-
-def test_a_grpc_port_in_use_is_bad_input_naming_the_option(
-    mcap: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """Rerun, its gRPC port taken, warns and exits 0: the page would show nothing (or the
-    session another viewer serves there)."""
-    monkeypatch.setattr(cmd_view, "run_viewer", lambda command, env: pytest.fail("started"))
-    with socket.create_server(("127.0.0.1", 0)) as taken:
-        port = taken.getsockname()[1]
-        assert main(["view", str(mcap), "--web", "--port", str(port)]) == 2
-    err = capsys.readouterr().err
-    assert f"oimi view: cannot listen on 127.0.0.1:{port}" in err and "with --port)" in err
+    assert f"oimi view: cannot listen on 127.0.0.1:{port}" in err and f"with {option})" in err
 
 
 def test_display_problem_only_for_a_native_window_on_linux_without_display() -> None:
